@@ -1,0 +1,32 @@
+import math
+
+import numpy as np
+
+
+def paper_inputs(n: int, dt: float):
+    """The inputs and order of the simulation study (34) on ``n`` samples."""
+    t = np.arange(n) * dt
+    u = np.stack([np.sin(0.5 * t), np.cos(0.2 * t)], axis=1)
+    alpha = 0.15 * np.exp(-0.02 * t) * (np.cos(0.2 * t) + 2) + 0.4
+    return t, u, alpha
+
+
+def power_law(t, mu, b):
+    """Φ and ∂Φ/∂b for u = t^μ (NOTES §1)."""
+    from vojax._kernels._special import digamma
+
+    b = np.broadcast_to(np.asarray(b, float), t.shape)
+    lg = np.vectorize(math.lgamma)
+    safe = np.where(t > 0, t, 1.0)
+    phi = np.where(t > 0, np.exp(lg(mu + 1) - lg(mu + 1 + b) + (mu + b) * np.log(safe)), 0.0)
+    return phi, phi * (np.log(safe) - digamma(mu + 1 + b))
+
+
+def slope(hs, errors):
+    """Least-squares slope of log(error) against log(h): the measured convergence order."""
+    return float(np.polyfit(np.log(hs), np.log(errors), 1)[0])
+
+
+def rel_max(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))

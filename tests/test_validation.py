@@ -1,0 +1,49 @@
+import numpy as np
+import pytest
+
+import vojax
+
+U = np.linspace(0.0, 1.0, 10)
+
+
+@pytest.mark.parametrize("fn", [vojax.fractional_integral, vojax.order_sensitivity])
+@pytest.mark.parametrize(
+    "kwargs, exc, match",
+    [
+        (dict(order=1.2), ValueError, "`order` must lie in"),
+        (dict(order=0.0), ValueError, "`order` must lie in"),
+        (dict(order=np.full(9, 0.5)), ValueError, "`order` must be a scalar or have shape"),
+        (dict(order=np.r_[np.full(9, 0.5), np.nan]), ValueError, "`order` contains NaN"),
+        (dict(dt=0.0), ValueError, "`dt` must be a positive"),
+        (dict(dt=np.inf), ValueError, "`dt` must be a positive"),
+        (dict(dt=[0.1, 0.1]), ValueError, "`dt` must be a scalar"),
+        (dict(u=np.r_[U[:-1], np.inf]), ValueError, "`u` contains NaN or inf"),
+        (dict(u=np.arange(10)), TypeError, "`u` must have a real floating-point dtype"),
+        (dict(u=np.zeros((10, 2, 2))), ValueError, "`u` must have shape"),
+        (dict(u=np.zeros((0,))), ValueError, "`u` must hold at least one sample"),
+        (dict(order=np.full(10, 1, dtype=int)), TypeError, "`order` must have a real"),
+        (dict(rule="simpson"), ValueError, "`rule` must be one of"),
+        (dict(memory="fft"), ValueError, "`memory` must be one of"),
+        (dict(memory="exponential", order=0.995), ValueError, r"`order` must lie in \[0.01, 0.99\]"),
+        (dict(memory="exponential", order_range=(0.2, 1.0)), ValueError, "`order_range` must satisfy"),
+        (dict(memory="exponential", tol=0.5), ValueError, "`tol` must be below"),
+    ],
+)
+def test_bad_input_is_named(fn, kwargs, exc, match):
+    args = dict(u=U, order=0.5, dt=0.1)
+    args.update(kwargs)
+    with pytest.raises(exc, match=match):
+        fn(args.pop("u"), args.pop("order"), args.pop("dt"), **args)
+
+
+def test_order_outside_design_range_inside_jit_is_an_error():
+    import equinox as eqx
+    import jax
+
+    @jax.jit
+    def f(order):
+        return vojax.fractional_integral(U, order, 0.1, memory="exponential", order_range=(0.2, 0.8))
+
+    # eqx.error_if surfaces as EquinoxRuntimeError or as the XLA runtime error that wraps it
+    with pytest.raises((eqx.EquinoxRuntimeError, jax.errors.JaxRuntimeError), match="design range"):
+        f(np.full(10, 0.9))

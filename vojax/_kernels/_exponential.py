@@ -1,0 +1,193 @@
+"""Sum-of-exponentials memory: O(M) state and work per sample (NOTES §4).
+
+    (t−τ)^{b−1}/Γ(b) = sin(πb)/π ∫_0^∞ s^{−b} e^{−s(t−τ)} ds ≈ Σ_j c_j(b) e^{−s_j (t−τ)}
+
+with McLean's substitution ``s = exp(x − e^{−x})/T`` and the trapezoid rule in ``x``. The modes
+``s_j`` do not depend on ``b``; only the readout weights ``c_j(b)`` do, so one set of modal
+states serves every order in the design range. The last step is integrated exactly with the
+product weights at the current order; the modes carry the older history, whose lags are ≥ h.
+"""
+
+import functools
+import math
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+from jaxtyping import Array, Float, Int
+
+from ._base import AbstractMemory
+from ._special import digamma, lgamma
+from ._weights import TRAPEZOID, end_weights, log_norm
+
+DEFAULT_TOL = 1e-10
+DEFAULT_ORDER_RANGE = (0.01, 0.99)
+
+
+def _solve_x(target: float) -> float:
+    """Solves ``x − e^{−x} = target`` (the map is increasing) by bisection."""
+    lo, hi = -50.0, max(target, 0.0) + 50.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid - math.exp(-mid) < target:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def _phi1(x):
+    """``(1 − e^{−x})/x``, accurate for small ``x``."""
+    return np.where(x > 1e-8, -np.expm1(-x) / np.where(x > 1e-8, x, 1.0), 1.0 - x / 2)
+
+
+def _phi2(x):
+    """``(1 − e^{−x}(1+x))/x² = ∫_0^1 v e^{−xv} dv``, by its series below 0.5."""
+    big = x >= 0.5
+    xb = np.where(big, x, 1.0)
+    direct = (-np.expm1(-xb) - xb * np.exp(-xb)) / xb**2
+    xs = np.where(big, 0.0, x)
+    series = np.zeros_like(x)
+    term = np.ones_like(x)
+    for n in range(20):
+        series = series + term / (n + 2)
+        term = term * (-xs) / (n + 1)
+    return np.where(big, direct, series)
+
+
+def _kernel_error(log_s, log_q, orders, lags):
+    """Worst relative error of the modal kernel and of its b-derivative over the given grid."""
+    b = orders[:, None, None]
+    t = lags[None, :, None]
+    c = np.sin(np.pi * b) / np.pi * np.exp(log_q + (1.0 - b) * log_s - np.exp(log_s) * t)
+    approx = c.sum(-1)
+    dapprox = ((np.pi / np.tan(np.pi * b) - log_s) * c).sum(-1)
+    lg = lgamma(orders)[:, None]
+    exact = np.exp((orders[:, None] - 1.0) * np.log(lags[None, :]) - lg)
+    psi = digamma(orders)[:, None]
+    dexact = exact * (np.log(lags[None, :]) - psi)
+    err = np.max(np.abs(approx - exact) / exact)
+    derr = np.max(np.abs(dapprox - dexact) / np.abs(exact))
+    return float(err), float(derr)
+
+
+@functools.lru_cache(maxsize=64)
+def design_modes(
+    dt: float,
+    num_steps: int,
+    tol: float = DEFAULT_TOL,
+    order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
+):
+    """Chooses the exponential modes for lags ``h … (N−1)h`` and orders in ``order_range``.
+
+    **Returns:** a dict of NumPy arrays ``log_s`` (ln s_j), ``log_q`` (ln of Δx(1+e^{−x_j}))
+    and the measured worst relative kernel error ``error`` and b-derivative error
+    ``derivative_error`` over a grid of lags and orders.
+    """
+    b_lo, b_hi = order_range
+    h = float(dt)
+    horizon = max(num_steps - 1, 2) * h
+    dx = 1.3 * math.pi**2 / math.log(40.0 / tol)
+    margin = 0.0
+    for _ in range(12):
+        # left tail: (s T)^{1−b} ≤ tol for the largest order; right tail: e^{−s h} ≤ tol
+        x_lo = _solve_x(math.log(tol) / (1.0 - b_hi) - 1.0 - margin)
+        x_hi = _solve_x(math.log((math.log(1.0 / tol) + 3.0 + margin) * horizon / h))
+        x = x_lo + dx * np.arange(int(math.ceil((x_hi - x_lo) / dx)) + 1)
+        log_s = x - np.exp(-x) - math.log(horizon)
+        log_q = math.log(dx) + np.log1p(np.exp(-x))
+        orders = np.linspace(b_lo, b_hi, 17)
+        lags = np.geomspace(h, horizon, 240)
+        err, derr = _kernel_error(log_s, log_q, orders, lags)
+        if err <= tol:
+            return dict(log_s=log_s, log_q=log_q, error=err, derivative_error=derr)
+        dx *= 0.93
+        margin += 1.0
+    raise ValueError(
+        f"could not design exponential modes reaching tol={tol:g} for orders in {order_range} "
+        f"(best relative kernel error {err:.2g}); use a larger tol or a narrower order range."
+    )
+
+
+class ExponentialState(eqx.Module):
+    history: Float[Array, "M n"]  # H_j(k−1) = ∫_0^{t_{k−1}} e^{−s_j(t_{k−1}−τ)} u(τ) dτ
+    previous: Float[Array, " n"]  # u_{k−1}
+    k: Int[Array, ""]
+
+
+class ExponentialMemory(AbstractMemory):
+    """Sum-of-exponentials memory with the last step exact (NOTES §4).
+
+    Build it with `ExponentialMemory.design(dt, num_steps, ...)`; the modes are chosen on the
+    host for the given step, record length, tolerance and order range.
+    """
+
+    dt: Float[Array, ""]
+    log_s: Float[Array, " M"]
+    log_readout: Float[Array, " M"]  # ln(Δx (1+e^{−x_j})) − s_j h: weight base, one step decayed
+    decay: Float[Array, " M"]  # e^{−s_j h}
+    weight_previous: Float[Array, " M"]  # exact modal weight of u_{k−1} over [t_{k−1}, t_k]
+    weight_current: Float[Array, " M"]  # … and of u_k
+    order_range: tuple[float, float] = eqx.field(static=True)
+    rule: str = eqx.field(static=True, default="trapezoid")
+
+    @classmethod
+    def design(
+        cls,
+        dt: float,
+        num_steps: int,
+        *,
+        rule: str = "trapezoid",
+        tol: float = DEFAULT_TOL,
+        order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
+    ) -> "ExponentialMemory":
+        """Designs the modes (see `design_modes`) and returns the memory."""
+        modes = design_modes(float(dt), int(num_steps), float(tol), tuple(map(float, order_range)))
+        log_s = modes["log_s"]
+        s = np.exp(log_s)
+        x = s * dt
+        if rule == TRAPEZOID:
+            w_prev = dt * _phi2(x)
+            w_cur = dt * _phi1(x) - w_prev
+        else:
+            w_prev = dt * _phi1(x)
+            w_cur = np.zeros_like(x)
+        return cls(
+            dt=jnp.asarray(dt, jnp.float64),
+            log_s=jnp.asarray(log_s),
+            log_readout=jnp.asarray(modes["log_q"] - x),
+            decay=jnp.asarray(np.exp(-x)),
+            weight_previous=jnp.asarray(w_prev),
+            weight_current=jnp.asarray(w_cur),
+            order_range=tuple(map(float, order_range)),
+            rule=rule,
+        )
+
+    @property
+    def num_modes(self) -> int:
+        return self.log_s.shape[0]
+
+    def init(self, num_inputs: int) -> ExponentialState:
+        dtype = self.decay.dtype
+        return ExponentialState(
+            jnp.zeros((self.num_modes, num_inputs), dtype),
+            jnp.zeros((num_inputs,), dtype),
+            jnp.asarray(0, jnp.int32),
+        )
+
+    def readout(self, state: ExponentialState, u_k, b):
+        a0, a1 = end_weights(b, self.rule)
+        last = jnp.exp(log_norm(b, self.dt, self.rule)) * (a0 * u_k + a1 * state.previous)
+        c = jnp.sin(jnp.pi * b) / jnp.pi * jnp.exp(self.log_readout + (1.0 - b) * self.log_s)
+        older = jnp.matmul(c, state.history, precision=lax.Precision.HIGHEST)
+        return jnp.where(state.k > 0, last + older, 0.0)
+
+    def update(self, state: ExponentialState, u_k) -> ExponentialState:
+        advanced = (
+            self.decay[:, None] * state.history
+            + self.weight_previous[:, None] * state.previous[None, :]
+            + self.weight_current[:, None] * u_k[None, :]
+        )
+        history = jnp.where(state.k > 0, advanced, state.history)
+        return ExponentialState(history, u_k, state.k + 1)

@@ -1,0 +1,109 @@
+"""Checks of user input made before tracing: one sentence naming the argument."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._kernels import RULES
+
+MEMORIES = ("direct", "exponential")
+
+
+def _is_concrete(x) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+def _float_array(x, name: str):
+    if isinstance(x, (str, bytes)) or x is None:
+        raise TypeError(f"`{name}` must be a real floating-point array, got {type(x).__name__}.")
+    dtype = getattr(x, "dtype", None)
+    if dtype is None:
+        dtype = np.asarray(x).dtype
+    if not (jnp.issubdtype(dtype, jnp.floating)):
+        if jnp.issubdtype(dtype, jnp.integer) and np.ndim(x) == 0:
+            pass  # a Python/NumPy integer scalar such as dt=1 is fine
+        else:
+            raise TypeError(
+                f"`{name}` must have a real floating-point dtype, got {np.dtype(dtype).name}."
+            )
+    return jnp.asarray(x, dtype=jnp.result_type(float))
+
+
+def _check_finite(x, name: str):
+    if _is_concrete(x) and not bool(np.all(np.isfinite(np.asarray(x)))):
+        bad = np.argwhere(~np.isfinite(np.asarray(x)))[0]
+        raise ValueError(f"`{name}` contains NaN or inf (first at index {tuple(int(i) for i in bad)}).")
+
+
+def samples(u, name: str = "u"):
+    """``u`` as a float array of shape ``(N,)`` or ``(N, n)``, finite, with ``N ≥ 1``."""
+    arr = _float_array(u, name)
+    if arr.ndim not in (1, 2):
+        raise ValueError(f"`{name}` must have shape (N,) or (N, n), got shape {arr.shape}.")
+    if arr.shape[0] < 1 or (arr.ndim == 2 and arr.shape[1] < 1):
+        raise ValueError(f"`{name}` must hold at least one sample of at least one channel, got shape {arr.shape}.")
+    _check_finite(arr, name)
+    return arr
+
+
+def step(dt, name: str = "dt"):
+    """A positive, finite scalar step."""
+    arr = _float_array(dt, name)
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a scalar, got shape {arr.shape}.")
+    if _is_concrete(arr):
+        value = float(arr)
+        if not np.isfinite(value) or value <= 0:
+            raise ValueError(f"`{name}` must be a positive finite number, got {value}.")
+    return arr
+
+
+def order(order, num_samples: int, name: str = "order", bounds=(0.0, 1.0), closed=False):
+    """A scalar or ``(N,)`` order with values strictly inside ``bounds``, returned as ``(N,)``."""
+    arr = _float_array(order, name)
+    if arr.ndim == 0:
+        arr = jnp.full((num_samples,), arr)
+    elif arr.ndim != 1 or arr.shape[0] != num_samples:
+        raise ValueError(
+            f"`{name}` must be a scalar or have shape ({num_samples},) to match the samples, "
+            f"got shape {arr.shape}."
+        )
+    _check_finite(arr, name)
+    if _is_concrete(arr):
+        values = np.asarray(arr)
+        lo, hi = bounds
+        outside = (values < lo) | (values > hi) if closed else (values <= lo) | (values >= hi)
+        if np.any(outside):
+            i = int(np.argmax(outside))
+            brackets = "[{}, {}]" if closed else "({}, {})"
+            raise ValueError(
+                f"`{name}` must lie in {brackets.format(lo, hi)}, got {values[i]!r} at sample {i}."
+            )
+    return arr
+
+
+def choice(value, allowed, name: str):
+    if value not in allowed:
+        raise ValueError(f"`{name}` must be one of {', '.join(map(repr, allowed))}, got {value!r}.")
+    return value
+
+
+def interval(bounds, name: str, within=(0.0, 1.0)):
+    """A pair ``lo < hi`` strictly inside ``within``."""
+    try:
+        lo, hi = (float(b) for b in bounds)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be a pair of numbers (lo, hi), got {bounds!r}.") from None
+    if not (within[0] < lo < hi < within[1]):
+        raise ValueError(
+            f"`{name}` must satisfy {within[0]} < lo < hi < {within[1]}, got ({lo}, {hi})."
+        )
+    return lo, hi
+
+
+def positive(value, name: str, upper=None):
+    """A positive finite scalar (strictly below ``upper`` when given)."""
+    arr = step(value, name)
+    if upper is not None and _is_concrete(arr) and float(arr) >= upper:
+        raise ValueError(f"`{name}` must be below {upper}, got {float(arr)}.")
+    return arr
