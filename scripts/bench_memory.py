@@ -1,0 +1,85 @@
+"""Benchmark of the memory kernels: φ and ∂φ/∂β, direct vs exponential memory (n = 2 inputs).
+
+Each (N, memory) runs in its own process so that the peak resident memory it reports is its
+own. Times exclude compilation (one warm-up call first) and are the best of `--repeat` runs.
+
+    python scripts/bench_memory.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
+"""
+
+import argparse
+import json
+import platform
+import resource
+import subprocess
+import sys
+import time
+
+
+def one(n: int, memory: str, repeat: int) -> dict:
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+
+    import vojax
+
+    dt = 300.0 / n
+    t = np.arange(n) * dt
+    u = np.stack([np.sin(0.5 * t), np.cos(0.2 * t)], axis=1)
+    alpha = 0.15 * np.exp(-0.02 * t) * (np.cos(0.2 * t) + 2) + 0.4
+    out = {}
+    for name, fn in (("phi", vojax.fractional_integral), ("dphi", vojax.order_sensitivity)):
+        fn(u, alpha, dt, memory=memory).block_until_ready()  # compile
+        best = float("inf")
+        for _ in range(repeat):
+            start = time.perf_counter()
+            value = fn(u, alpha, dt, memory=memory).block_until_ready()
+            best = min(best, time.perf_counter() - start)
+        out[name] = best
+        np.save(f"/tmp/bench_memory_{name}_{memory}_{n}.npy", np.asarray(value))
+    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5])
+    parser.add_argument("--exp-sizes", nargs="+", type=float, default=[1e6])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--one", nargs=2)
+    args = parser.parse_args()
+    if args.one:
+        print(json.dumps(one(int(float(args.one[0])), args.one[1], args.repeat)))
+        return
+
+    import numpy as np
+
+    def run(n, memory):
+        cmd = [sys.executable, __file__, "--one", str(n), memory, "--repeat", str(args.repeat)]
+        return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+
+    print(f"# {platform.processor() or platform.machine()}, python {platform.python_version()}")
+    print("| N | memory | φ time (s) | ∂φ time (s) | direct/exp φ | direct/exp ∂φ | max rel diff φ | max rel diff ∂φ | peak RSS (MB) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for n in [int(s) for s in args.sizes] + [int(s) for s in args.exp_sizes]:
+        exp = run(n, "exponential")
+        if n in [int(s) for s in args.sizes]:
+            direct = run(n, "direct")
+            diffs = []
+            for name in ("phi", "dphi"):
+                a = np.load(f"/tmp/bench_memory_{name}_exponential_{n}.npy")
+                b = np.load(f"/tmp/bench_memory_{name}_direct_{n}.npy")
+                diffs.append(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+            print(f"| {n:.0e} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} | | | | | {direct['peak_rss_mb']:.0f} |")
+            print(
+                f"| {n:.0e} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
+                f"{direct['phi'] / exp['phi']:.0f}× | {direct['dphi'] / exp['dphi']:.0f}× | "
+                f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} |"
+            )
+        else:
+            print(f"| {n:.0e} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | | | | | {exp['peak_rss_mb']:.0f} |")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
