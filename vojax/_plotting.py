@@ -1,0 +1,49 @@
+"""Figures in the layout of the paper (matplotlib, imported lazily, Agg backend)."""
+
+from ._io import atomic_path
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[str]:
+    """Writes Figs. 2–4 of the paper (order, output, parameters) as PNG files; returns names."""
+    plt = _pyplot()
+    written = []
+
+    def save(fig, name):
+        with atomic_path(out_dir / name) as tmp:
+            fig.savefig(tmp, dpi=120, format="png")
+        plt.close(fig)
+        written.append(name)
+
+    fig, ax = plt.subplots(figsize=(7, 3.5), layout="constrained")
+    ax.plot(t, truth_alpha, "k", lw=1.5, label=r"$\alpha^*$")
+    ax.plot(t, result.alpha, "C3--", lw=1.2, label=r"$\hat\alpha$")
+    ax.set(xlabel="t (s)", ylabel="order", title="Fig. 2: actual and identified order")
+    ax.legend()
+    save(fig, "fig2_order.png")
+
+    fig, ax = plt.subplots(figsize=(7, 3.5), layout="constrained")
+    ax.plot(t, y, color="0.7", lw=0.6, label="measured $x^*+\\nu$")
+    ax.plot(t, x_true, "k", lw=1.2, label="$x^*$")
+    ax.plot(t, result.y_hat, "C3--", lw=1.0, label=r"$\hat x$")
+    ax.set(xlabel="t (s)", ylabel="output", title="Fig. 3: actual and identified output")
+    ax.legend(ncols=3)
+    save(fig, "fig3_output.png")
+
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True, layout="constrained")
+    for i, ax in enumerate(axes):
+        ax.plot(t, truth_p[:, i], "k", lw=1.5, label=f"$p^*_{i + 1}$")
+        ax.plot(t, result.p[:, i], "C3--", lw=1.0, label=f"$\\hat p_{i + 1}$")
+        ax.legend()
+    axes[0].set_title("Fig. 4: actual and identified parameters")
+    axes[1].set_xlabel("t (s)")
+    save(fig, "fig4_parameters.png")
+    return written

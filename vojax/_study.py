@@ -1,0 +1,54 @@
+"""The paper's simulation study (34), as data: inputs, true order and parameters."""
+
+import jax
+import numpy as np
+
+from ._simulate import simulate
+
+STUDY_DT = 0.05
+STUDY_DURATION = 300.0
+STUDY_NOISE_STD = 0.5  # ν ~ N(0, 0.25): variance 0.25
+
+
+def study_signals(dt: float = STUDY_DT, duration: float = STUDY_DURATION):
+    """``t``, ``u`` (N, 2), ``α*`` (N,) and ``p*`` (N, 2) of eq. (34) on ``t_k = k·dt``."""
+    t = np.arange(int(round(duration / dt)) + 1) * dt
+    u = np.stack([np.sin(0.5 * t), np.cos(0.2 * t)], axis=1)
+    alpha = 0.15 * np.exp(-0.02 * t) * (np.cos(0.2 * t) + 2) + 0.4
+    step = np.where(t >= 150, 1 - np.exp(-0.1 * (t - 150)), 0.0)
+    p = np.stack([3 + 4 * step, -5 * np.ones_like(t)], axis=1)
+    return t, u, alpha, p
+
+
+def simulate_study(dt: float = STUDY_DT, seed: int = 0, *, noise_std: float = STUDY_NOISE_STD, memory="exponential"):
+    """Simulates (34) exactly as the paper states it and adds the measurement noise.
+
+    **Returns:** a dict with ``t``, ``u``, ``alpha``, ``p``, ``x`` (noise-free) and ``y``.
+    """
+    t, u, alpha, p = study_signals(dt)
+    x = simulate(u, alpha, p, dt, memory=memory, order_range=(0.05, 0.95) if memory == "exponential" else (0.01, 0.99))
+    noise = noise_std * jax.random.normal(jax.random.key(seed), x.shape, dtype=x.dtype)
+    return dict(t=t, u=u, alpha=alpha, p=p, x=np.asarray(x), y=np.asarray(x + noise))
+
+
+def rms(a, mask=None):
+    a = np.asarray(a)
+    if mask is not None:
+        a = a[mask]
+    return float(np.sqrt(np.mean(np.square(a))))
+
+
+def study_errors(t, alpha_true, p_true, result):
+    """The figures of merit of the study: RMS order errors and parameter errors."""
+    e = np.asarray(result.alpha) - alpha_true
+    ep = np.asarray(result.p) - p_true
+    return {
+        "order_rms_t_gt_50": rms(e, t > 50),
+        "order_rms_last_100s": rms(e, t > t[-1] - 100),
+        "order_rms_t_200_300": rms(e, (t >= 200) & (t <= 300)),
+        "p_rms_t_gt_50": rms(ep, t > 50),
+        "p1_rms_t_gt_50": rms(ep[:, 0], t > 50),
+        "p2_rms_t_gt_50": rms(ep[:, 1], t > 50),
+    }
+
+
