@@ -26,6 +26,7 @@ class LawOutput(eqx.Module):
     y_hat: Float[Array, ""]  # p̂_kᵀ φ_k (a posteriori, eq. 25)
     y_pred: Float[Array, ""]  # p̂_{k−1}ᵀ φ_k (a priori: before y_k is used)
     Lambda: Float[Array, ""]  # Λ_k (30)
+    phi: Float[Array, " n"]  # φ(α̂_k, t_k)
 
 
 class AdaptiveLaw(eqx.Module):
@@ -70,5 +71,5 @@ class AdaptiveLaw(eqx.Module):
         y_hat = jnp.dot(p, phi)
         lam_k = jnp.dot(p, dphi) + jnp.dot(dp, phi)  # Λ of eq. (30)
         alpha_next = self.order.step(alpha, lam_k, y_k - y_hat)
-        out = LawOutput(alpha, p, dp, y_hat, jnp.dot(state.p, phi), lam_k)
+        out = LawOutput(alpha, p, dp, y_hat, jnp.dot(state.p, phi), lam_k, phi)
         return LawState(memory, lsff, lsff_tangent, alpha_next, p), out

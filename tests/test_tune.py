@@ -1,0 +1,77 @@
+"""`tune_gains` against a grid search that knows the true order."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vojax
+from vojax._identify import build_law, run_law
+
+
+def _scenario(name):
+    if name == "study34":
+        d = vojax.simulate_study(0.05, seed=0)
+        return d["t"], d["u"], d["y"], d["alpha"], 0.05
+    dt = 0.05
+    t = np.arange(3001) * dt
+    rng = np.random.default_rng(1)
+    if name == "order-step":
+        u = np.stack([np.sin(0.7 * t) + 0.3 * np.sin(1.9 * t), 1 + 0.5 * np.cos(0.25 * t)], axis=1)
+        alpha = 0.35 + 0.3 * (1 + np.tanh((t - 75) / 3)) / 2
+        p = np.array([2.0, -1.0])
+    elif name == "order-ramp":
+        u = np.sin(0.4 * t) + np.sin(1.3 * t)
+        alpha = 0.3 + 0.4 * t / t[-1]
+        p = np.array([1.5])
+    else:  # constant order, three inputs
+        u = np.stack([np.sin(0.5 * t), np.cos(1.1 * t), np.sin(0.23 * t) ** 2], axis=1)
+        alpha = np.full_like(t, 0.55)
+        p = np.array([1.0, -2.0, 0.5])
+    x = np.asarray(vojax.simulate(u, alpha, p, dt))
+    y = x + 0.05 * np.std(x) * rng.standard_normal(x.shape)
+    return t, u, y, alpha, dt
+
+
+def _order_error(t, u, y, alpha, dt, gamma, lam):
+    u2 = jnp.asarray(u if u.ndim == 2 else u[:, None])
+    mask = t > t[-1] / 6
+
+    def err(g, lm):
+        law = build_law(dt, t.size, lam=lm, gamma=g, alpha0=0.5, alpha_bounds=(0.05, 0.95),
+                        memory="exponential", rule="trapezoid")
+        out = run_law(law, u2, jnp.asarray(y - y[0]))
+        return jnp.sqrt(jnp.mean(jnp.where(mask, out.alpha - alpha, 0.0) ** 2) / np.mean(mask))
+
+    return np.asarray(jax.jit(jax.vmap(err))(jnp.asarray(gamma), jnp.asarray(lam)))
+
+
+CONSTANT_XFAIL = pytest.mark.xfail(
+    reason="constant order: the lagged prediction loss is flat (within 3 %) between γ = 0.0076, "
+    "λ = 0.13 (order RMS 0.0062) and the truth-best γ = 0.0135, λ = 0.02 (0.0032): ratio 1.9 > 1.5",
+    strict=False,
+)
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["study34", "order-step", "order-ramp", pytest.param("constant-3-inputs", marks=CONSTANT_XFAIL)],
+)
+def test_tuned_gains_close_to_the_best_against_truth(name):
+    t, u, y, alpha, dt = _scenario(name)
+    gains = vojax.tune_gains(u, y, dt)
+    tuned = _order_error(t, u, y, alpha, dt, np.array([gains.gamma]), np.array([gains.lam]))[0]
+    # the grid search against the truth: a finer grid over the same box
+    g = np.geomspace(gains.grid_gamma[0], gains.grid_gamma[-1], 21)
+    lm = np.geomspace(gains.grid_lam[0], gains.grid_lam[-1], 9)
+    gg, ll = np.meshgrid(g, lm, indexing="ij")
+    best = np.min(_order_error(t, u, y, alpha, dt, gg.ravel(), ll.ravel()))
+    assert tuned <= 1.5 * best, (tuned, best, gains.gamma, gains.lam)
+
+
+def test_identify_accepts_auto():
+    t, u, y, alpha, dt = _scenario("order-ramp")
+    res = vojax.identify(u, y, dt, gamma="auto")
+    gains = vojax.tune_gains(u, y, dt)
+    assert float(res.gamma) == pytest.approx(gains.gamma, rel=1e-12)
+    assert float(res.lam) == pytest.approx(gains.lam, rel=1e-12)
