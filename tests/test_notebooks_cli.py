@@ -1,0 +1,65 @@
+"""Notebooks and the command run end to end."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_paper_simulation_notebook_executes():
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    nb = nbformat.read(ROOT / "notebooks" / "paper_simulation.ipynb", as_version=4)
+    client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
+                                     resources={"metadata": {"path": str(ROOT / "notebooks")}})
+    client.execute()
+    text = "".join(
+        o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+    )
+    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
+    assert not errors
+    # the printed numbers are the study's: check the two corrections were shown to matter
+    line = next(s for s in text.splitlines() if s.startswith("printed vs corrected (26)"))
+    assert float(line.split(":")[1]) > 1e-2
+    line = next(s for s in text.splitlines() if s.startswith("autodiff vs corrected (26)"))
+    assert float(line.split(":")[1]) < 1e-9
+
+
+def _run(args, cwd):
+    env = dict(os.environ)
+    env.pop("XLA_FLAGS", None)
+    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env)
+
+
+def test_demo_writes_figures_and_summary(tmp_path):
+    proc = _run(["demo", "--out", str(tmp_path / "out"), "--dt", "0.1"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "out"
+    for name in ("fig2_order.png", "fig3_output.png", "fig4_parameters.png"):
+        data = (out / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["samples"] == 3001 and summary["gamma"] == 0.01 and summary["lam"] == 0.9
+    assert 0 < summary["order_rms_t_gt_50"] < 0.05
+    assert "order RMS error, t > 50 s" in proc.stdout
+    assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporaries
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["demo", "--dt", "-1"], "--dt must be positive"),
+        (["demo", "--gamma", "fast"], "expected a positive number or 'auto'"),
+        (["demo", "--alpha0", "0.99"], "`alpha0` must lie inside"),
+    ],
+)
+def test_cli_errors_are_one_sentence(tmp_path, args, message):
+    proc = _run([*args, "--out", str(tmp_path / "o")], tmp_path)
+    assert proc.returncode != 0
+    assert message in proc.stderr
+    assert "Traceback" not in proc.stderr
