@@ -7,7 +7,7 @@ import pytest
 
 import vojax
 from vojax import reference
-from vojax._identify import TRACES, build_law, run_law
+from vojax._identify import TRACES, build_law
 
 from .helpers import rel_max
 
@@ -20,8 +20,12 @@ def _batch_p(phi, y, dt, lam):
     k = jnp.arange(n)
     f = jnp.exp(-lam * dt)
     # weight of sample j in the estimate at k: h f^{k−j} for j ≤ k
-    w = jnp.where(k[:, None] >= k[None, :], dt * f ** (k[:, None] - k[None, :]).astype(phi.dtype), 0.0)
-    r = jnp.einsum("kj,ja,jb->kab", w, phi, phi) + (f ** k.astype(phi.dtype))[:, None, None] * jnp.eye(phi.shape[1])
+    w = jnp.where(
+        k[:, None] >= k[None, :], dt * f ** (k[:, None] - k[None, :]).astype(phi.dtype), 0.0
+    )
+    r = jnp.einsum("kj,ja,jb->kab", w, phi, phi) + (f ** k.astype(phi.dtype))[
+        :, None, None
+    ] * jnp.eye(phi.shape[1])
     q = jnp.einsum("kj,j,ja->ka", w, y, phi)
     return jnp.linalg.solve(r, q[..., None])[..., 0]
 
@@ -51,7 +55,9 @@ def test_recursion_equals_batch_and_sensitivities(short_study, memory):
     assert rel_max(res.dp[1:], dp_closed[1:]) < 1e-9
 
     def p_of_shift(delta):
-        ph = vojax.fractional_integral(u, jnp.asarray(alpha) + delta, H, memory=memory, order_range=(0.04, 0.96))
+        ph = vojax.fractional_integral(
+            u, jnp.asarray(alpha) + delta, H, memory=memory, order_range=(0.04, 0.96)
+        )
         return _batch_p(ph, jnp.asarray(y), H, 0.9)
 
     _, dp_jvp = jax.jvp(p_of_shift, (jnp.asarray(0.0),), (jnp.asarray(1.0),))
@@ -59,9 +65,12 @@ def test_recursion_equals_batch_and_sensitivities(short_study, memory):
     # the printed (26) (φ ∂pᵀ/∂β in place of φ ∂φᵀ/∂β) does not
     dp_printed = reference.lsff_sensitivity(phi, dphi, y, H, 0.9, printed=True)
     assert rel_max(dp_printed[1:], dp_closed[1:]) > 1e-2
+
     # Λ (30) is the jvp of y(β, t) = p(β, t)ᵀ φ(β, t)
     def y_of_shift(delta):
-        ph = vojax.fractional_integral(u, jnp.asarray(alpha) + delta, H, memory=memory, order_range=(0.04, 0.96))
+        ph = vojax.fractional_integral(
+            u, jnp.asarray(alpha) + delta, H, memory=memory, order_range=(0.04, 0.96)
+        )
         return jnp.sum(_batch_p(ph, jnp.asarray(y), H, 0.9) * ph, axis=1)
 
     _, lam_jvp = jax.jvp(y_of_shift, (jnp.asarray(0.0),), (jnp.asarray(1.0),))
@@ -150,8 +159,16 @@ def test_remark4_initial_output():
 def test_streaming_by_hand_equals_identify(short_study):
     t, u, y, _, _ = short_study
     n = 200
-    law = build_law(H, n, lam=0.9, gamma=0.02, alpha0=0.5, alpha_bounds=(0.05, 0.95),
-                    memory="exponential", rule="trapezoid")
+    law = build_law(
+        H,
+        n,
+        lam=0.9,
+        gamma=0.02,
+        alpha0=0.5,
+        alpha_bounds=(0.05, 0.95),
+        memory="exponential",
+        rule="trapezoid",
+    )
     state = law.init(2)
     step = __import__("equinox").filter_jit(law.step)
     alphas = []

@@ -2,10 +2,10 @@
 
 import equinox as eqx
 import jax
-from jax.test_util import check_grads
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from jax.test_util import check_grads
 
 import vojax
 from vojax import reference
@@ -19,8 +19,12 @@ MEMORIES = ["direct", "exponential"]
 
 # (rule, μ) → measured order of the max error in h, or None where the rule is exact
 EXPECTED_ORDER = {
-    ("trapezoid", 0.0): None, ("trapezoid", 1.0): None, ("trapezoid", 2.0): 2.0,
-    ("rectangle", 0.0): None, ("rectangle", 1.0): 1.0, ("rectangle", 2.0): 1.0,
+    ("trapezoid", 0.0): None,
+    ("trapezoid", 1.0): None,
+    ("trapezoid", 2.0): 2.0,
+    ("rectangle", 0.0): None,
+    ("rectangle", 1.0): 1.0,
+    ("rectangle", 2.0): 1.0,
 }
 
 
@@ -35,7 +39,9 @@ def test_power_law_closed_form_and_convergence_order(rule, mu, variable):
         t = np.arange(int(round(4.0 / h)) + 1) * h
         order = 0.3 + 0.4 * np.sin(t) ** 2 if variable else 0.35
         phi_exact, dphi_exact = power_law(t, mu, order)
-        errors.append(np.max(np.abs(vojax.fractional_integral(t**mu, order, h, rule=rule) - phi_exact)))
+        errors.append(
+            np.max(np.abs(vojax.fractional_integral(t**mu, order, h, rule=rule) - phi_exact))
+        )
         dphi = vojax.order_sensitivity(t**mu, order, h, rule=rule)
         derrors.append(np.max(np.abs(dphi - dphi_exact)))
         end_errors.append(abs(dphi[-1] - dphi_exact[-1]))
@@ -69,7 +75,9 @@ def test_sensitivity_three_ways(rule, memory):
     assert rel_max((plus - minus) / (2 * eps), closed) < 1e-7
     # the values themselves agree with the NumPy transcription too
     phi = vojax.fractional_integral(u, alpha, dt, rule=rule, memory=memory)
-    assert rel_max(phi, reference.fractional_integral(u, alpha, dt, rule=rule, memory=memory)) < 1e-13
+    assert (
+        rel_max(phi, reference.fractional_integral(u, alpha, dt, rule=rule, memory=memory)) < 1e-13
+    )
 
 
 @pytest.mark.parametrize("memory", MEMORIES)
@@ -93,12 +101,17 @@ def test_derivatives_finite_at_start_and_extreme_orders(memory):
     u = jnp.linspace(0.0, 1.0, 16)
     for b in (0.011, 0.5, 0.989):
         order = jnp.full((16,), b)
-        g_order = jax.grad(lambda a: jnp.sum(vojax.fractional_integral(u, a, dt, memory=memory)))(order)
+        g_order = jax.grad(lambda a: jnp.sum(vojax.fractional_integral(u, a, dt, memory=memory)))(
+            order
+        )
         g_u = jax.grad(lambda x: jnp.sum(vojax.order_sensitivity(x, order, dt, memory=memory)))(u)
         assert np.all(np.isfinite(g_order)) and np.all(np.isfinite(g_u))
         assert float(g_order[0]) == 0.0  # sample 0 is 0 for every order
     check_grads(
-        lambda x: vojax.fractional_integral(x, 0.4, dt, memory=memory), (u,), order=2, modes=["fwd", "rev"]
+        lambda x: vojax.fractional_integral(x, 0.4, dt, memory=memory),
+        (u,),
+        order=2,
+        modes=["fwd", "rev"],
     )
 
 
@@ -132,7 +145,7 @@ def test_exponential_long_record():
     phi_e = vojax.fractional_integral(u, alpha, dt, memory="exponential")
     # direct reference on the last samples only: the history is the whole record
     idx = np.arange(n - 5, n)
-    phi_ref = reference.fractional_integral(u[: n], alpha, dt)[idx] if False else None
+    phi_ref = reference.fractional_integral(u[:n], alpha, dt)[idx] if False else None
     del phi_ref
     phi_d = vojax.fractional_integral(u, alpha, dt)
     assert rel_max(phi_e[idx], phi_d[idx]) < 1e-10
@@ -141,8 +154,10 @@ def test_exponential_long_record():
 def test_streaming_equals_batch():
     n, dt = 120, 0.05
     _, u, alpha = paper_inputs(n, dt)
-    for memory in (vojax.DirectMemory(dt=jnp.asarray(dt), capacity=n),
-                   vojax.ExponentialMemory.design(dt, n)):
+    for memory in (
+        vojax.DirectMemory(dt=jnp.asarray(dt), capacity=n),
+        vojax.ExponentialMemory.design(dt, n),
+    ):
         state = memory.init(2)
         step = eqx.filter_jit(memory.step)
         phis, dphis = [], []

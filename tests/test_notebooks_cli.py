@@ -15,13 +15,23 @@ def test_paper_simulation_notebook_executes():
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     nb = nbformat.read(ROOT / "notebooks" / "paper_simulation.ipynb", as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
-                                     resources={"metadata": {"path": str(ROOT / "notebooks")}})
+    client = nbclient.NotebookClient(
+        nb,
+        timeout=600,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(ROOT / "notebooks")}},
+    )
     client.execute()
     text = "".join(
         o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
     )
-    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
+    errors = [
+        o
+        for c in nb.cells
+        if c.cell_type == "code"
+        for o in c.get("outputs", [])
+        if o.output_type == "error"
+    ]
     assert not errors
     # the printed numbers are the study's: check the two corrections were shown to matter
     line = next(s for s in text.splitlines() if s.startswith("printed vs corrected (26)"))
@@ -33,7 +43,9 @@ def test_paper_simulation_notebook_executes():
 def _run(args, cwd):
     env = dict(os.environ)
     env.pop("XLA_FLAGS", None)
-    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env
+    )
 
 
 def test_demo_writes_figures_and_summary(tmp_path):

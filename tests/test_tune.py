@@ -38,8 +38,16 @@ def _order_error(t, u, y, alpha, dt, gamma, lam):
     mask = t > t[-1] / 6
 
     def err(g, lm):
-        law = build_law(dt, t.size, lam=lm, gamma=g, alpha0=0.5, alpha_bounds=(0.05, 0.95),
-                        memory="exponential", rule="trapezoid")
+        law = build_law(
+            dt,
+            t.size,
+            lam=lm,
+            gamma=g,
+            alpha0=0.5,
+            alpha_bounds=(0.05, 0.95),
+            memory="exponential",
+            rule="trapezoid",
+        )
         out = run_law(law, u2, jnp.asarray(y - y[0]))
         return jnp.sqrt(jnp.mean(jnp.where(mask, out.alpha - alpha, 0.0) ** 2) / np.mean(mask))
 
@@ -55,7 +63,12 @@ CONSTANT_XFAIL = pytest.mark.xfail(
 
 @pytest.mark.parametrize(
     "name",
-    ["study34", "order-step", "order-ramp", pytest.param("constant-3-inputs", marks=CONSTANT_XFAIL)],
+    [
+        "study34",
+        "order-step",
+        "order-ramp",
+        pytest.param("constant-3-inputs", marks=CONSTANT_XFAIL),
+    ],
 )
 def test_tuned_gains_close_to_the_best_against_truth(name):
     t, u, y, alpha, dt = _scenario(name)

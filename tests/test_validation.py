@@ -24,8 +24,16 @@ U = np.linspace(0.0, 1.0, 10)
         (dict(order=np.full(10, 1, dtype=int)), TypeError, "`order` must have a real"),
         (dict(rule="simpson"), ValueError, "`rule` must be one of"),
         (dict(memory="fft"), ValueError, "`memory` must be one of"),
-        (dict(memory="exponential", order=0.995), ValueError, r"`order` must lie in \[0.01, 0.99\]"),
-        (dict(memory="exponential", order_range=(0.2, 1.0)), ValueError, "`order_range` must satisfy"),
+        (
+            dict(memory="exponential", order=0.995),
+            ValueError,
+            r"`order` must lie in \[0.01, 0.99\]",
+        ),
+        (
+            dict(memory="exponential", order_range=(0.2, 1.0)),
+            ValueError,
+            "`order_range` must satisfy",
+        ),
         (dict(memory="exponential", tol=0.5), ValueError, "`tol` must be below"),
     ],
 )
@@ -42,7 +50,9 @@ def test_order_outside_design_range_inside_jit_is_an_error():
 
     @jax.jit
     def f(order):
-        return vojax.fractional_integral(U, order, 0.1, memory="exponential", order_range=(0.2, 0.8))
+        return vojax.fractional_integral(
+            U, order, 0.1, memory="exponential", order_range=(0.2, 0.8)
+        )
 
     # eqx.error_if surfaces as EquinoxRuntimeError or as the XLA runtime error that wraps it
     with pytest.raises((eqx.EquinoxRuntimeError, jax.errors.JaxRuntimeError), match="design range"):

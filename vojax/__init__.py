@@ -5,22 +5,35 @@ import importlib.metadata
 from . import reference as reference
 from ._adaptive import (
     LSFF as LSFF,
+)
+from ._adaptive import (
     AdaptiveLaw as AdaptiveLaw,
+)
+from ._adaptive import (
     OrderGradient as OrderGradient,
 )
-from ._identify import Identification as Identification, identify as identify
+from ._identify import Identification as Identification
+from ._identify import identify as identify
 from ._integral import (
     fractional_integral as fractional_integral,
+)
+from ._integral import (
     order_sensitivity as order_sensitivity,
 )
 from ._kernels import (
     AbstractMemory as AbstractMemory,
+)
+from ._kernels import (
     DirectMemory as DirectMemory,
+)
+from ._kernels import (
     ExponentialMemory as ExponentialMemory,
 )
 from ._simulate import simulate as simulate
-from ._study import simulate_study as simulate_study, study_signals as study_signals
-from ._tune import Gains as Gains, tune_gains as tune_gains
+from ._study import simulate_study as simulate_study
+from ._study import study_signals as study_signals
+from ._tune import Gains as Gains
+from ._tune import tune_gains as tune_gains
 
 try:
     __version__ = importlib.metadata.version("vojax")

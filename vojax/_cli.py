@@ -33,7 +33,9 @@ def _gain(text: str):
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number or 'auto', got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number or 'auto', got {text!r}"
+        ) from None
     if not value > 0:
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
@@ -48,14 +50,23 @@ def demo(args) -> int:
     from ._study import simulate_study, study_errors
 
     if not args.dt > 0 or 300.0 / args.dt > 2e6:
-        raise CLIError(f"--dt must be positive and give at most 2e6 samples over 300 s, got {args.dt}.")
+        raise CLIError(
+            f"--dt must be positive and give at most 2e6 samples over 300 s, got {args.dt}."
+        )
     out = _new_dir(args.out)
     started = time.perf_counter()
     data = simulate_study(args.dt, args.seed)
     simulated = time.perf_counter()
     result = identify(
-        data["u"], data["y"], args.dt, lam=args.lam, gamma=args.gamma, alpha0=args.alpha0,
-        memory=args.memory, rule=args.rule, x0=0.0,
+        data["u"],
+        data["y"],
+        args.dt,
+        lam=args.lam,
+        gamma=args.gamma,
+        alpha0=args.alpha0,
+        memory=args.memory,
+        rule=args.rule,
+        x0=0.0,
     )
     result.alpha.block_until_ready()
     identified = time.perf_counter()
@@ -73,7 +84,9 @@ def demo(args) -> int:
         "memory": args.memory,
         "rule": args.rule,
         **errors,
-        "output_rms_error_vs_noise_free": float(np.sqrt(np.mean((np.asarray(result.y_hat) - data["x"]) ** 2))),
+        "output_rms_error_vs_noise_free": float(
+            np.sqrt(np.mean((np.asarray(result.y_hat) - data["x"]) ** 2))
+        ),
         "time_simulate_s": simulated - started,
         "time_identify_s": identified - simulated,
         "figures": figures,
@@ -86,7 +99,10 @@ def demo(args) -> int:
         ("p2 RMS error, t > 50 s", f"{errors['p2_rms_t_gt_50']:.3f}"),
         ("gains γ, λ", f"{float(result.gamma):.4g}, {float(result.lam):.4g}"),
         ("samples, h", f"{data['t'].size}, {args.dt:g} s"),
-        ("time: simulate, identify", f"{simulated - started:.2f} s, {identified - simulated:.2f} s (incl. compile)"),
+        (
+            "time: simulate, identify",
+            f"{simulated - started:.2f} s, {identified - simulated:.2f} s (incl. compile)",
+        ),
     ]
     width = max(len(r[0]) for r in rows)
     print(f"vojax demo: the simulation study (34) of the paper → {out}/")
@@ -99,12 +115,18 @@ def demo(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vojax", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="simulate and identify the paper's study (34); write Figs. 2–4 and a summary")
+    d = sub.add_parser(
+        "demo", help="simulate and identify the paper's study (34); write Figs. 2–4 and a summary"
+    )
     d.add_argument("--out", help="output folder (default: a new vojax-demo-<time> folder here)")
     d.add_argument("--dt", type=float, default=0.05, help="sampling step h in s (default 0.05)")
     d.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    d.add_argument("--gamma", type=_gain, default=0.01, help="order gain γ or 'auto' (default 0.01)")
-    d.add_argument("--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9, the paper's)")
+    d.add_argument(
+        "--gamma", type=_gain, default=0.01, help="order gain γ or 'auto' (default 0.01)"
+    )
+    d.add_argument(
+        "--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9, the paper's)"
+    )
     d.add_argument("--alpha0", type=float, default=0.5, help="initial order estimate (default 0.5)")
     d.add_argument("--memory", choices=("exponential", "direct"), default="exponential")
     d.add_argument("--rule", choices=("trapezoid", "rectangle"), default="trapezoid")

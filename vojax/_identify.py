@@ -64,7 +64,12 @@ def build_law(dt, num_steps, *, lam, gamma, alpha0, alpha_bounds, memory, rule, 
     return AdaptiveLaw(
         mem,
         LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, r0),
-        OrderGradient(jnp.asarray(gamma, dt_arr.dtype), dt_arr, jnp.asarray(alpha0, dt_arr.dtype), alpha_bounds),
+        OrderGradient(
+            jnp.asarray(gamma, dt_arr.dtype),
+            dt_arr,
+            jnp.asarray(alpha0, dt_arr.dtype),
+            alpha_bounds,
+        ),
     )
 
 
@@ -83,7 +88,11 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
     if lam is not None:
         check.positive(lam, "lam")
     bounds = check.interval(alpha_bounds, "alpha_bounds")
-    a0 = float(np.asarray(check.step(alpha0, "alpha0"))) if not isinstance(alpha0, jax.core.Tracer) else None
+    a0 = (
+        float(np.asarray(check.step(alpha0, "alpha0")))
+        if not isinstance(alpha0, jax.core.Tracer)
+        else None
+    )
     if a0 is not None and not bounds[0] <= a0 <= bounds[1]:
         raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
     check.choice(memory, check.MEMORIES, "memory")
@@ -150,18 +159,45 @@ def identify(
         from ._tune import tune_gains
 
         gains = tune_gains(
-            u, y, dt, alpha0=alpha0, alpha_bounds=alpha_bounds, memory=memory, rule=rule, x0=x0, r0=r0, tol=tol
+            u,
+            y,
+            dt,
+            alpha0=alpha0,
+            alpha_bounds=alpha_bounds,
+            memory=memory,
+            rule=rule,
+            x0=x0,
+            r0=r0,
+            tol=tol,
         )
         gamma, lam = gains.gamma, gains.lam
     check.positive(gamma, "gamma")
     u2, y, bounds, x0, r0 = check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0)
     law = build_law(
-        dt, u2.shape[0], lam=lam, gamma=gamma, alpha0=alpha0, alpha_bounds=bounds, memory=memory,
-        rule=rule, r0=r0, tol=tol,
+        dt,
+        u2.shape[0],
+        lam=lam,
+        gamma=gamma,
+        alpha0=alpha0,
+        alpha_bounds=bounds,
+        memory=memory,
+        rule=rule,
+        r0=r0,
+        tol=tol,
     )
     out = run_law(law, u2, y - x0)
     return Identification(
-        alpha=out.alpha, p=out.p, dp=out.dp, y_hat=out.y_hat + x0, y_pred=out.y_pred + x0,
-        Lambda=out.Lambda, gamma=law.order.gamma, lam=law.lsff.lam, alpha0=law.order.alpha0,
-        x0=x0, dt=law.lsff.dt, alpha_bounds=bounds, memory=memory,
+        alpha=out.alpha,
+        p=out.p,
+        dp=out.dp,
+        y_hat=out.y_hat + x0,
+        y_pred=out.y_pred + x0,
+        Lambda=out.Lambda,
+        gamma=law.order.gamma,
+        lam=law.lsff.lam,
+        alpha0=law.order.alpha0,
+        x0=x0,
+        dt=law.lsff.dt,
+        alpha_bounds=bounds,
+        memory=memory,
     )

@@ -2,7 +2,6 @@
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
@@ -39,7 +38,9 @@ def make_memory(
     check.positive(tol, "tol", upper=1e-2)
     tol = float(np.asarray(tol))
     order_range = check.interval(order_range, "order_range")
-    return ExponentialMemory.design(float(dt), num_steps, rule=rule, tol=tol, order_range=order_range)
+    return ExponentialMemory.design(
+        float(dt), num_steps, rule=rule, tol=tol, order_range=order_range
+    )
 
 
 def _order_in_design(memory: AbstractMemory, order):

@@ -6,7 +6,9 @@ from . import _validate as check
 from ._integral import fractional_integral
 
 
-def simulate(u, order, p, dt, *, x0=0.0, rule: str = "trapezoid", memory: str = "direct", **memory_options):
+def simulate(
+    u, order, p, dt, *, x0=0.0, rule: str = "trapezoid", memory: str = "direct", **memory_options
+):
     """Output of ``x(t) − x(0) = 1/Γ(α(t)) ∫_0^t (t−τ)^{α(t)−1} p(τ)ᵀ u(τ) dτ`` (eq. 12).
 
     The order is taken at the evaluation time and a time-varying ``p`` stays inside the integral,

@@ -20,13 +20,22 @@ def study_signals(dt: float = STUDY_DT, duration: float = STUDY_DURATION):
     return t, u, alpha, p
 
 
-def simulate_study(dt: float = STUDY_DT, seed: int = 0, *, noise_std: float = STUDY_NOISE_STD, memory="exponential"):
+def simulate_study(
+    dt: float = STUDY_DT, seed: int = 0, *, noise_std: float = STUDY_NOISE_STD, memory="exponential"
+):
     """Simulates (34) exactly as the paper states it and adds the measurement noise.
 
     **Returns:** a dict with ``t``, ``u``, ``alpha``, ``p``, ``x`` (noise-free) and ``y``.
     """
     t, u, alpha, p = study_signals(dt)
-    x = simulate(u, alpha, p, dt, memory=memory, order_range=(0.05, 0.95) if memory == "exponential" else (0.01, 0.99))
+    x = simulate(
+        u,
+        alpha,
+        p,
+        dt,
+        memory=memory,
+        order_range=(0.05, 0.95) if memory == "exponential" else (0.01, 0.99),
+    )
     noise = noise_std * jax.random.normal(jax.random.key(seed), x.shape, dtype=x.dtype)
     return dict(t=t, u=u, alpha=alpha, p=p, x=np.asarray(x), y=np.asarray(x + noise))
 
@@ -50,5 +59,3 @@ def study_errors(t, alpha_true, p_true, result):
         "p1_rms_t_gt_50": rms(ep[:, 0], t > 50),
         "p2_rms_t_gt_50": rms(ep[:, 1], t > 50),
     }
-
-

@@ -59,7 +59,9 @@ def tune_gains(
 
     **Returns:** a `Gains`.
     """
-    u2, y, bounds, x0, r0 = check_options(u, y, dt, None, alpha0, alpha_bounds, memory, rule, x0, r0)
+    u2, y, bounds, x0, r0 = check_options(
+        u, y, dt, None, alpha0, alpha_bounds, memory, rule, x0, r0
+    )
     if not 0 <= burn_in < 1:
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
@@ -75,8 +77,16 @@ def tune_gains(
 
     def loss(log_gamma, log_lam):
         law = build_law(
-            dt, n, lam=jnp.exp(log_lam), gamma=jnp.exp(log_gamma), alpha0=alpha0,
-            alpha_bounds=bounds, memory=memory, rule=rule, r0=r0, tol=tol,
+            dt,
+            n,
+            lam=jnp.exp(log_lam),
+            gamma=jnp.exp(log_gamma),
+            alpha0=alpha0,
+            alpha_bounds=bounds,
+            memory=memory,
+            rule=rule,
+            r0=r0,
+            tol=tol,
         )
         out = run_law(law, u2, big_y)
         pred = jnp.sum(out.p[start - d : n - d] * out.phi[start:], axis=1)
@@ -106,6 +116,11 @@ def tune_gains(
         if np.isfinite(value) and value < best_loss and inside:
             best, best_loss, refined = (float(z[0]), float(z[1])), value, True
     return Gains(
-        gamma=float(np.exp(best[0])), lam=float(np.exp(best[1])), loss=best_loss,
-        grid_gamma=gammas, grid_lam=lams, grid_loss=grid, refined=refined,
+        gamma=float(np.exp(best[0])),
+        lam=float(np.exp(best[1])),
+        loss=best_loss,
+        grid_gamma=gammas,
+        grid_lam=lams,
+        grid_loss=grid,
+        refined=refined,
     )

@@ -4,8 +4,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._kernels import RULES
-
 MEMORIES = ("direct", "exponential")
 
 
@@ -32,7 +30,9 @@ def _float_array(x, name: str):
 def _check_finite(x, name: str):
     if _is_concrete(x) and not bool(np.all(np.isfinite(np.asarray(x)))):
         bad = np.argwhere(~np.isfinite(np.asarray(x)))[0]
-        raise ValueError(f"`{name}` contains NaN or inf (first at index {tuple(int(i) for i in bad)}).")
+        raise ValueError(
+            f"`{name}` contains NaN or inf (first at index {tuple(int(i) for i in bad)})."
+        )
 
 
 def samples(u, name: str = "u"):
@@ -41,7 +41,9 @@ def samples(u, name: str = "u"):
     if arr.ndim not in (1, 2):
         raise ValueError(f"`{name}` must have shape (N,) or (N, n), got shape {arr.shape}.")
     if arr.shape[0] < 1 or (arr.ndim == 2 and arr.shape[1] < 1):
-        raise ValueError(f"`{name}` must hold at least one sample of at least one channel, got shape {arr.shape}.")
+        raise ValueError(
+            f"`{name}` must hold at least one sample of at least one channel, got shape {arr.shape}."
+        )
     _check_finite(arr, name)
     return arr
 

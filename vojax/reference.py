@@ -150,14 +150,16 @@ def _both(u, order, dt, rule, memory, tol, order_range):
     return _exponential(u, order, float(dt), rule, tol, tuple(order_range))
 
 
-def fractional_integral(u, order, dt, *, rule="trapezoid", memory="direct", tol=1e-10,
-                        order_range=(0.01, 0.99)):
+def fractional_integral(
+    u, order, dt, *, rule="trapezoid", memory="direct", tol=1e-10, order_range=(0.01, 0.99)
+):
     """``Φ(b_k, t_k)`` by the same quadrature as `vojax.fractional_integral`, in NumPy."""
     return _both(u, order, dt, rule, memory, tol, order_range)[0]
 
 
-def order_sensitivity(u, order, dt, *, rule="trapezoid", memory="direct", tol=1e-10,
-                      order_range=(0.01, 0.99)):
+def order_sensitivity(
+    u, order, dt, *, rule="trapezoid", memory="direct", tol=1e-10, order_range=(0.01, 0.99)
+):
     """Closed form (14) of ``∂Φ/∂b`` on the same quadrature as `vojax.order_sensitivity`."""
     return _both(u, order, dt, rule, memory, tol, order_range)[1]
 

@@ -1,0 +1,88 @@
+"""Benchmark of `identify`: time per sample, direct vs exponential memory (n = 2 inputs).
+
+Each (N, memory) runs in its own process so that its peak resident memory is its own; the
+scan is compiled ahead of time, so the times exclude compilation.
+
+    python scripts/bench_identify.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
+"""
+
+import argparse
+import json
+import platform
+import resource
+import subprocess
+import sys
+import time
+
+
+def one(n: int, memory: str, repeat: int) -> dict:
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import jax.numpy as jnp
+    import numpy as np
+
+    import vojax
+    from vojax._identify import build_law, run_law
+
+    dt = 300.0 / n
+    t, u, alpha, p = vojax.study_signals(dt)
+    u, alpha, p = u[:n], alpha[:n], p[:n]
+    y = jnp.asarray(np.sum(u * p, axis=1))  # any output will do for timing
+    law = build_law(
+        dt,
+        n,
+        lam=0.9,
+        gamma=0.01,
+        alpha0=0.5,
+        alpha_bounds=(0.05, 0.95),
+        memory=memory,
+        rule="trapezoid",
+    )
+    u = jnp.asarray(u)
+    compiled = jax.jit(lambda u, y: run_law(law, u, y)).lower(u, y).compile()
+    repeat = 1 if memory == "direct" and n >= 100_000 else repeat
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        jax.block_until_ready(compiled(u, y))
+        best = min(best, time.perf_counter() - start)
+    return {"time": best, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5])
+    parser.add_argument("--exp-sizes", nargs="+", type=float, default=[1e6])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--one", nargs=2)
+    args = parser.parse_args()
+    if args.one:
+        print(json.dumps(one(int(float(args.one[0])), args.one[1], args.repeat)))
+        return
+
+    def run(n, memory):
+        cmd = [sys.executable, __file__, "--one", str(n), memory, "--repeat", str(args.repeat)]
+        return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+
+    print(f"# {platform.machine()}, python {platform.python_version()}; identify, n = 2, trapezoid")
+    print(
+        "| N | exp µs/sample | direct µs/sample | direct/exp | exp peak RSS (MB) | direct peak RSS (MB) |"
+    )
+    print("|---|---|---|---|---|---|")
+    sizes = [int(s) for s in args.sizes]
+    for n in sizes + [int(s) for s in args.exp_sizes]:
+        exp = run(n, "exponential")
+        if n in sizes:
+            direct = run(n, "direct")
+            print(
+                f"| {n:.0e} | {exp['time'] / n * 1e6:.2f} | {direct['time'] / n * 1e6:.1f} | "
+                f"{direct['time'] / exp['time']:.0f}× | {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} |"
+            )
+        else:
+            print(f"| {n:.0e} | {exp['time'] / n * 1e6:.2f} | | | {exp['peak_rss_mb']:.0f} | |")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
