@@ -6,13 +6,11 @@ scan is compiled ahead of time, so the times exclude compilation.
     python scripts/bench_identify.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
 """
 
-import argparse
-import json
 import platform
-import resource
-import subprocess
 import sys
 import time
+
+from _bench import dispatch, peak_rss_mb
 
 
 def one(n: int, memory: str, repeat: int) -> dict:
@@ -47,23 +45,11 @@ def one(n: int, memory: str, repeat: int) -> dict:
         start = time.perf_counter()
         jax.block_until_ready(compiled(u, y))
         best = min(best, time.perf_counter() - start)
-    return {"time": best, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+    return {"time": best, "peak_rss_mb": peak_rss_mb()}
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5])
-    parser.add_argument("--exp-sizes", nargs="+", type=float, default=[1e6])
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--one", nargs=2)
-    args = parser.parse_args()
-    if args.one:
-        print(json.dumps(one(int(float(args.one[0])), args.one[1], args.repeat)))
-        return
-
-    def run(n, memory):
-        cmd = [sys.executable, __file__, "--one", str(n), memory, "--repeat", str(args.repeat)]
-        return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+    args, run = dispatch(__file__, one)
 
     print(f"# {platform.machine()}, python {platform.python_version()}; identify, n = 2, trapezoid")
     print(

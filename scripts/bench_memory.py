@@ -6,13 +6,11 @@ own. Times exclude compilation (one warm-up call first) and are the best of `--r
     python scripts/bench_memory.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
 """
 
-import argparse
-import json
 import platform
-import resource
-import subprocess
 import sys
 import time
+
+from _bench import dispatch, peak_rss_mb
 
 
 def one(n: int, memory: str, repeat: int) -> dict:
@@ -47,26 +45,13 @@ def one(n: int, memory: str, repeat: int) -> dict:
         out[name] = best
         value = value[1] if sensitivity else value
         np.save(f"/tmp/bench_memory_{name}_{memory}_{n}.npy", np.asarray(value))
-    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    out["peak_rss_mb"] = peak_rss_mb()
     return out
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5])
-    parser.add_argument("--exp-sizes", nargs="+", type=float, default=[1e6])
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--one", nargs=2)
-    args = parser.parse_args()
-    if args.one:
-        print(json.dumps(one(int(float(args.one[0])), args.one[1], args.repeat)))
-        return
-
+    args, run = dispatch(__file__, one)
     import numpy as np
-
-    def run(n, memory):
-        cmd = [sys.executable, __file__, "--one", str(n), memory, "--repeat", str(args.repeat)]
-        return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
 
     print(f"# {platform.processor() or platform.machine()}, python {platform.python_version()}")
     print(
