@@ -63,19 +63,7 @@ def scan_memory(memory: AbstractMemory, u, order, sensitivity: bool):
     Returns ``Φ`` (N, n), and ``∂Φ/∂b`` as well when ``sensitivity`` is true.
     """
     TRACES["scan"] += 1
-
-    @jax.checkpoint
-    def body(state, sample):
-        u_k, b_k = sample
-        if sensitivity:
-            state, out = memory.step(state, u_k, b_k)
-        else:
-            out = memory.readout(state, u_k, b_k)
-            state = memory.update(state, u_k)
-        return state, out
-
-    _, out = lax.scan(body, memory.init(u.shape[1]), (u, order))
-    return out
+    return memory.run(u, order, sensitivity)
 
 
 def _prepare(u, order, dt, rule, memory, tol, order_range):

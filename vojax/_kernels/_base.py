@@ -5,6 +5,7 @@ import abc
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+from jax import lax
 
 RULES = ("rectangle", "trapezoid")
 
@@ -37,8 +38,26 @@ class AbstractMemory(eqx.Module):
     def update(self, state, u_k):
         """The state after sample ``k``."""
 
+    def readout_and_sensitivity(self, state, u_k, b):
+        """``(Φ, ∂Φ/∂b)`` at the current sample: a forward-mode ``jax.jvp`` of `readout`."""
+        b = jnp.asarray(b, jnp.result_type(float))
+        return jax.jvp(lambda bb: self.readout(state, u_k, bb), (b,), (jnp.ones_like(b),))
+
     def step(self, state, u_k, b):
         """Returns ``(new_state, (Φ, ∂Φ/∂b))`` at the current sample, with order ``b``."""
-        b = jnp.asarray(b, jnp.result_type(float))
-        phi, dphi = jax.jvp(lambda bb: self.readout(state, u_k, bb), (b,), (jnp.ones_like(b),))
-        return self.update(state, u_k), (phi, dphi)
+        return self.update(state, u_k), self.readout_and_sensitivity(state, u_k, b)
+
+    def run(self, u, order, sensitivity: bool):
+        """``Φ`` (and ``∂Φ/∂b``) over a whole record ``u`` (N, n) with known orders (N,).
+
+        One `lax.scan` of `step`; a memory may override it with an equivalent, faster schedule.
+        """
+
+        @jax.checkpoint
+        def body(state, sample):
+            u_k, b_k = sample
+            if sensitivity:
+                return self.step(state, u_k, b_k)
+            return self.update(state, u_k), self.readout(state, u_k, b_k)
+
+        return lax.scan(body, self.init(u.shape[1]), (u, order))[1]

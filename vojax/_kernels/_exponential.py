@@ -184,10 +184,12 @@ class ExponentialMemory(AbstractMemory):
         return jnp.where(state.k > 0, last + older, 0.0)
 
     def update(self, state: ExponentialState, u_k) -> ExponentialState:
-        advanced = (
-            self.decay[:, None] * state.history
-            + self.weight_previous[:, None] * state.previous[None, :]
+        # no interval ends at sample 0: its contribution is gated off by a factor, not a
+        # select (a select over the whole state costs XLA:CPU a copy per step)
+        started = (state.k > 0).astype(state.history.dtype)
+        increment = (
+            self.weight_previous[:, None] * state.previous[None, :]
             + self.weight_current[:, None] * u_k[None, :]
         )
-        history = jnp.where(state.k > 0, advanced, state.history)
+        history = self.decay[:, None] * state.history + started * increment
         return ExponentialState(history, u_k, state.k + 1)
