@@ -29,6 +29,7 @@ from ._kernels import (
 from ._kernels import (
     ExponentialMemory as ExponentialMemory,
 )
+from ._refit import Refit as Refit, refit as refit, refit_lbfgsb as refit_lbfgsb
 from ._simulate import simulate as simulate
 from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals

@@ -1,0 +1,82 @@
+"""`refit` against known truth and against linear least squares."""
+
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+import pytest
+
+import vojax
+from vojax._refit import _order_curve
+
+DT = 0.05
+T = np.arange(1601) * DT
+U = np.stack([np.sin(0.7 * T) + 0.3 * np.sin(1.9 * T), 1 + 0.5 * np.cos(0.25 * T)], axis=1)
+P = np.array([2.0, -1.0])
+NOISE = 0.01
+
+
+def _data(order, seed):
+    x = np.asarray(vojax.simulate(U, order, P, DT))
+    return x + NOISE * np.random.default_rng(seed).standard_normal(x.shape)
+
+
+def test_constant_order_recovered_within_standard_errors():
+    y = _data(0.62, seed=0)
+    fit = vojax.refit(U, y, DT, x0=0.0)
+    assert fit.result == optx.RESULTS.successful
+    se = float(fit.order_stderr[0])
+    assert 0 < se < 1e-3
+    assert abs(float(fit.order[0]) - 0.62) < 4 * se
+    assert np.all(np.abs(np.asarray(fit.p) - P) < 4 * np.asarray(fit.p_stderr))
+    assert abs(float(fit.sigma) - NOISE) < 0.1 * NOISE
+
+
+def test_knot_order_recovered_within_standard_errors():
+    raw = jnp.array([-0.6, 0.3, 0.9])  # an order curve from the model's own family
+    truth = np.asarray(_order_curve(raw, T.size, (0.01, 0.99)))
+    y = _data(truth, seed=1)
+    fit = vojax.refit(U, y, DT, order=3, x0=0.0)
+    assert fit.result == optx.RESULTS.successful
+    err = np.abs(np.asarray(fit.order) - truth)
+    assert np.all(err < 4 * np.asarray(fit.order_stderr) + 1e-12)
+    assert np.all(np.abs(np.asarray(fit.p) - P) < 4 * np.asarray(fit.p_stderr))
+
+
+def test_fixed_order_is_linear_least_squares():
+    order = 0.4 + 0.1 * np.sin(0.05 * T)
+    y = _data(order, seed=2)
+    fit = vojax.refit(U, y, DT, order=order, x0=0.0)
+    phi = np.asarray(vojax.fractional_integral(U, order, DT, memory="exponential"))
+    p_ls = np.linalg.lstsq(phi, y, rcond=None)[0]
+    assert np.max(np.abs(np.asarray(fit.p) - p_ls)) < 1e-10
+    assert np.max(np.abs(np.asarray(fit.y_hat) - phi @ p_ls)) < 1e-10
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(order="spline"), "`order` must be 'constant'"),
+        (dict(order=0), "number of knots must be in"),
+        (dict(order=np.full(5, 0.5)), "`order` must be a scalar or have shape"),
+        (dict(order_bounds=(0.5, 0.2)), "`order_bounds` must satisfy"),
+    ],
+)
+def test_refit_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        vojax.refit(U, np.zeros(T.size), DT, **kwargs)
+
+
+@pytest.mark.parametrize("order", ["constant", 3])
+def test_lbfgsb_second_opinion_agrees(order):
+    pytest.importorskip("jaxopt")
+    from vojax._refit import refit_lbfgsb
+
+    raw = jnp.array([-0.6, 0.3, 0.9])
+    truth = 0.62 if order == "constant" else np.asarray(_order_curve(raw, T.size, (0.01, 0.99)))
+    n = 600  # a shorter record: L-BFGS-B takes a few hundred gradient evaluations
+    y = _data(truth, seed=3)[:n]
+    lm = vojax.refit(U[:n], y, DT, order=order, x0=0.0)
+    beta, p = refit_lbfgsb(U[:n], y, DT, order=order, x0=0.0)
+    # both minimise the same objective: they agree well inside the standard errors
+    assert np.max(np.abs(np.asarray(beta) - np.asarray(lm.order)) / np.asarray(lm.order_stderr)) < 0.1
+    assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1
