@@ -29,6 +29,12 @@ from ._kernels import (
 from ._kernels import (
     ExponentialMemory as ExponentialMemory,
 )
+from ._models import (
+    AbstractViscoelasticModel as AbstractViscoelasticModel,
+    KelvinVoigt as KelvinVoigt,
+    Springpot as Springpot,
+    stress_strain as stress_strain,
+)
 from ._refit import Refit as Refit, refit as refit, refit_lbfgsb as refit_lbfgsb
 from ._simulate import simulate as simulate
 from ._study import simulate_study as simulate_study
