@@ -78,5 +78,7 @@ def test_lbfgsb_second_opinion_agrees(order):
     lm = vojax.refit(U[:n], y, DT, order=order, x0=0.0)
     beta, p = refit_lbfgsb(U[:n], y, DT, order=order, x0=0.0)
     # both minimise the same objective: they agree well inside the standard errors
-    assert np.max(np.abs(np.asarray(beta) - np.asarray(lm.order)) / np.asarray(lm.order_stderr)) < 0.1
+    assert (
+        np.max(np.abs(np.asarray(beta) - np.asarray(lm.order)) / np.asarray(lm.order_stderr)) < 0.1
+    )
     assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1

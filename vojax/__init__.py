@@ -31,11 +31,19 @@ from ._kernels import (
 )
 from ._models import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,
+)
+from ._models import (
     KelvinVoigt as KelvinVoigt,
+)
+from ._models import (
     Springpot as Springpot,
+)
+from ._models import (
     stress_strain as stress_strain,
 )
-from ._refit import Refit as Refit, refit as refit, refit_lbfgsb as refit_lbfgsb
+from ._refit import Refit as Refit
+from ._refit import refit as refit
+from ._refit import refit_lbfgsb as refit_lbfgsb
 from ._simulate import simulate as simulate
 from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals

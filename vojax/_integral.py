@@ -3,7 +3,6 @@
 import equinox as eqx
 import jax
 import numpy as np
-from jax import lax
 
 from . import _validate as check
 from ._custom_types import Array, OrderLike, Samples

@@ -81,11 +81,15 @@ def refit(
 
     if isinstance(order, str):
         if order != "constant":
-            raise ValueError(f"`order` must be 'constant', a number of knots ≥ 2, or an (N,) array, got {order!r}.")
+            raise ValueError(
+                f"`order` must be 'constant', a number of knots ≥ 2, or an (N,) array, got {order!r}."
+            )
         num_knots = 1
     elif isinstance(order, (int, np.integer)) and not isinstance(order, bool):
         if order < 1 or order > num // 2:
-            raise ValueError(f"`order` as a number of knots must be in [1, {num // 2}], got {order}.")
+            raise ValueError(
+                f"`order` as a number of knots must be in [1, {num // 2}], got {order}."
+            )
         num_knots = int(order)
     else:
         fixed = check.order(order, num, bounds=bounds, closed=True)
@@ -122,8 +126,14 @@ def refit(
     beta_of = lambda th: _order_curve(th[:num_knots], num, bounds)  # noqa: E731
     gb = jax.jacfwd(beta_of)(theta)
     order_var = jnp.einsum("ni,ij,nj->n", gb, cov, gb)
-    knot_times = jnp.linspace(0.0, (num - 1) * float(dt), num_knots) if num_knots > 1 else jnp.zeros(1)
-    knot_idx = jnp.round(jnp.linspace(0, num - 1, num_knots)).astype(int) if num_knots > 1 else jnp.zeros(1, int)
+    knot_times = (
+        jnp.linspace(0.0, (num - 1) * float(dt), num_knots) if num_knots > 1 else jnp.zeros(1)
+    )
+    knot_idx = (
+        jnp.round(jnp.linspace(0, num - 1, num_knots)).astype(int)
+        if num_knots > 1
+        else jnp.zeros(1, int)
+    )
     beta = beta_of(theta)
     return Refit(
         order=beta,
@@ -149,10 +159,17 @@ def _linear(phi, big_y, fixed, x0, width):
     sigma2 = jnp.sum(residuals**2) / dof
     cov = sigma2 * jnp.linalg.pinv(phi.T @ phi)
     return Refit(
-        order=fixed, order_stderr=jnp.zeros_like(fixed), p=p,
-        p_stderr=jnp.sqrt(jnp.diag(cov)), knots=fixed[:0], knot_times=fixed[:0],
-        y_hat=fit + x0, residuals=residuals, sigma=jnp.sqrt(sigma2),
-        result=optx.RESULTS.successful, steps=jnp.asarray(0),
+        order=fixed,
+        order_stderr=jnp.zeros_like(fixed),
+        p=p,
+        p_stderr=jnp.sqrt(jnp.diag(cov)),
+        knots=fixed[:0],
+        knot_times=fixed[:0],
+        y_hat=fit + x0,
+        residuals=residuals,
+        sigma=jnp.sqrt(sigma2),
+        result=optx.RESULTS.successful,
+        steps=jnp.asarray(0),
     )
 
 
@@ -192,7 +209,9 @@ def refit_lbfgsb(
     elif isinstance(order, (int, np.integer)) and 1 <= order <= num // 2:
         num_knots = int(order)
     else:
-        raise ValueError(f"`order` must be 'constant' or a number of knots in [1, {num // 2}], got {order!r}.")
+        raise ValueError(
+            f"`order` must be 'constant' or a number of knots in [1, {num // 2}], got {order!r}."
+        )
     lo, hi = bounds
     mem = make_memory(memory, dt, num, rule=rule, order_range=bounds)
     big_y = y - x0

@@ -2,7 +2,13 @@
 
 from ._viscoelastic import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,
+)
+from ._viscoelastic import (
     KelvinVoigt as KelvinVoigt,
+)
+from ._viscoelastic import (
     Springpot as Springpot,
+)
+from ._viscoelastic import (
     stress_strain as stress_strain,
 )
