@@ -1,6 +1,7 @@
 """The ``vojax`` command. Errors are one sentence on stderr and a non-zero exit code."""
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -112,6 +113,68 @@ def demo(args) -> int:
     return 0
 
 
+def _data_options(p, *, many: bool):
+    p.add_argument("--time", required=True, help="name of the time column")
+    p.add_argument("--input", action="append", required=True, dest="inputs",
+                   help="input column (stress or force); repeat for several inputs")
+    p.add_argument("--output", required=True, help="output column (strain or displacement)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--model", choices=("springpot", "kelvin-voigt", "linear"), default="springpot")
+    p.add_argument("--method", choices=("adaptive", "refit", "both"), default="adaptive")
+    p.add_argument("--gamma", type=_gain, default="auto", help="order gain γ or 'auto' (default)")
+    p.add_argument("--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9)")
+    p.add_argument("--area", type=float, help="contact area a of eq. (35): σ = F/a")
+    p.add_argument("--length", type=float, help="specimen length l of eq. (35): ε = d/l")
+    p.add_argument("--group-by", help="column naming the record in a long-format file")
+    p.add_argument("--strict", action="store_true", help="reject non-uniform time steps")
+    p.add_argument("--trim-column", help="drop leading samples while |column| < --trim-below")
+    p.add_argument("--trim-below", type=float)
+
+
+def _load(path, args):
+    from ._data import load_records
+
+    if (args.trim_column is None) != (args.trim_below is None):
+        raise CLIError("--trim-column and --trim-below go together.")
+    for name in ("area", "length"):
+        value = getattr(args, name)
+        if value is not None and not value > 0:
+            raise CLIError(f"--{name} must be positive, got {value}.")
+    return load_records(
+        path, time=args.time, inputs=args.inputs, output=args.output, group_by=args.group_by,
+        strict=args.strict, trim_column=args.trim_column, trim_below=args.trim_below,
+    )
+
+
+def identify_command(args) -> int:
+    import warnings
+
+    from ._data._pipeline import identify_record, write_outputs
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        records = _load(args.file, args)
+    for w in caught:
+        print(f"vojax: warning: {w.message}", file=sys.stderr)
+    out = _new_dir(args.out)
+    for record in records:
+        target = out / record.name if len(records) > 1 else out
+        columns, summary = identify_record(
+            record, model=args.model, method=args.method, gamma=args.gamma, lam=args.lam,
+            area=args.area, length=args.length,
+        )
+        write_outputs(target, columns, summary, record.inputs)
+        parts = [f"{record.name}: {record.time.size} samples"]
+        if "adaptive" in summary:
+            a = summary["adaptive"]
+            parts.append(f"adaptive q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}], NRMSE {a['nrmse']:.3g}")
+        if "refit" in summary:
+            r = summary["refit"]
+            parts.append(f"refit q = {r['order']:.4f} ± {r['order_stderr']:.1g}, NRMSE {r['nrmse']:.3g}")
+        print("; ".join(parts) + f" → {target}/")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vojax", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -131,6 +194,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--memory", choices=("exponential", "direct"), default="exponential")
     d.add_argument("--rule", choices=("trapezoid", "rectangle"), default="trapezoid")
     d.set_defaults(run=demo)
+    i = sub.add_parser("identify", help="identify q(t) and the parameters of one recorded test")
+    i.add_argument("file", help="CSV (header row, '#' comments) or NPZ file")
+    _data_options(i, many=False)
+    i.set_defaults(run=identify_command)
     return parser
 
 
@@ -145,12 +212,22 @@ def main(argv=None) -> int:
     except CLIError as e:
         print(f"vojax: error: {e}", file=sys.stderr)
         return 1
+    except OSError as e:
+        print(f"vojax: error: {e.strerror or e}: {e.filename}.", file=sys.stderr)
+        return 1
     except (ValueError, TypeError) as e:
         print(f"vojax: error: {str(e).splitlines()[0]}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("vojax: interrupted.", file=sys.stderr)
         return 130
+    except Exception as e:  # a bug, not the user's fault: still one line, the trace on request
+        if os.environ.get("VOJAX_DEBUG"):
+            raise
+        first = str(e).splitlines()[0] if str(e) else ""
+        print(f"vojax: internal error ({type(e).__name__}: {first}); set VOJAX_DEBUG=1 for the traceback.",
+              file=sys.stderr)
+        return 3
 
 
 if __name__ == "__main__":

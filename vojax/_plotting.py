@@ -47,3 +47,41 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
     axes[1].set_xlabel("t (s)")
     save(fig, "fig4_parameters.png")
     return written
+
+
+def record_figure(columns, summary, inputs, path) -> None:
+    """The layout of the paper's Figs. 7–8: output and identified output, input, order,
+    parameters."""
+    plt = _pyplot()
+    t = columns["time"]
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6), layout="constrained")
+    ax = axes[0, 0]
+    ax.plot(t, columns["y"], "k", lw=1.2, label="measured")
+    if "y_hat" in columns:
+        ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label="adaptive")
+    if "refit_y_hat" in columns:
+        ax.plot(t, columns["refit_y_hat"], "C0:", lw=1.2, label="refit")
+    ax.set(title=f"output ({summary['output_column']})", xlabel="t")
+    ax.legend()
+    ax = axes[0, 1]
+    for i, name in enumerate(summary["input_columns"]):
+        ax.plot(t, inputs[:, i], label=name)
+    ax.set(title="input", xlabel="t")
+    ax.legend()
+    ax = axes[1, 0]
+    if "alpha" in columns:
+        ax.plot(t, columns["alpha"], "C3", label="adaptive")
+    if "refit_alpha" in columns:
+        ax.plot(t, columns["refit_alpha"], "C0:", label="refit")
+    ax.set(title="identified order", xlabel="t")
+    ax.legend()
+    ax = axes[1, 1]
+    for name in summary["parameter_names"]:
+        if name in columns:
+            ax.plot(t, columns[name], label=name)
+    ax.set(title="parameters (adaptive)", xlabel="t")
+    ax.legend()
+    fig.suptitle(f"{summary['record']} — {summary['model']}")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)

@@ -1,0 +1,141 @@
+"""Recorded datasets in, identification out: the loader and `vojax identify`."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax._data import DataError, load_records
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DT = 0.1
+
+
+def _springpot_csv(path, *, n=150, q=0.35, eta=4.0, extra_rows=(), time=None, comment=True):
+    t = np.arange(n) * DT if time is None else time
+    stress = np.minimum(t, 3.0) + 0.1 * np.sin(3 * t)
+    strain = np.asarray(vojax.simulate(stress, q, np.array([1.0 / eta]), DT))
+    with open(path, "w", newline="") as f:
+        if comment:
+            f.write("# synthetic springpot test, written by the test suite\n")
+        w = csv.writer(f)
+        w.writerow(["time_s", "stress", "strain"])
+        for row in zip(t, stress, strain):
+            w.writerow([repr(float(v)) for v in row])
+        for row in extra_rows:
+            w.writerow(row)
+    return t, stress, strain
+
+
+def _cli(*args, cwd):
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env)
+
+
+def test_loader_reads_groups_trims_and_resamples(tmp_path):
+    path = tmp_path / "long.csv"
+    with open(path, "w") as f:
+        f.write("# comment\nspecimen,t,F,d\n")
+        for name, offset in (("a", 0.0), ("b", 1.0)):
+            for k in range(10):
+                f.write(f"{name},{k * 0.5},{0.0 if k < 2 else k + offset},{k * 0.1}\n")
+    recs = load_records(path, time="t", inputs=["F"], output="d", group_by="specimen", trim_column="F", trim_below=0.5)
+    assert [r.name for r in recs] == ["a", "b"]
+    assert recs[0].time.size == 8 and recs[0].time[0] == 0.0 and recs[0].dt == 0.5
+    assert recs[1].inputs[0, 0] == 3.0
+    t = np.r_[0.0, 0.1, 0.25, 0.3, 0.4, 0.5]
+    path2 = tmp_path / "uneven.csv"
+    with open(path2, "w") as f:
+        f.write("t,F,d\n" + "".join(f"{x},{2 * x},{x}\n" for x in t))
+    with pytest.warns(UserWarning, match=r"time steps vary by 50 %"):
+        rec = load_records(path2, time="t", inputs=["F"], output="d")[0]
+    np.testing.assert_allclose(rec.inputs[:, 0], 2 * rec.time, atol=1e-14)
+    with pytest.raises(DataError, match="time steps vary by 50 %.*--strict"):
+        load_records(path2, time="t", inputs=["F"], output="d", strict=True)
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        ("t,F\n0,1\n0.1,2\n0.2,3\n", r"no column 'd' \(columns: t, F\)"),
+        ("t,F,d\n0,1,0\n0.1,x,0\n0.2,3,0\n", r"line 3, column 'F': 'x' is not a number"),
+        ("t,F,d\n0,1,0\n0.1,nan,0\n0.2,3,0\n", r"line 3, column 'F': value is NaN"),
+        ("t,F,d\n0,1,0\n0.2,2,0\n0.1,3,0\n", r"line 4: time does not increase"),
+        ("# only a comment\n", "no header row"),
+    ],
+)
+def test_loader_errors_name_file_line_and_column(tmp_path, content, match):
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    with pytest.raises(DataError, match=match):
+        load_records(path, time="t", inputs=["F"], output="d")
+
+
+def test_npz_records(tmp_path):
+    t = np.arange(50) * DT
+    np.savez(tmp_path / "r.npz", t=t, F=np.sin(t), d=np.cos(t))
+    rec = load_records(tmp_path / "r.npz", time="t", inputs=["F"], output="d")[0]
+    assert rec.name == "r" and rec.inputs.shape == (50, 1) and rec.dt == pytest.approx(DT)
+
+
+@pytest.mark.parametrize("method", ["adaptive", "refit", "both"])
+def test_cli_identify_end_to_end(tmp_path, method):
+    _springpot_csv(tmp_path / "test.csv")
+    proc = _cli("identify", "test.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
+                "--out", "out", "--method", method, "--gamma", "0.5", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "out"
+    with open(out / "identification.csv") as f:
+        rows = list(csv.reader(f))
+    expected = ["time"] + (["alpha", "eta"] if method != "refit" else []) + ["y"]
+    expected += ["y_hat"] if method != "refit" else []
+    expected += ["refit_alpha", "refit_y_hat"] if method != "adaptive" else []
+    assert rows[0] == expected and len(rows) == 151
+    values = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
+    assert np.all(np.isfinite(values[1:]))  # η is undefined (empty) only at sample 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["samples"] == 150 and summary["model"] == "springpot"
+    if method != "adaptive":
+        assert summary["refit"]["converged"]
+        assert abs(summary["refit"]["order"] - 0.35) < 1e-6
+        assert abs(summary["refit"]["parameters"]["eta"] - 4.0) < 1e-5
+    assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["missing.csv"], "no such file"),
+        (["test.csv", "--area", "-1"], "--area must be positive"),
+        (["test.csv", "--trim-column", "stress"], "--trim-column and --trim-below go together"),
+        (["test.csv", "--model", "kelvin-voigt", "--input", "strain"], "takes one --input"),
+    ],
+)
+def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
+    _springpot_csv(tmp_path / "test.csv", n=20)
+    base = ["--time", "time_s", "--input", "stress", "--output", "strain", "--out", "out"]
+    proc = _cli("identify", *args[:1], *base, *args[1:], cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    assert message in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.skipif(not (DATA / "oca-shear-staircase").is_dir(), reason="../shared/data is not present")
+def test_real_adhesive_record_identifies(tmp_path):
+    path = DATA / "oca-shear-staircase" / "oca_shear_relaxation_1.csv"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # its time steps are uneven: resampled
+        rec = load_records(path, time="time_s", inputs=["nominal_shear_stress_kPa"], output="shear_strain")[0]
+    from vojax._data._pipeline import identify_record
+
+    columns, summary = identify_record(rec, method="both")
+    # a springpot describes the adhesive's staircase to a few per cent of its strain range
+    assert summary["adaptive"]["nrmse"] < 0.05 and summary["refit"]["nrmse"] < 0.05
+    assert 0.05 < summary["refit"]["order"] < 0.95 and summary["refit"]["converged"]

@@ -1,0 +1,99 @@
+"""Identify one recorded test and write its outputs (CSV, JSON, PNG), atomically."""
+
+import csv
+import io
+
+import numpy as np
+import optimistix as optx
+
+from .._io import atomic_path, write_json
+from .._models import KelvinVoigt, Springpot
+
+MODELS = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt()}
+
+
+def regressors(record, model: str, area=None, length=None):
+    """``(u, y, parameter names, to_physical)`` for `model` (``linear`` keeps the columns)."""
+    if model == "linear":
+        names = [f"p_{c}" for c in record.input_names]
+        return record.inputs, record.output, names, lambda p: {n: p[..., i] for i, n in enumerate(names)}
+    if record.inputs.shape[1] != 1:
+        raise ValueError(
+            f"--model {model} takes one --input (the stress or force), got {record.inputs.shape[1]}; "
+            "use --model linear for several inputs."
+        )
+    stress = record.inputs[:, 0] / (area or 1.0)
+    strain = record.output / (length or 1.0)
+    law = MODELS[model]
+    u = law.inputs(stress) if model == "springpot" else law.inputs(stress, strain)
+    return np.asarray(u), strain, list(law.names), lambda p: law.parameters(p)
+
+
+def nrmse(y, y_hat):
+    """Root-mean-square error normalised by the range of ``y``."""
+    span = float(np.ptp(y))
+    return float(np.sqrt(np.mean((np.asarray(y_hat) - y) ** 2)) / span) if span > 0 else float("nan")
+
+
+def identify_record(record, *, model="springpot", method="adaptive", gamma="auto", lam=0.9,
+                    area=None, length=None):
+    """Runs the adaptive law and/or the refit on one record; returns ``(columns, summary)``."""
+    from .._identify import identify
+    from .._refit import refit
+
+    u, y, names, physical = regressors(record, model, area, length)
+    columns = {"time": record.time}
+    summary = {
+        "record": record.name, "source": record.source, "samples": int(record.time.size),
+        "dt": record.dt, "resampled_step_spread": record.resampled, "model": model, "method": method,
+        "input_columns": list(record.input_names), "output_column": record.output_name,
+        "area": area, "length": length,
+    }
+    if method in ("adaptive", "both"):
+        res = identify(u, y, record.dt, gamma=gamma, lam=lam)
+        alpha = np.asarray(res.alpha)
+        params = {k: np.asarray(v) for k, v in physical(np.asarray(res.p)).items()}
+        columns["alpha"] = alpha
+        columns.update(params)
+        summary["adaptive"] = {
+            "gamma": float(res.gamma), "lam": float(res.lam), "nrmse": nrmse(y, res.y_hat),
+            "alpha_min": float(alpha.min()), "alpha_max": float(alpha.max()),
+            "alpha_mean": float(alpha.mean()), "alpha_final": float(alpha[-1]),
+            "parameters_final": {k: float(v[-1]) for k, v in params.items()},
+        }
+    columns["y"] = y
+    if method in ("adaptive", "both"):
+        columns["y_hat"] = np.asarray(res.y_hat)
+    if method in ("refit", "both"):
+        fit = refit(u, y, record.dt)
+        p = np.asarray(fit.p)
+        phys = {k: float(v) for k, v in physical(p).items()}
+        columns["refit_alpha"] = np.asarray(fit.order)
+        columns["refit_y_hat"] = np.asarray(fit.y_hat)
+        summary["refit"] = {
+            "order": float(fit.order[0]), "order_stderr": float(fit.order_stderr[0]),
+            "p": p.tolist(), "p_stderr": np.asarray(fit.p_stderr).tolist(), "parameters": phys,
+            "nrmse": nrmse(y, fit.y_hat), "converged": bool(fit.result == optx.RESULTS.successful),
+        }
+    summary["parameter_names"] = names
+    return columns, summary
+
+
+def write_outputs(out_dir, columns, summary, inputs=None):
+    """``identification.csv``, ``summary.json`` and ``identification.png`` in ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    buffer = io.StringIO()
+    writer = csv.writer(buffer)
+    names = list(columns)
+    writer.writerow(names)
+    # a quantity undefined at a sample (η = 1/p while p̂ = 0 at sample 0) is left empty
+    for row in zip(*(np.asarray(columns[n]) for n in names)):
+        writer.writerow([repr(float(v)) if np.isfinite(v) else "" for v in row])
+    with atomic_path(out_dir / "identification.csv") as tmp, open(tmp, "w") as f:
+        f.write(buffer.getvalue())
+    if inputs is not None:
+        from .._plotting import record_figure
+
+        record_figure(columns, summary, inputs, out_dir / "identification.png")
+    # the summary goes last: its presence marks the record's outputs as complete
+    write_json(out_dir / "summary.json", summary)

@@ -1,0 +1,180 @@
+"""Recorded tests in: CSV (header row, ``#`` comments) or NPZ, one record or many per file."""
+
+import csv
+import dataclasses
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+UNIFORM_RTOL = 1e-6  # relative spread of the time steps below which a grid counts as uniform
+
+
+class DataError(ValueError):
+    """A problem with a data file, said in one sentence naming file, record, row and column."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Record:
+    """One recorded test on a uniform time grid.
+
+    ``time`` (N,), ``inputs`` (N, n) in the order of ``input_names``, ``output`` (N,), ``dt``;
+    ``source`` is the file, ``name`` the record (the file's stem or the group's value);
+    ``resampled`` is the relative spread of the original time steps when they were resampled.
+    """
+
+    name: str
+    source: str
+    time: np.ndarray
+    inputs: np.ndarray
+    output: np.ndarray
+    input_names: tuple[str, ...]
+    output_name: str
+    dt: float
+    resampled: float | None = None
+
+
+def _read_csv(path: Path):
+    """Header and rows of a CSV file, skipping blank lines and lines that start with ``#``."""
+    try:
+        with open(path, newline="") as f:
+            lines = [(i + 1, line) for i, line in enumerate(f) if line.strip() and not line.lstrip().startswith("#")]
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a text CSV file.") from None
+    if not lines:
+        raise DataError(f"{path}: no header row (the file is empty or only comments).")
+    reader = csv.reader([line for _, line in lines])
+    header = [h.strip() for h in next(reader)]
+    rows = list(reader)
+    return header, rows, [n for n, _ in lines[1:]]
+
+
+def _column(path, header, rows, line_numbers, name, numeric=True):
+    if name not in header:
+        raise DataError(f"{path}: no column {name!r} (columns: {', '.join(header)}).")
+    j = header.index(name)
+    values = []
+    for row, line in zip(rows, line_numbers):
+        if j >= len(row):
+            raise DataError(f"{path}, line {line}: row has {len(row)} fields, column {name!r} is field {j + 1}.")
+        text = row[j].strip()
+        if not numeric:
+            values.append(text)
+            continue
+        try:
+            values.append(float(text))
+        except ValueError:
+            raise DataError(f"{path}, line {line}, column {name!r}: {text!r} is not a number.") from None
+    return np.array(values, dtype=object if not numeric else float)
+
+
+def _uniform(path, name, t, columns: dict, lines, strict: bool):
+    """Checks the time column and brings the record onto a uniform grid."""
+    label = f"{path}, record {name!r}" if name else str(path)
+    for key, values in {"time": t, **columns}.items():
+        bad = ~np.isfinite(values)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise DataError(f"{label}, line {lines[i]}, column {key!r}: value is NaN or infinite.")
+    if t.size < 3:
+        raise DataError(f"{label}: only {t.size} samples; at least 3 are needed.")
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0)) + 1
+        raise DataError(f"{label}, line {lines[i]}: time does not increase ({t[i - 1]!r} then {t[i]!r}).")
+    dt = float(np.median(steps))
+    spread = float(np.max(np.abs(steps - dt)) / dt)
+    if spread <= UNIFORM_RTOL:
+        return t, columns, dt, None
+    if strict:
+        raise DataError(f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g} (--strict).")
+    warnings.warn(
+        f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g}; "
+        "resampled linearly onto a uniform grid.",
+        stacklevel=3,
+    )
+    grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1)
+    return grid, {k: np.interp(grid, t, v) for k, v in columns.items()}, dt, spread
+
+
+def load_records(
+    path,
+    *,
+    time: str,
+    inputs: list[str],
+    output: str,
+    group_by: str | None = None,
+    strict: bool = False,
+    trim_column: str | None = None,
+    trim_below: float | None = None,
+) -> list[Record]:
+    """Reads the records of one CSV or NPZ file.
+
+    **Arguments:**
+
+    - `time`, `inputs`, `output`: column names (NPZ: array names).
+    - `group_by`: a column naming the record in a long-format file (e.g. ``specimen``); rows
+      of a record need not be contiguous but keep their order.
+    - `strict`: reject a non-uniform time column instead of resampling it (with a warning
+      saying by how much the steps varied).
+    - `trim_column`, `trim_below`: drop the leading samples while ``|column| < trim_below``
+      (e.g. force before contact); the time is re-zeroed at the first kept sample.
+
+    **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: no such file.")
+    wanted = [time, *inputs, output] + ([trim_column] if trim_column else [])
+    if path.suffix.lower() == ".npz":
+        if group_by:
+            raise DataError(f"{path}: --group-by is for long-format CSV files, not NPZ.")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                missing = [c for c in wanted if c not in data.files]
+                if missing:
+                    raise DataError(f"{path}: no array {missing[0]!r} (arrays: {', '.join(data.files)}).")
+                cols = {c: np.asarray(data[c], dtype=float).ravel() for c in wanted}
+        except (OSError, ValueError) as e:
+            if isinstance(e, DataError):
+                raise
+            raise DataError(f"{path}: not a readable NPZ file ({e}).") from None
+        lengths = {len(v) for v in cols.values()}
+        if len(lengths) != 1:
+            raise DataError(f"{path}: arrays {', '.join(wanted)} have different lengths.")
+        groups = {"": np.arange(len(cols[time]))}
+        lines = np.arange(len(cols[time])) + 1
+    else:
+        header, rows, lines = _read_csv(path)
+        lines = np.array(lines)
+        cols = {c: _column(path, header, rows, lines, c) for c in dict.fromkeys(wanted)}
+        if group_by:
+            keys = _column(path, header, rows, lines, group_by, numeric=False)
+            groups = {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}
+        else:
+            groups = {"": np.arange(len(rows))}
+    records = []
+    for name, idx in groups.items():
+        t = cols[time][idx]
+        rec_lines = lines[idx]
+        if trim_column:
+            keep = np.flatnonzero(np.abs(cols[trim_column][idx]) >= trim_below)
+            if keep.size == 0:
+                raise DataError(f"{path}, record {name!r}: no sample has |{trim_column}| ≥ {trim_below}.")
+            idx, t, rec_lines = idx[keep[0] :], t[keep[0] :], rec_lines[keep[0] :]
+        data = {c: cols[c][idx] for c in dict.fromkeys([*inputs, output])}
+        grid, data, dt, spread = _uniform(path, name, t, data, rec_lines, strict)
+        records.append(
+            Record(
+                name=name or path.stem,
+                source=str(path),
+                time=grid - grid[0],
+                inputs=np.stack([data[c] for c in inputs], axis=1),
+                output=data[output],
+                input_names=tuple(inputs),
+                output_name=output,
+                dt=dt,
+                resampled=spread,
+            )
+        )
+    return records
