@@ -36,7 +36,9 @@ def _springpot_csv(path, *, n=150, q=0.35, eta=4.0, extra_rows=(), time=None, co
 
 def _cli(*args, cwd):
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env
+    )
 
 
 def test_loader_reads_groups_trims_and_resamples(tmp_path):
@@ -46,7 +48,15 @@ def test_loader_reads_groups_trims_and_resamples(tmp_path):
         for name, offset in (("a", 0.0), ("b", 1.0)):
             for k in range(10):
                 f.write(f"{name},{k * 0.5},{0.0 if k < 2 else k + offset},{k * 0.1}\n")
-    recs = load_records(path, time="t", inputs=["F"], output="d", group_by="specimen", trim_column="F", trim_below=0.5)
+    recs = load_records(
+        path,
+        time="t",
+        inputs=["F"],
+        output="d",
+        group_by="specimen",
+        trim_column="F",
+        trim_below=0.5,
+    )
     assert [r.name for r in recs] == ["a", "b"]
     assert recs[0].time.size == 8 and recs[0].time[0] == 0.0 and recs[0].dt == 0.5
     assert recs[1].inputs[0, 0] == 3.0
@@ -88,8 +98,23 @@ def test_npz_records(tmp_path):
 @pytest.mark.parametrize("method", ["adaptive", "refit", "both"])
 def test_cli_identify_end_to_end(tmp_path, method):
     _springpot_csv(tmp_path / "test.csv")
-    proc = _cli("identify", "test.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
-                "--out", "out", "--method", method, "--gamma", "0.5", cwd=tmp_path)
+    proc = _cli(
+        "identify",
+        "test.csv",
+        "--time",
+        "time_s",
+        "--input",
+        "stress",
+        "--output",
+        "strain",
+        "--out",
+        "out",
+        "--method",
+        method,
+        "--gamma",
+        "0.5",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
     with open(out / "identification.csv") as f:
@@ -127,12 +152,16 @@ def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
-@pytest.mark.skipif(not (DATA / "oca-shear-staircase").is_dir(), reason="../shared/data is not present")
+@pytest.mark.skipif(
+    not (DATA / "oca-shear-staircase").is_dir(), reason="../shared/data is not present"
+)
 def test_real_adhesive_record_identifies(tmp_path):
     path = DATA / "oca-shear-staircase" / "oca_shear_relaxation_1.csv"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # its time steps are uneven: resampled
-        rec = load_records(path, time="time_s", inputs=["nominal_shear_stress_kPa"], output="shear_strain")[0]
+        rec = load_records(
+            path, time="time_s", inputs=["nominal_shear_stress_kPa"], output="shear_strain"
+        )[0]
     from vojax._data._pipeline import identify_record
 
     columns, summary = identify_record(rec, method="both")

@@ -115,8 +115,13 @@ def demo(args) -> int:
 
 def _data_options(p, *, many: bool):
     p.add_argument("--time", required=True, help="name of the time column")
-    p.add_argument("--input", action="append", required=True, dest="inputs",
-                   help="input column (stress or force); repeat for several inputs")
+    p.add_argument(
+        "--input",
+        action="append",
+        required=True,
+        dest="inputs",
+        help="input column (stress or force); repeat for several inputs",
+    )
     p.add_argument("--output", required=True, help="output column (strain or displacement)")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--model", choices=("springpot", "kelvin-voigt", "linear"), default="springpot")
@@ -141,8 +146,14 @@ def _load(path, args):
         if value is not None and not value > 0:
             raise CLIError(f"--{name} must be positive, got {value}.")
     return load_records(
-        path, time=args.time, inputs=args.inputs, output=args.output, group_by=args.group_by,
-        strict=args.strict, trim_column=args.trim_column, trim_below=args.trim_below,
+        path,
+        time=args.time,
+        inputs=args.inputs,
+        output=args.output,
+        group_by=args.group_by,
+        strict=args.strict,
+        trim_column=args.trim_column,
+        trim_below=args.trim_below,
     )
 
 
@@ -160,18 +171,76 @@ def identify_command(args) -> int:
     for record in records:
         target = out / record.name if len(records) > 1 else out
         columns, summary = identify_record(
-            record, model=args.model, method=args.method, gamma=args.gamma, lam=args.lam,
-            area=args.area, length=args.length,
+            record,
+            model=args.model,
+            method=args.method,
+            gamma=args.gamma,
+            lam=args.lam,
+            area=args.area,
+            length=args.length,
         )
         write_outputs(target, columns, summary, record.inputs)
         parts = [f"{record.name}: {record.time.size} samples"]
         if "adaptive" in summary:
             a = summary["adaptive"]
-            parts.append(f"adaptive q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}], NRMSE {a['nrmse']:.3g}")
+            parts.append(
+                f"adaptive q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}], NRMSE {a['nrmse']:.3g}"
+            )
         if "refit" in summary:
             r = summary["refit"]
-            parts.append(f"refit q = {r['order']:.4f} ± {r['order_stderr']:.1g}, NRMSE {r['nrmse']:.3g}")
+            parts.append(
+                f"refit q = {r['order']:.4f} ± {r['order_stderr']:.1g}, NRMSE {r['nrmse']:.3g}"
+            )
         print("; ".join(parts) + f" → {target}/")
+    return 0
+
+
+def batch_command(args) -> int:
+    import warnings
+
+    from ._data import DataError
+    from ._data._batch import run_batch
+
+    out = _new_dir(args.out)
+    records, failures = [], []
+    for path in args.files:
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                loaded = _load(path, args)
+            for w in caught:
+                print(f"vojax: warning: {w.message}", file=sys.stderr)
+        except DataError as e:
+            failures.append((str(path), "", str(e)))
+            continue
+        records.extend(loaded)
+    names = [r.name for r in records]
+    duplicated = sorted({n for n in names if names.count(n) > 1})
+    if duplicated:
+        raise CLIError(
+            f"two records share the name {duplicated[0]!r}; rename a file or use --group-by."
+        )
+    failed = run_batch(
+        records,
+        out,
+        model=args.model,
+        method=args.method,
+        gamma=args.gamma,
+        lam=args.lam,
+        area=args.area,
+        length=args.length,
+        failures=failures,
+        progress=not args.quiet,
+    )
+    print(
+        f"vojax batch: {len(records) + len(failures) - failed} records identified, {failed} failed → {out}/"
+    )
+    if failed:
+        print(
+            f"vojax batch: the failures and their reasons are in {out / 'failures.csv'}",
+            file=sys.stderr,
+        )
+        return 2
     return 0
 
 
@@ -198,6 +267,13 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("file", help="CSV (header row, '#' comments) or NPZ file")
     _data_options(i, many=False)
     i.set_defaults(run=identify_command)
+    b = sub.add_parser(
+        "batch", help="identify many recorded tests (files, or groups of a long file)"
+    )
+    b.add_argument("files", nargs="+", help="CSV or NPZ files; each is a record unless --group-by")
+    _data_options(b, many=True)
+    b.add_argument("--quiet", action="store_true", help="no progress line")
+    b.set_defaults(run=batch_command)
     return parser
 
 
@@ -225,8 +301,10 @@ def main(argv=None) -> int:
         if os.environ.get("VOJAX_DEBUG"):
             raise
         first = str(e).splitlines()[0] if str(e) else ""
-        print(f"vojax: internal error ({type(e).__name__}: {first}); set VOJAX_DEBUG=1 for the traceback.",
-              file=sys.stderr)
+        print(
+            f"vojax: internal error ({type(e).__name__}: {first}); set VOJAX_DEBUG=1 for the traceback.",
+            file=sys.stderr,
+        )
         return 3
 
 

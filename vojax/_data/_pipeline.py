@@ -16,7 +16,12 @@ def regressors(record, model: str, area=None, length=None):
     """``(u, y, parameter names, to_physical)`` for `model` (``linear`` keeps the columns)."""
     if model == "linear":
         names = [f"p_{c}" for c in record.input_names]
-        return record.inputs, record.output, names, lambda p: {n: p[..., i] for i, n in enumerate(names)}
+        return (
+            record.inputs,
+            record.output,
+            names,
+            lambda p: {n: p[..., i] for i, n in enumerate(names)},
+        )
     if record.inputs.shape[1] != 1:
         raise ValueError(
             f"--model {model} takes one --input (the stress or force), got {record.inputs.shape[1]}; "
@@ -32,11 +37,14 @@ def regressors(record, model: str, area=None, length=None):
 def nrmse(y, y_hat):
     """Root-mean-square error normalised by the range of ``y``."""
     span = float(np.ptp(y))
-    return float(np.sqrt(np.mean((np.asarray(y_hat) - y) ** 2)) / span) if span > 0 else float("nan")
+    return (
+        float(np.sqrt(np.mean((np.asarray(y_hat) - y) ** 2)) / span) if span > 0 else float("nan")
+    )
 
 
-def identify_record(record, *, model="springpot", method="adaptive", gamma="auto", lam=0.9,
-                    area=None, length=None):
+def identify_record(
+    record, *, model="springpot", method="adaptive", gamma="auto", lam=0.9, area=None, length=None
+):
     """Runs the adaptive law and/or the refit on one record; returns ``(columns, summary)``."""
     from .._identify import identify
     from .._refit import refit
@@ -44,10 +52,17 @@ def identify_record(record, *, model="springpot", method="adaptive", gamma="auto
     u, y, names, physical = regressors(record, model, area, length)
     columns = {"time": record.time}
     summary = {
-        "record": record.name, "source": record.source, "samples": int(record.time.size),
-        "dt": record.dt, "resampled_step_spread": record.resampled, "model": model, "method": method,
-        "input_columns": list(record.input_names), "output_column": record.output_name,
-        "area": area, "length": length,
+        "record": record.name,
+        "source": record.source,
+        "samples": int(record.time.size),
+        "dt": record.dt,
+        "resampled_step_spread": record.resampled,
+        "model": model,
+        "method": method,
+        "input_columns": list(record.input_names),
+        "output_column": record.output_name,
+        "area": area,
+        "length": length,
     }
     if method in ("adaptive", "both"):
         res = identify(u, y, record.dt, gamma=gamma, lam=lam)
@@ -56,9 +71,13 @@ def identify_record(record, *, model="springpot", method="adaptive", gamma="auto
         columns["alpha"] = alpha
         columns.update(params)
         summary["adaptive"] = {
-            "gamma": float(res.gamma), "lam": float(res.lam), "nrmse": nrmse(y, res.y_hat),
-            "alpha_min": float(alpha.min()), "alpha_max": float(alpha.max()),
-            "alpha_mean": float(alpha.mean()), "alpha_final": float(alpha[-1]),
+            "gamma": float(res.gamma),
+            "lam": float(res.lam),
+            "nrmse": nrmse(y, res.y_hat),
+            "alpha_min": float(alpha.min()),
+            "alpha_max": float(alpha.max()),
+            "alpha_mean": float(alpha.mean()),
+            "alpha_final": float(alpha[-1]),
             "parameters_final": {k: float(v[-1]) for k, v in params.items()},
         }
     columns["y"] = y
@@ -71,9 +90,13 @@ def identify_record(record, *, model="springpot", method="adaptive", gamma="auto
         columns["refit_alpha"] = np.asarray(fit.order)
         columns["refit_y_hat"] = np.asarray(fit.y_hat)
         summary["refit"] = {
-            "order": float(fit.order[0]), "order_stderr": float(fit.order_stderr[0]),
-            "p": p.tolist(), "p_stderr": np.asarray(fit.p_stderr).tolist(), "parameters": phys,
-            "nrmse": nrmse(y, fit.y_hat), "converged": bool(fit.result == optx.RESULTS.successful),
+            "order": float(fit.order[0]),
+            "order_stderr": float(fit.order_stderr[0]),
+            "p": p.tolist(),
+            "p_stderr": np.asarray(fit.p_stderr).tolist(),
+            "parameters": phys,
+            "nrmse": nrmse(y, fit.y_hat),
+            "converged": bool(fit.result == optx.RESULTS.successful),
         }
     summary["parameter_names"] = names
     return columns, summary

@@ -38,7 +38,11 @@ def _read_csv(path: Path):
     """Header and rows of a CSV file, skipping blank lines and lines that start with ``#``."""
     try:
         with open(path, newline="") as f:
-            lines = [(i + 1, line) for i, line in enumerate(f) if line.strip() and not line.lstrip().startswith("#")]
+            lines = [
+                (i + 1, line)
+                for i, line in enumerate(f)
+                if line.strip() and not line.lstrip().startswith("#")
+            ]
     except UnicodeDecodeError:
         raise DataError(f"{path}: not a text CSV file.") from None
     if not lines:
@@ -56,7 +60,9 @@ def _column(path, header, rows, line_numbers, name, numeric=True):
     values = []
     for row, line in zip(rows, line_numbers):
         if j >= len(row):
-            raise DataError(f"{path}, line {line}: row has {len(row)} fields, column {name!r} is field {j + 1}.")
+            raise DataError(
+                f"{path}, line {line}: row has {len(row)} fields, column {name!r} is field {j + 1}."
+            )
         text = row[j].strip()
         if not numeric:
             values.append(text)
@@ -64,7 +70,9 @@ def _column(path, header, rows, line_numbers, name, numeric=True):
         try:
             values.append(float(text))
         except ValueError:
-            raise DataError(f"{path}, line {line}, column {name!r}: {text!r} is not a number.") from None
+            raise DataError(
+                f"{path}, line {line}, column {name!r}: {text!r} is not a number."
+            ) from None
     return np.array(values, dtype=object if not numeric else float)
 
 
@@ -81,13 +89,17 @@ def _uniform(path, name, t, columns: dict, lines, strict: bool):
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0)) + 1
-        raise DataError(f"{label}, line {lines[i]}: time does not increase ({t[i - 1]!r} then {t[i]!r}).")
+        raise DataError(
+            f"{label}, line {lines[i]}: time does not increase ({t[i - 1]!r} then {t[i]!r})."
+        )
     dt = float(np.median(steps))
     spread = float(np.max(np.abs(steps - dt)) / dt)
     if spread <= UNIFORM_RTOL:
         return t, columns, dt, None
     if strict:
-        raise DataError(f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g} (--strict).")
+        raise DataError(
+            f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g} (--strict)."
+        )
     warnings.warn(
         f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g}; "
         "resampled linearly onto a uniform grid.",
@@ -133,7 +145,9 @@ def load_records(
             with np.load(path, allow_pickle=False) as data:
                 missing = [c for c in wanted if c not in data.files]
                 if missing:
-                    raise DataError(f"{path}: no array {missing[0]!r} (arrays: {', '.join(data.files)}).")
+                    raise DataError(
+                        f"{path}: no array {missing[0]!r} (arrays: {', '.join(data.files)})."
+                    )
                 cols = {c: np.asarray(data[c], dtype=float).ravel() for c in wanted}
         except (OSError, ValueError) as e:
             if isinstance(e, DataError):
@@ -160,7 +174,9 @@ def load_records(
         if trim_column:
             keep = np.flatnonzero(np.abs(cols[trim_column][idx]) >= trim_below)
             if keep.size == 0:
-                raise DataError(f"{path}, record {name!r}: no sample has |{trim_column}| ≥ {trim_below}.")
+                raise DataError(
+                    f"{path}, record {name!r}: no sample has |{trim_column}| ≥ {trim_below}."
+                )
             idx, t, rec_lines = idx[keep[0] :], t[keep[0] :], rec_lines[keep[0] :]
         data = {c: cols[c][idx] for c in dict.fromkeys([*inputs, output])}
         grid, data, dt, spread = _uniform(path, name, t, data, rec_lines, strict)

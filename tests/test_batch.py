@@ -1,0 +1,102 @@
+"""`vojax batch`: bad files reported while the rest go on, re-runs, and the sharded path."""
+
+import csv
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+
+from .test_data_cli import _cli, _springpot_csv
+
+
+def _folder(tmp_path):
+    data = tmp_path / "data"
+    data.mkdir()
+    _springpot_csv(data / "good1.csv", n=80, q=0.3)
+    _springpot_csv(data / "good2.csv", n=80, q=0.5)
+    _springpot_csv(data / "good3.csv", n=60, q=0.4)  # another length: another bucket
+    _springpot_csv(data / "nan_row.csv", n=80, extra_rows=[["8.0", "nan", "0.1"]])
+    (data / "bad_header.csv").write_text("tyme,stress,strain\n0,1,2\n0.1,1,2\n0.2,1,2\n")
+    t = np.arange(80) * 0.1
+    t[40] = t[38]
+    _springpot_csv(data / "backwards.csv", n=80, time=t)
+    return data
+
+
+def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
+    data = _folder(tmp_path)
+    files = sorted(str(p) for p in data.glob("*.csv"))
+    args = [
+        "batch",
+        *files,
+        "--time",
+        "time_s",
+        "--input",
+        "stress",
+        "--output",
+        "strain",
+        "--out",
+        "out",
+        "--gamma",
+        "0.5",
+        "--method",
+        "both",
+        "--quiet",
+    ]
+    proc = _cli(*args, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    out = tmp_path / "out"
+    with open(out / "failures.csv") as f:
+        failures = {os.path.basename(r["file"]): r["reason"] for r in csv.DictReader(f)}
+    assert set(failures) == {"nan_row.csv", "bad_header.csv", "backwards.csv"}
+    assert "value is NaN" in failures["nan_row.csv"]
+    assert "no column 'time_s'" in failures["bad_header.csv"]
+    assert "time does not increase" in failures["backwards.csv"]
+    with open(out / "summary.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert sorted(r["record"] for r in rows) == ["good1", "good2", "good3"]
+    orders = {r["record"]: float(r["refit_order"]) for r in rows}
+    assert abs(orders["good1"] - 0.3) < 1e-6 and abs(orders["good2"] - 0.5) < 1e-6
+    stamps = {
+        p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and p.name != "failures.csv"
+    }
+    again = _cli(*args, cwd=tmp_path)
+    assert again.returncode == 2
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # the complete records were skipped
+    with open(out / "summary.csv") as f:
+        assert len(list(csv.DictReader(f))) == 3
+
+
+def test_sharded_batch_equals_single_device():
+    script = textwrap.dedent(
+        """
+        import jax
+        jax.config.update("jax_enable_x64", True)
+        import numpy as np
+        import vojax
+        from vojax._data._batch import adaptive_batch
+        assert len(jax.devices()) == 4
+        dt, n = 0.05, 300
+        t = np.arange(n) * dt
+        us, ys = [], []
+        for q in (0.3, 0.4, 0.5, 0.6, 0.7):  # five records on four devices: one padded
+            u = np.stack([np.sin(0.7 * t + q), 1 + 0.5 * np.cos(0.25 * t)], 1)
+            us.append(u)
+            ys.append(np.asarray(vojax.simulate(u, q, np.array([2.0, -1.0]), dt)))
+        us, ys = np.stack(us), np.stack(ys)
+        g, lam = np.full(5, 0.05), np.full(5, 0.9)
+        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
+        a, _ = adaptive_batch(us, ys, dt, g, lam, mesh=mesh)
+        b, _ = adaptive_batch(us, ys, dt, g, lam, mesh=None)
+        single = vojax.identify(us[2], ys[2], dt, gamma=0.05)
+        print(np.max(np.abs(a.alpha - b.alpha)), np.max(np.abs(a.p - b.p)),
+              np.max(np.abs(b.alpha[2] - np.asarray(single.alpha))))
+        """
+    )
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env)
+    assert proc.returncode == 0, proc.stderr
+    d_alpha, d_p, d_single = map(float, proc.stdout.split())
+    assert d_alpha < 1e-12 and d_p < 1e-10 and d_single < 1e-12
