@@ -1,4 +1,4 @@
-"""Writes notebooks/paper_simulation.ipynb from the cells below (kept in code for review)."""
+"""Writes the notebooks in notebooks/ from the cells below (kept in code for review)."""
 
 from pathlib import Path
 
@@ -119,6 +119,68 @@ print("tuned gamma = %.4g, lam = %.3g: order RMS error = %.4f"
 ]
 
 
+TISSUE_CELLS = [
+    ("md", """# Identifying recorded tissue and adhesive tests
+
+Two real recordings from `../shared/data` (read each folder's SOURCE.md; the beef data are GPL-3.0
+and stay outside the package, so this notebook reads them from there):
+
+- one beef indentation record (force → indentation depth, a ramp then a hold, 10 Hz), and
+- the adhesive (OCA) shear staircase (stress → strain).
+
+Each is identified with the springpot σ = η D^{q(t)} ε online (the adaptive law, gains tuned from
+the data) and offline (`vojax.refit`, constant order, with standard errors)."""),
+    ("code", """import warnings
+from pathlib import Path
+import jax
+jax.config.update("jax_enable_x64", True)
+import matplotlib.pyplot as plt
+import numpy as np
+import vojax
+from vojax._data import load_records
+DATA = Path("..").resolve().parent / "shared" / "data"
+assert DATA.is_dir(), "this notebook needs ../shared/data"  # the test skips when it is absent"""),
+    ("md", "## A beef record: force in, indentation depth out (pre-contact samples trimmed)"),
+    ("code", """beef = load_records(DATA / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv",
+                    time="time_s", inputs=["force_N"], output="displacement_mm",
+                    group_by="specimen", trim_column="force_N", trim_below=0.02)
+rec = next(r for r in beef if r.name == "230331-FF1 1B")
+u, y = rec.inputs, rec.output
+adaptive = vojax.identify(u, y, rec.dt, gamma="auto")
+fit = vojax.refit(u, y, rec.dt)
+def nrmse(a): return float(np.sqrt(np.mean((np.asarray(a) - y) ** 2)) / np.ptp(y))
+print("beef %s: %d samples; baseline (the mean) NRMSE %.4f" % (rec.name, y.size, nrmse(np.full_like(y, y.mean()))))
+print("adaptive: gamma %.3g, lam %.3g, q in [%.3f, %.3f], NRMSE %.4f"
+      % (float(adaptive.gamma), float(adaptive.lam), float(adaptive.alpha.min()), float(adaptive.alpha.max()), nrmse(adaptive.y_hat)))
+print("refit:    q = %.4f +- %.4f, eta = %.4g N/mm, NRMSE %.4f"
+      % (float(fit.order[0]), float(fit.order_stderr[0]), 1 / float(fit.p[0]), nrmse(fit.y_hat)))"""),
+    ("code", """fig, axes = plt.subplots(1, 3, figsize=(12, 3), layout="constrained")
+axes[0].plot(rec.time, y, "k", label="measured"); axes[0].plot(rec.time, adaptive.y_hat, "C3--", label="adaptive")
+axes[0].plot(rec.time, fit.y_hat, "C0:", label="refit"); axes[0].set_title("depth (mm)"); axes[0].legend()
+axes[1].plot(rec.time, u[:, 0]); axes[1].set_title("force (N)")
+axes[2].plot(rec.time, adaptive.alpha, "C3", label="adaptive"); axes[2].plot(rec.time, fit.order, "C0:", label="refit")
+axes[2].set_title("order q"); axes[2].legend();"""),
+    ("md", "## The adhesive staircase (its time steps are uneven: resampled, with a warning)"),
+    ("code", """with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    oca = load_records(DATA / "oca-shear-staircase" / "oca_shear_relaxation_1.csv", time="time_s",
+                       inputs=["nominal_shear_stress_kPa"], output="shear_strain")[0]
+print(caught[0].message)
+u2, y2 = oca.inputs, oca.output
+adaptive2 = vojax.identify(u2, y2, oca.dt, gamma="auto")
+fit2 = vojax.refit(u2, y2, oca.dt)
+def nrmse2(a): return float(np.sqrt(np.mean((np.asarray(a) - y2) ** 2)) / np.ptp(y2))
+print("baseline (the mean) NRMSE %.4f" % nrmse2(np.full_like(y2, y2.mean())))
+print("adaptive: q in [%.3f, %.3f], NRMSE %.4f" % (float(adaptive2.alpha.min()), float(adaptive2.alpha.max()), nrmse2(adaptive2.y_hat)))
+print("refit:    q = %.4f +- %.4f, eta = %.4g kPa s^q, NRMSE %.4f"
+      % (float(fit2.order[0]), float(fit2.order_stderr[0]), 1 / float(fit2.p[0]), nrmse2(fit2.y_hat)))
+fig, axes = plt.subplots(1, 2, figsize=(10, 3), layout="constrained")
+axes[0].plot(oca.time, y2, "k"); axes[0].plot(oca.time, adaptive2.y_hat, "C3--"); axes[0].plot(oca.time, fit2.y_hat, "C0:")
+axes[0].set_title("shear strain"); axes[1].plot(oca.time, adaptive2.alpha, "C3"); axes[1].plot(oca.time, fit2.order, "C0:")
+axes[1].set_title("order q");"""),
+]
+
+
 def main():
     nb = new_notebook()
     nb.cells = [new_markdown_cell(s) if kind == "md" else new_code_cell(s) for kind, s in CELLS]
@@ -128,6 +190,12 @@ def main():
         "language": "python",
     }
     path = Path(__file__).resolve().parent.parent / "notebooks" / "paper_simulation.ipynb"
+    nbformat.write(nb, path)
+    print("wrote", path)
+    nb = new_notebook()
+    nb.cells = [new_markdown_cell(s) if kind == "md" else new_code_cell(s) for kind, s in TISSUE_CELLS]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    path = path.with_name("tissue_identification.ipynb")
     nbformat.write(nb, path)
     print("wrote", path)
 

@@ -40,6 +40,25 @@ def test_paper_simulation_notebook_executes():
     assert float(line.split(":")[1]) < 1e-9
 
 
+@pytest.mark.skipif(
+    not (ROOT.parent / "shared" / "data" / "beef-indentation-relaxation").is_dir(),
+    reason="../shared/data is not present",
+)
+def test_tissue_notebook_executes():
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    nb = nbformat.read(ROOT / "notebooks" / "tissue_identification.ipynb", as_version=4)
+    nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str(ROOT / "notebooks")}}).execute()
+    text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []))
+    # per record: the mean as a baseline, then adaptive and refit; both fits must explain most
+    # of the variation the baseline leaves (NRMSE under half of the baseline's)
+    nrmses = [float(line.rsplit("NRMSE", 1)[1]) for line in text.splitlines() if "NRMSE" in line]
+    assert len(nrmses) == 6, text
+    for base, adaptive, refit in (nrmses[0:3], nrmses[3:6]):
+        assert adaptive < 0.5 * base and refit < 0.5 * base, text
+
+
 def _run(args, cwd):
     env = dict(os.environ)
     env.pop("XLA_FLAGS", None)
