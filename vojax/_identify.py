@@ -10,6 +10,7 @@ from jaxtyping import Array, Float
 from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
 from ._integral import make_memory
+from ._kernels import RULES
 
 DEFAULT_BOUNDS = (0.05, 0.95)
 
@@ -96,7 +97,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
     if a0 is not None and not bounds[0] <= a0 <= bounds[1]:
         raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
     check.choice(memory, check.MEMORIES, "memory")
-    check.choice(rule, ("rectangle", "trapezoid"), "rule")
+    check.choice(rule, RULES, "rule")
     x0 = y[0] if x0 is None else _scalar(x0, "x0")
     if r0 is not None:
         r0 = jnp.asarray(r0, jnp.result_type(float))

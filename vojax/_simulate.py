@@ -23,13 +23,13 @@ def simulate(
     """
     u = check.samples(u, "u")
     u2 = u[:, None] if u.ndim == 1 else u
-    p = jnp.asarray(check._float_array(p, "p"))
+    p = jnp.asarray(check.float_array(p, "p"))
     n = u2.shape[1]
     if p.shape not in ((n,), (u2.shape[0], n)) and not (p.ndim == 0 and n == 1):
         raise ValueError(
             f"`p` must have shape ({n},) or ({u2.shape[0]}, {n}) to match `u`, got shape {p.shape}."
         )
-    check._check_finite(p, "p")
+    check.check_finite(p, "p")
     x0 = check.samples(jnp.reshape(jnp.asarray(x0, jnp.result_type(float)), (1,)), "x0")[0]
     drive = jnp.sum(u2 * p, axis=-1) if p.ndim else u2[:, 0] * p
     return x0 + fractional_integral(drive, order, dt, rule=rule, memory=memory, **memory_options)

@@ -11,7 +11,7 @@ def _is_concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
 
-def _float_array(x, name: str):
+def float_array(x, name: str):
     if isinstance(x, (str, bytes)) or x is None:
         raise TypeError(f"`{name}` must be a real floating-point array, got {type(x).__name__}.")
     dtype = getattr(x, "dtype", None)
@@ -27,7 +27,7 @@ def _float_array(x, name: str):
     return jnp.asarray(x, dtype=jnp.result_type(float))
 
 
-def _check_finite(x, name: str):
+def check_finite(x, name: str):
     if _is_concrete(x) and not bool(np.all(np.isfinite(np.asarray(x)))):
         bad = np.argwhere(~np.isfinite(np.asarray(x)))[0]
         raise ValueError(
@@ -37,20 +37,20 @@ def _check_finite(x, name: str):
 
 def samples(u, name: str = "u"):
     """``u`` as a float array of shape ``(N,)`` or ``(N, n)``, finite, with ``N ≥ 1``."""
-    arr = _float_array(u, name)
+    arr = float_array(u, name)
     if arr.ndim not in (1, 2):
         raise ValueError(f"`{name}` must have shape (N,) or (N, n), got shape {arr.shape}.")
     if arr.shape[0] < 1 or (arr.ndim == 2 and arr.shape[1] < 1):
         raise ValueError(
             f"`{name}` must hold at least one sample of at least one channel, got shape {arr.shape}."
         )
-    _check_finite(arr, name)
+    check_finite(arr, name)
     return arr
 
 
 def step(dt, name: str = "dt"):
     """A positive, finite scalar step."""
-    arr = _float_array(dt, name)
+    arr = float_array(dt, name)
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a scalar, got shape {arr.shape}.")
     if _is_concrete(arr):
@@ -62,7 +62,7 @@ def step(dt, name: str = "dt"):
 
 def order(order, num_samples: int, name: str = "order", bounds=(0.0, 1.0), closed=False):
     """A scalar or ``(N,)`` order with values strictly inside ``bounds``, returned as ``(N,)``."""
-    arr = _float_array(order, name)
+    arr = float_array(order, name)
     if arr.ndim == 0:
         arr = jnp.full((num_samples,), arr)
     elif arr.ndim != 1 or arr.shape[0] != num_samples:
@@ -70,7 +70,7 @@ def order(order, num_samples: int, name: str = "order", bounds=(0.0, 1.0), close
             f"`{name}` must be a scalar or have shape ({num_samples},) to match the samples, "
             f"got shape {arr.shape}."
         )
-    _check_finite(arr, name)
+    check_finite(arr, name)
     if _is_concrete(arr):
         values = np.asarray(arr)
         lo, hi = bounds
