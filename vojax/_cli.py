@@ -145,28 +145,30 @@ def _load(path, args):
         value = getattr(args, name)
         if value is not None and not value > 0:
             raise CLIError(f"--{name} must be positive, got {value}.")
-    return load_records(
-        path,
-        time=args.time,
-        inputs=args.inputs,
-        output=args.output,
-        group_by=args.group_by,
-        strict=args.strict,
-        trim_column=args.trim_column,
-        trim_below=args.trim_below,
-    )
+    import warnings
+
+    # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        records = load_records(
+            path,
+            time=args.time,
+            inputs=args.inputs,
+            output=args.output,
+            group_by=args.group_by,
+            strict=args.strict,
+            trim_column=args.trim_column,
+            trim_below=args.trim_below,
+        )
+    for w in caught:
+        print(f"vojax: warning: {w.message}", file=sys.stderr)
+    return records
 
 
 def identify_command(args) -> int:
-    import warnings
-
     from ._data._pipeline import identify_record, write_outputs
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        records = _load(args.file, args)
-    for w in caught:
-        print(f"vojax: warning: {w.message}", file=sys.stderr)
+    records = _load(args.file, args)
     out = _new_dir(args.out)
     for record in records:
         target = out / record.name if len(records) > 1 else out
@@ -196,8 +198,6 @@ def identify_command(args) -> int:
 
 
 def batch_command(args) -> int:
-    import warnings
-
     from ._data import DataError
     from ._data._batch import run_batch
 
@@ -205,11 +205,7 @@ def batch_command(args) -> int:
     records, failures = [], []
     for path in args.files:
         try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                loaded = _load(path, args)
-            for w in caught:
-                print(f"vojax: warning: {w.message}", file=sys.stderr)
+            loaded = _load(path, args)
         except DataError as e:
             failures.append((str(path), "", str(e)))
             continue
