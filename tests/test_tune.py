@@ -54,20 +54,13 @@ def _order_error(t, u, y, alpha, dt, gamma, lam):
     return np.asarray(jax.jit(jax.vmap(err))(jnp.asarray(gamma), jnp.asarray(lam)))
 
 
-CONSTANT_XFAIL = pytest.mark.xfail(
-    reason="constant order: the lagged prediction loss is flat (within 3 %) between γ = 0.0076, "
-    "λ = 0.13 (order RMS 0.0062) and the truth-best γ = 0.0135, λ = 0.02 (0.0032): ratio 1.9 > 1.5",
-    strict=False,
-)
-
-
 @pytest.mark.parametrize(
     "name",
     [
         "study34",
         "order-step",
         "order-ramp",
-        pytest.param("constant-3-inputs", marks=CONSTANT_XFAIL),
+        "constant-3-inputs",
     ],
 )
 def test_tuned_gains_close_to_the_best_against_truth(name):

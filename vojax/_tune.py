@@ -35,7 +35,7 @@ def tune_gains(
     r0=None,
     tol: float = 1e-10,
     burn_in: float = 0.1,
-    lag: float = 0.03,
+    lag: float = 0.1,
     num_gamma: int = 11,
     num_lam: int = 6,
     refine_steps: int = 20,
@@ -44,7 +44,7 @@ def tune_gains(
 
     The loss is the mean of ``(y_k − p̂_{k−D}ᵀ φ(α̂_k, t_k))²`` over the record after its first
     `burn_in` fraction, normalised by the mean of ``(y − x0)²``, with ``D`` the `lag` fraction
-    of the record (3 % by default). Each sample is predicted with parameters that have not seen
+    of the record (10 % by default). Each sample is predicted with parameters that have not seen
     it, so fitting the noise is not rewarded; and the lag matters: with fast forgetting, p̂ moves
     to absorb a wrong order (order and parameters compensate), which a one-step prediction
     cannot see but a prediction ``D`` samples ahead can. A coarse grid comes first (``γ`` over five decades around
