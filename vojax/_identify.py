@@ -154,38 +154,18 @@ def identify(
 
     **Returns:** an `Identification`.
     """
-    if isinstance(gamma, str):
-        if gamma != "auto":
-            raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
+    if isinstance(gamma, str) and gamma != "auto":
+        raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
+    # validate once, before any (possibly long) tuning; the law and the tuner share the settings
+    u2, y, bounds, x0, r0 = check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0)
+    shared = dict(alpha0=alpha0, alpha_bounds=bounds, memory=memory, rule=rule, r0=r0, tol=tol)
+    if isinstance(gamma, str):  # "auto", checked above
         from ._tune import tune_gains
 
-        gains = tune_gains(
-            u,
-            y,
-            dt,
-            alpha0=alpha0,
-            alpha_bounds=alpha_bounds,
-            memory=memory,
-            rule=rule,
-            x0=x0,
-            r0=r0,
-            tol=tol,
-        )
+        gains = tune_gains(u2, y, dt, x0=x0, **shared)
         gamma, lam = gains.gamma, gains.lam
     check.positive(gamma, "gamma")
-    u2, y, bounds, x0, r0 = check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0)
-    law = build_law(
-        dt,
-        u2.shape[0],
-        lam=lam,
-        gamma=gamma,
-        alpha0=alpha0,
-        alpha_bounds=bounds,
-        memory=memory,
-        rule=rule,
-        r0=r0,
-        tol=tol,
-    )
+    law = build_law(dt, u2.shape[0], lam=lam, gamma=gamma, **shared)
     out = run_law(law, u2, y - x0)
     return Identification(
         alpha=out.alpha,
