@@ -1,10 +1,16 @@
-"""Shared by the benchmark scripts: one measurement per process, so peak memory is its own."""
+"""Shared by the benchmark scripts: one measurement per process, so peak memory is its own.
+
+Every case is measured twice, in separate processes: under XLA:CPU's default runtime and with
+`vojax.use_fast_cpu_loops()` (each vojax scan compiled as one kernel), so the table shows both.
+"""
 
 import argparse
 import json
 import resource
 import subprocess
 import sys
+
+MODES = ("default", "fast")
 
 
 def peak_rss_mb() -> float:
@@ -17,20 +23,28 @@ def parse_args():
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5])
     parser.add_argument("--exp-sizes", nargs="+", type=float, default=[1e6])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--one", nargs=2, metavar=("N", "MEMORY"), help="measure one case here")
+    parser.add_argument("--modes", nargs="+", choices=MODES, default=list(MODES))
+    parser.add_argument(
+        "--one", nargs=3, metavar=("N", "MEMORY", "MODE"), help="measure one case here"
+    )
     return parser.parse_args()
 
 
 def dispatch(script: str, one):
     """Runs ``one(n, memory, repeat)`` here when asked to (``--one``); otherwise returns the
-    parsed arguments and a function that measures ``(n, memory)`` in a fresh process."""
+    parsed arguments and a function that measures ``(n, memory, mode)`` in a fresh process."""
     args = parse_args()
     if args.one:
-        print(json.dumps(one(int(float(args.one[0])), args.one[1], args.repeat)))
+        n, memory, mode = args.one
+        if mode == "fast":
+            import vojax
+
+            vojax.use_fast_cpu_loops()
+        print(json.dumps(one(int(float(n)), memory, args.repeat)))
         sys.exit(0)
 
-    def run(n: int, memory: str) -> dict:
-        cmd = [sys.executable, script, "--one", str(n), memory, "--repeat", str(args.repeat)]
+    def run(n: int, memory: str, mode: str) -> dict:
+        cmd = [sys.executable, script, "--one", str(n), memory, mode, "--repeat", str(args.repeat)]
         return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
 
     return args, run

@@ -4,6 +4,7 @@ Each (N, memory) runs in its own process so that its peak resident memory is its
 scan is compiled ahead of time, so the times exclude compilation.
 
     python scripts/bench_identify.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
+        [--modes default fast]
 """
 
 import platform
@@ -52,22 +53,29 @@ def main():
     args, run = dispatch(__file__, one)
 
     print(f"# {platform.machine()}, python {platform.python_version()}; identify, n = 2, trapezoid")
+    print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
     print(
-        "| N | exp µs/sample | direct µs/sample | direct/exp | exp peak RSS (MB) | direct peak RSS (MB) |"
+        "| N | mode | exp µs/sample | direct µs/sample | direct/exp | exp peak RSS (MB) "
+        "| direct peak RSS (MB) |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     sizes = [int(s) for s in args.sizes]
     for n in sizes + [int(s) for s in args.exp_sizes]:
-        exp = run(n, "exponential")
-        if n in sizes:
-            direct = run(n, "direct")
-            print(
-                f"| {n:.0e} | {exp['time'] / n * 1e6:.2f} | {direct['time'] / n * 1e6:.1f} | "
-                f"{direct['time'] / exp['time']:.0f}× | {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} |"
-            )
-        else:
-            print(f"| {n:.0e} | {exp['time'] / n * 1e6:.2f} | | | {exp['peak_rss_mb']:.0f} | |")
-        sys.stdout.flush()
+        for mode in args.modes:
+            exp = run(n, "exponential", mode)
+            if n in sizes:
+                direct = run(n, "direct", mode)
+                print(
+                    f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} "
+                    f"| {direct['time'] / n * 1e6:.1f} | {direct['time'] / exp['time']:.0f}× "
+                    f"| {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} |"
+                )
+            else:
+                print(
+                    f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} | | "
+                    f"| {exp['peak_rss_mb']:.0f} | |"
+                )
+            sys.stdout.flush()
 
 
 if __name__ == "__main__":

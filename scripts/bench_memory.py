@@ -4,6 +4,7 @@ Each (N, memory) runs in its own process so that the peak resident memory it rep
 own. Times exclude compilation (one warm-up call first) and are the best of `--repeat` runs.
 
     python scripts/bench_memory.py [--sizes 1e3 1e4 1e5] [--exp-sizes 1e6] [--repeat 3]
+        [--modes default fast]
 """
 
 import platform
@@ -54,32 +55,39 @@ def main():
     import numpy as np
 
     print(f"# {platform.processor() or platform.machine()}, python {platform.python_version()}")
+    print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
     print(
-        "| N | memory | φ time (s) | ∂φ time (s) | direct/exp φ | direct/exp ∂φ | max rel diff φ | max rel diff ∂φ | peak RSS (MB) |"
+        "| N | mode | memory | φ time (s) | ∂φ time (s) | direct/exp φ | direct/exp ∂φ "
+        "| max rel diff φ | max rel diff ∂φ | peak RSS (MB) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
-    for n in [int(s) for s in args.sizes] + [int(s) for s in args.exp_sizes]:
-        exp = run(n, "exponential")
-        if n in [int(s) for s in args.sizes]:
-            direct = run(n, "direct")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    sizes = [int(s) for s in args.sizes]
+    for n in sizes + [int(s) for s in args.exp_sizes]:
+        for mode in args.modes:
+            exp = run(n, "exponential", mode)
+            if n not in sizes:
+                print(
+                    f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} "
+                    f"| | | | | {exp['peak_rss_mb']:.0f} |"
+                )
+                sys.stdout.flush()
+                continue
+            direct = run(n, "direct", mode)
             diffs = []
             for name in ("phi", "dphi"):
                 a = np.load(f"/tmp/bench_memory_{name}_exponential_{n}.npy")
                 b = np.load(f"/tmp/bench_memory_{name}_direct_{n}.npy")
                 diffs.append(np.max(np.abs(a - b)) / np.max(np.abs(b)))
             print(
-                f"| {n:.0e} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} | | | | | {direct['peak_rss_mb']:.0f} |"
+                f"| {n:.0e} | {mode} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} "
+                f"| | | | | {direct['peak_rss_mb']:.0f} |"
             )
             print(
-                f"| {n:.0e} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
+                f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
                 f"{direct['phi'] / exp['phi']:.0f}× | {direct['dphi'] / exp['dphi']:.0f}× | "
                 f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} |"
             )
-        else:
-            print(
-                f"| {n:.0e} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | | | | | {exp['peak_rss_mb']:.0f} |"
-            )
-        sys.stdout.flush()
+            sys.stdout.flush()
 
 
 if __name__ == "__main__":

@@ -16,12 +16,13 @@ $h = 0.05$ s, noise variance 0.25, $\\lambda = 0.9$, $\\gamma = 0.01$, $\\hat\\a
     ),
     (
         "code",
-        """import jax
+        """import vojax
+vojax.use_fast_cpu_loops()  # one kernel per scan on a CPU; before the first JAX computation
+import jax
 jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp
 import matplotlib.pyplot as plt
 import numpy as np
-import vojax
 from vojax import reference""",
     ),
     ("md", "## 1. Simulate the true system in its integral form (12)"),
@@ -132,11 +133,12 @@ Each is identified with the springpot σ = η D^{q(t)} ε online (the adaptive l
 the data) and offline (`vojax.refit`, constant order, with standard errors)."""),
     ("code", """import warnings
 from pathlib import Path
+import vojax
+vojax.use_fast_cpu_loops()  # one kernel per scan on a CPU; before the first JAX computation
 import jax
 jax.config.update("jax_enable_x64", True)
 import matplotlib.pyplot as plt
 import numpy as np
-import vojax
 from vojax._data import load_records
 DATA = Path("..").resolve().parent / "shared" / "data"
 assert DATA.is_dir(), "this notebook needs ../shared/data"  # the test skips when it is absent"""),

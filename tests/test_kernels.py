@@ -213,3 +213,21 @@ def test_one_trace_per_entry_point():
         before = TRACES["scan"]
         vojax.order_sensitivity(u * 3.0, alpha, dt, memory=memory)
         assert TRACES["scan"] == before
+
+
+def test_lgamma1p_series():
+    """The Chebyshev ln Γ(1+b) of the weights' normalisation, and its derivative ψ(1+b)."""
+    import math
+
+    from vojax._kernels._special import digamma
+    from vojax._kernels._weights import lgamma1p
+
+    b = np.linspace(0.0, 1.0, 2001)
+    value = np.asarray(lgamma1p(jnp.asarray(b)))
+    exact = np.array([math.lgamma(1.0 + x) for x in b])
+    assert np.max(np.abs(value - exact)) < 4e-15
+    slope = np.asarray(jax.vmap(jax.grad(lgamma1p))(jnp.asarray(b)))
+    assert np.max(np.abs(slope - digamma(1.0 + b))) < 1e-12
+    # the end points are zeros of ln Γ: Γ(1) = Γ(2) = 1
+    assert abs(float(lgamma1p(jnp.asarray(0.0)))) < 1e-15
+    assert abs(float(lgamma1p(jnp.asarray(1.0)))) < 1e-15

@@ -276,6 +276,13 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     import jax
 
+    from ._xla import use_fast_cpu_loops
+
+    if os.environ.get("VOJAX_FAST_CPU_LOOPS", "1") != "0":
+        try:
+            use_fast_cpu_loops()
+        except RuntimeError:  # main() run inside a process that has already computed
+            pass
     jax.config.update("jax_enable_x64", True)
     parser = build_parser()
     args = parser.parse_args(argv)

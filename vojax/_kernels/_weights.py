@@ -14,7 +14,8 @@ derivatives with respect to ``b`` stay finite there.
 """
 
 import jax.numpy as jnp
-from jax.scipy.special import gammaln
+
+from ._special import LGAMMA1P_CHEBYSHEV
 
 RECTANGLE = "rectangle"
 TRAPEZOID = "trapezoid"
@@ -47,10 +48,27 @@ def _poly(coefficients, x):
     return acc
 
 
+def lgamma1p(b):
+    """``ln Γ(1 + b)`` for ``0 ≤ b ≤ 1`` by its Chebyshev series (Clenshaw's recurrence).
+
+    Agrees with `math.lgamma` to ~1e-16 absolute. It is one fused polynomial, where
+    ``jax.scipy.special.gammaln`` and its derivative cost XLA:CPU a dozen kernels inside a scan.
+    """
+    t2 = 2.0 * (2.0 * b - 1.0)
+    b1 = jnp.zeros_like(b)
+    b2 = jnp.zeros_like(b)
+    for c in LGAMMA1P_CHEBYSHEV[:0:-1]:
+        b1, b2 = t2 * b1 - b2 + c, b1
+    return 0.5 * t2 * b1 - b2 + LGAMMA1P_CHEBYSHEV[0]
+
+
 def log_norm(b, dt, rule: str):
-    """Logarithm of the factor in front of the weights: ``h^b / Γ(b+2)`` or ``h^b / Γ(b+1)``."""
-    shift = 2.0 if rule == TRAPEZOID else 1.0
-    return b * jnp.log(dt) - gammaln(b + shift)
+    """Logarithm of the factor in front of the weights: ``h^b / Γ(b+2)`` or ``h^b / Γ(b+1)``,
+    for orders ``0 ≤ b ≤ 1``."""
+    lg = lgamma1p(b)
+    if rule == TRAPEZOID:
+        lg = lg + jnp.log1p(b)  # Γ(b+2) = (b+1) Γ(b+1)
+    return b * jnp.log(dt) - lg
 
 
 def end_weights(b, rule: str):

@@ -1,0 +1,77 @@
+"""Opt-in XLA:CPU setting under which vojax's scans run as one compiled kernel each.
+
+XLA:CPU's thunk runtime launches one kernel per fused operation; a step of the adaptive law is
+about fifty of them, so on a CPU its ~0.1 µs launch cost, not arithmetic, sets the time per
+sample. XLA compiles a *small* while loop (bytes touched per iteration below a threshold,
+default 1 KiB) as a single kernel instead. Raising the threshold to cover vojax's loops makes
+`identify` about 9× and the exponential memory about 2–7× faster on a CPU, with results equal
+to rounding (see ``scripts/bench_identify.py``, ``scripts/bench_memory.py``).
+
+The threshold is read from ``XLA_FLAGS`` when JAX creates its CPU backend, so it is a setting
+of the whole process, made before the first computation. vojax never sets it on import; the
+``vojax`` command sets it for itself (``VOJAX_FAST_CPU_LOOPS=0`` turns that off), and a
+notebook or script opts in with `use_fast_cpu_loops` before its first JAX computation.
+"""
+
+import os
+import re
+
+THRESHOLD_KEY = "xla_cpu_small_while_loop_byte_threshold"
+DEFAULT_THRESHOLD = 1 << 20  # 1 MiB per iteration: every vojax loop except a long direct memory
+_EXTRA = re.compile(r"--xla_backend_extra_options=(\S*)")
+
+
+def _backend_started() -> bool:
+    try:
+        from jax._src import xla_bridge
+
+        return bool(xla_bridge.backends_are_initialized())
+    except (ImportError, AttributeError):  # a JAX without the query: assume not started
+        return False
+
+
+def fast_cpu_loops_threshold(flags: str | None = None) -> int | None:
+    """The small-loop threshold in ``XLA_FLAGS`` (or in `flags`), or None where unset."""
+    flags = os.environ.get("XLA_FLAGS", "") if flags is None else flags
+    for match in _EXTRA.finditer(flags):
+        for item in match.group(1).split(","):
+            key, _, value = item.partition("=")
+            if key == THRESHOLD_KEY and value.isdigit():
+                return int(value)
+    return None
+
+
+def use_fast_cpu_loops(threshold_bytes: int = DEFAULT_THRESHOLD) -> bool:
+    """Asks XLA:CPU to compile every while loop touching fewer than `threshold_bytes` bytes per
+    iteration as one kernel. Call it before the process's first JAX computation.
+
+    It appends ``--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=N`` to the
+    ``XLA_FLAGS`` environment variable (merging with extra options already there). GPUs and TPUs
+    ignore it. Results are unchanged to rounding.
+
+    **Returns:** True if the setting was added, False if ``XLA_FLAGS`` already had a threshold
+    (which is left as it is).
+
+    **Raises:** `RuntimeError` if JAX's backends already exist (the flag would be ignored);
+    `ValueError` for a threshold that is not a positive integer.
+    """
+    if isinstance(threshold_bytes, bool) or not isinstance(threshold_bytes, int):
+        raise ValueError(f"`threshold_bytes` must be a positive integer, got {threshold_bytes!r}.")
+    if threshold_bytes <= 0:
+        raise ValueError(f"`threshold_bytes` must be a positive integer, got {threshold_bytes}.")
+    flags = os.environ.get("XLA_FLAGS", "")
+    if fast_cpu_loops_threshold(flags) is not None:
+        return False
+    if _backend_started():
+        raise RuntimeError(
+            "use_fast_cpu_loops() must run before the first JAX computation of the process "
+            "(JAX has already created its backends, which read XLA_FLAGS only once)."
+        )
+    item = f"{THRESHOLD_KEY}={threshold_bytes}"
+    match = _EXTRA.search(flags)
+    if match:  # one extra-options flag: add to its list
+        flags = flags[: match.end(1)] + ("," if match.group(1) else "") + item + flags[match.end(1) :]
+    else:
+        flags = f"{flags} --xla_backend_extra_options={item}".strip()
+    os.environ["XLA_FLAGS"] = flags
+    return True
