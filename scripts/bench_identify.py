@@ -46,7 +46,8 @@ def one(n: int, memory: str, repeat: int) -> dict:
         start = time.perf_counter()
         jax.block_until_ready(compiled(u, y))
         best = min(best, time.perf_counter() - start)
-    return {"time": best, "peak_rss_mb": peak_rss_mb()}
+    temp = compiled.memory_analysis().temp_size_in_bytes  # XLA's buffers beyond inputs/outputs
+    return {"time": best, "peak_rss_mb": peak_rss_mb(), "temp_kb": temp / 1024}
 
 
 def main():
@@ -56,9 +57,9 @@ def main():
     print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
     print(
         "| N | mode | exp µs/sample | direct µs/sample | direct/exp | exp peak RSS (MB) "
-        "| direct peak RSS (MB) |"
+        "| direct peak RSS (MB) | exp XLA temp (KB) |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     sizes = [int(s) for s in args.sizes]
     for n in sizes + [int(s) for s in args.exp_sizes]:
         for mode in args.modes:
@@ -68,12 +69,13 @@ def main():
                 print(
                     f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} "
                     f"| {direct['time'] / n * 1e6:.1f} | {direct['time'] / exp['time']:.0f}× "
-                    f"| {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} |"
+                    f"| {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} "
+                    f"| {exp['temp_kb']:.1f} |"
                 )
             else:
                 print(
                     f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} | | "
-                    f"| {exp['peak_rss_mb']:.0f} | |"
+                    f"| {exp['peak_rss_mb']:.0f} | | {exp['temp_kb']:.1f} |"
                 )
             sys.stdout.flush()
 

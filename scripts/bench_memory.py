@@ -44,10 +44,15 @@ def one(n: int, memory: str, repeat: int) -> dict:
             value = jax.block_until_ready(compiled(u, alpha))
             best = min(best, time.perf_counter() - start)
         out[name] = best
+        out[f"{name}_temp_kb"] = compiled.memory_analysis().temp_size_in_bytes / 1024
         value = value[1] if sensitivity else value
         np.save(f"/tmp/bench_memory_{name}_{memory}_{n}.npy", np.asarray(value))
     out["peak_rss_mb"] = peak_rss_mb()
     return out
+
+
+def temp(case: dict) -> str:
+    return f"{case['phi_temp_kb']:.1f} / {case['dphi_temp_kb']:.1f}"
 
 
 def main():
@@ -58,9 +63,9 @@ def main():
     print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
     print(
         "| N | mode | memory | φ time (s) | ∂φ time (s) | direct/exp φ | direct/exp ∂φ "
-        "| max rel diff φ | max rel diff ∂φ | peak RSS (MB) |"
+        "| max rel diff φ | max rel diff ∂φ | peak RSS (MB) | XLA temp φ / ∂φ (KB) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     sizes = [int(s) for s in args.sizes]
     for n in sizes + [int(s) for s in args.exp_sizes]:
         for mode in args.modes:
@@ -68,7 +73,7 @@ def main():
             if n not in sizes:
                 print(
                     f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} "
-                    f"| | | | | {exp['peak_rss_mb']:.0f} |"
+                    f"| | | | | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
                 )
                 sys.stdout.flush()
                 continue
@@ -80,12 +85,12 @@ def main():
                 diffs.append(np.max(np.abs(a - b)) / np.max(np.abs(b)))
             print(
                 f"| {n:.0e} | {mode} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} "
-                f"| | | | | {direct['peak_rss_mb']:.0f} |"
+                f"| | | | | {direct['peak_rss_mb']:.0f} | {temp(direct)} |"
             )
             print(
                 f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
                 f"{direct['phi'] / exp['phi']:.0f}× | {direct['dphi'] / exp['dphi']:.0f}× | "
-                f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} |"
+                f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
             )
             sys.stdout.flush()
 

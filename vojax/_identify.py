@@ -5,7 +5,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
-from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Float
 
 from . import _validate as check
@@ -51,19 +50,12 @@ def run_law(law: AdaptiveLaw, u, y):
     """Runs ``law`` over samples ``u`` (N, n) and outputs ``y`` (N,) in one ``lax.scan``."""
     TRACES["scan"] += 1
 
-    init = law.init(u.shape[1])
-    # the outputs of a step travel as one vector: one write per sample into one array, where
-    # seven arrays cost XLA:CPU seven kernels per sample
-    example = jax.eval_shape(law.step, init, u[0], y[0])[1]
-    _, unravel = ravel_pytree(jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), example))
-
     @jax.checkpoint
     def body(state, sample):
-        state, out = law.step(state, *sample)
-        return state, ravel_pytree(out)[0]
+        return law.step(state, *sample)
 
-    _, flat = lax.scan(body, init, (u, y))
-    return jax.vmap(unravel)(flat)
+    _, out = lax.scan(body, law.init(u.shape[1]), (u, y))
+    return out
 
 
 def build_law(dt, num_steps, *, lam, gamma, alpha0, alpha_bounds, memory, rule, r0=None, tol=1e-10):
