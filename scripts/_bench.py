@@ -6,6 +6,7 @@ Every case is measured twice, in separate processes: under XLA:CPU's default run
 
 import argparse
 import json
+import platform
 import resource
 import subprocess
 import sys
@@ -48,3 +49,20 @@ def dispatch(script: str, one):
         return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
 
     return args, run
+
+
+def print_header(title: str, columns: list[str]) -> None:
+    """The table's preamble (machine, what the modes are) and its column header."""
+    print(f"# {platform.machine()}, python {platform.python_version()}; {title}")
+    print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
+
+
+def cases(args):
+    """``(n, mode, with_direct)`` in table order: every size, each in the modes asked for;
+    the direct memory only for the sizes of ``--sizes``."""
+    sizes = [int(s) for s in args.sizes]
+    for n in sizes + [int(s) for s in args.exp_sizes]:
+        for mode in args.modes:
+            yield n, mode, n in sizes

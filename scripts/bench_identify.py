@@ -7,11 +7,10 @@ scan is compiled ahead of time, so the times exclude compilation.
         [--modes default fast]
 """
 
-import platform
 import sys
 import time
 
-from _bench import dispatch, peak_rss_mb
+from _bench import cases, dispatch, peak_rss_mb, print_header
 
 
 def one(n: int, memory: str, repeat: int) -> dict:
@@ -53,31 +52,35 @@ def one(n: int, memory: str, repeat: int) -> dict:
 def main():
     args, run = dispatch(__file__, one)
 
-    print(f"# {platform.machine()}, python {platform.python_version()}; identify, n = 2, trapezoid")
-    print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
-    print(
-        "| N | mode | exp µs/sample | direct µs/sample | direct/exp | exp peak RSS (MB) "
-        "| direct peak RSS (MB) | exp XLA temp (KB) |"
+    print_header(
+        "identify, n = 2, trapezoid",
+        [
+            "N",
+            "mode",
+            "exp µs/sample",
+            "direct µs/sample",
+            "direct/exp",
+            "exp peak RSS (MB)",
+            "direct peak RSS (MB)",
+            "exp XLA temp (KB)",
+        ],
     )
-    print("|---|---|---|---|---|---|---|---|")
-    sizes = [int(s) for s in args.sizes]
-    for n in sizes + [int(s) for s in args.exp_sizes]:
-        for mode in args.modes:
-            exp = run(n, "exponential", mode)
-            if n in sizes:
-                direct = run(n, "direct", mode)
-                print(
-                    f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} "
-                    f"| {direct['time'] / n * 1e6:.1f} | {direct['time'] / exp['time']:.0f}× "
-                    f"| {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} "
-                    f"| {exp['temp_kb']:.1f} |"
-                )
-            else:
-                print(
-                    f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} | | "
-                    f"| {exp['peak_rss_mb']:.0f} | | {exp['temp_kb']:.1f} |"
-                )
-            sys.stdout.flush()
+    for n, mode, with_direct in cases(args):
+        exp = run(n, "exponential", mode)
+        if with_direct:
+            direct = run(n, "direct", mode)
+            print(
+                f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} "
+                f"| {direct['time'] / n * 1e6:.1f} | {direct['time'] / exp['time']:.0f}× "
+                f"| {exp['peak_rss_mb']:.0f} | {direct['peak_rss_mb']:.0f} "
+                f"| {exp['temp_kb']:.1f} |"
+            )
+        else:
+            print(
+                f"| {n:.0e} | {mode} | {exp['time'] / n * 1e6:.2f} | | "
+                f"| {exp['peak_rss_mb']:.0f} | | {exp['temp_kb']:.1f} |"
+            )
+        sys.stdout.flush()
 
 
 if __name__ == "__main__":

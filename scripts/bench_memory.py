@@ -7,11 +7,10 @@ own. Times exclude compilation (one warm-up call first) and are the best of `--r
         [--modes default fast]
 """
 
-import platform
 import sys
 import time
 
-from _bench import dispatch, peak_rss_mb
+from _bench import cases, dispatch, peak_rss_mb, print_header
 
 
 def one(n: int, memory: str, repeat: int) -> dict:
@@ -59,40 +58,47 @@ def main():
     args, run = dispatch(__file__, one)
     import numpy as np
 
-    print(f"# {platform.processor() or platform.machine()}, python {platform.python_version()}")
-    print("# mode: XLA:CPU default runtime, or vojax.use_fast_cpu_loops() (one kernel per scan)")
-    print(
-        "| N | mode | memory | φ time (s) | ∂φ time (s) | direct/exp φ | direct/exp ∂φ "
-        "| max rel diff φ | max rel diff ∂φ | peak RSS (MB) | XLA temp φ / ∂φ (KB) |"
+    print_header(
+        "memory kernels, n = 2",
+        [
+            "N",
+            "mode",
+            "memory",
+            "φ time (s)",
+            "∂φ time (s)",
+            "direct/exp φ",
+            "direct/exp ∂φ",
+            "max rel diff φ",
+            "max rel diff ∂φ",
+            "peak RSS (MB)",
+            "XLA temp φ / ∂φ (KB)",
+        ],
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    sizes = [int(s) for s in args.sizes]
-    for n in sizes + [int(s) for s in args.exp_sizes]:
-        for mode in args.modes:
-            exp = run(n, "exponential", mode)
-            if n not in sizes:
-                print(
-                    f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} "
-                    f"| | | | | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
-                )
-                sys.stdout.flush()
-                continue
-            direct = run(n, "direct", mode)
-            diffs = []
-            for name in ("phi", "dphi"):
-                a = np.load(f"/tmp/bench_memory_{name}_exponential_{n}.npy")
-                b = np.load(f"/tmp/bench_memory_{name}_direct_{n}.npy")
-                diffs.append(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+    for n, mode, with_direct in cases(args):
+        exp = run(n, "exponential", mode)
+        if not with_direct:
             print(
-                f"| {n:.0e} | {mode} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} "
-                f"| | | | | {direct['peak_rss_mb']:.0f} | {temp(direct)} |"
-            )
-            print(
-                f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
-                f"{direct['phi'] / exp['phi']:.0f}× | {direct['dphi'] / exp['dphi']:.0f}× | "
-                f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
+                f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} "
+                f"| | | | | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
             )
             sys.stdout.flush()
+            continue
+        direct = run(n, "direct", mode)
+        diffs = []
+        for name in ("phi", "dphi"):
+            a = np.load(f"/tmp/bench_memory_{name}_exponential_{n}.npy")
+            b = np.load(f"/tmp/bench_memory_{name}_direct_{n}.npy")
+            diffs.append(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+        print(
+            f"| {n:.0e} | {mode} | direct | {direct['phi']:.4g} | {direct['dphi']:.4g} "
+            f"| | | | | {direct['peak_rss_mb']:.0f} | {temp(direct)} |"
+        )
+        print(
+            f"| {n:.0e} | {mode} | exponential | {exp['phi']:.4g} | {exp['dphi']:.4g} | "
+            f"{direct['phi'] / exp['phi']:.0f}× | {direct['dphi'] / exp['dphi']:.0f}× | "
+            f"{diffs[0]:.1e} | {diffs[1]:.1e} | {exp['peak_rss_mb']:.0f} | {temp(exp)} |"
+        )
+        sys.stdout.flush()
 
 
 if __name__ == "__main__":
