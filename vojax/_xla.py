@@ -70,7 +70,9 @@ def use_fast_cpu_loops(threshold_bytes: int = DEFAULT_THRESHOLD) -> bool:
     item = f"{THRESHOLD_KEY}={threshold_bytes}"
     match = _EXTRA.search(flags)
     if match:  # one extra-options flag: add to its list
-        flags = flags[: match.end(1)] + ("," if match.group(1) else "") + item + flags[match.end(1) :]
+        flags = (
+            flags[: match.end(1)] + ("," if match.group(1) else "") + item + flags[match.end(1) :]
+        )
     else:
         flags = f"{flags} --xla_backend_extra_options={item}".strip()
     os.environ["XLA_FLAGS"] = flags
