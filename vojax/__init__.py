@@ -12,6 +12,8 @@ from ._adaptive import (
 from ._adaptive import (
     OrderGradient as OrderGradient,
 )
+from ._identify import Diagnostics as Diagnostics
+from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
 from ._identify import Identification as Identification
 from ._identify import identify as identify
 from ._integral import (

@@ -1,4 +1,7 @@
-"""`identify`: the adaptive law of Theorem 1 driven over a record in one jit-compiled scan."""
+"""`identify`: the paper's law (Theorem 1) or the Bayesian tracker over a whole record."""
+
+import dataclasses
+import warnings
 
 import equinox as eqx
 import jax
@@ -9,37 +12,86 @@ from jaxtyping import Array, Float
 
 from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
-from ._integral import make_memory
+from ._integral import make_memory, scan_memory
 from ._kernels import RULES
 
-DEFAULT_BOUNDS = (0.05, 0.95)
+DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
+KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
+PAPER_LAM = 0.9
+
+
+IDENTIFIED_HALFWIDTH = 0.1  # median ±2σ half-width of the order band above which it is "not identified"
+BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
+
+
+class IdentifiabilityWarning(UserWarning):
+    """The data do not pin the order down: its band is wide, or the estimate sits at a bound."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Diagnostics:
+    """What a user should know before trusting an identification.
+
+    - `band_halfwidth`: median over the second half of the record of the ±2σ half-width of the
+      order band (order units).
+    - `at_bound_fraction`: fraction of samples whose order lies at a bound of `alpha_bounds`.
+    - `converged`: the tracker's smoother (or the gain tuning) converged.
+    - `at_edge`: names of automatically chosen settings that sit at the edge of their search box.
+    - `identified`: the band is narrower than ±0.1 and the order is at a bound for < 5 % of samples.
+    - `message`: one sentence when something is wrong, else ``""``.
+    """
+
+    band_halfwidth: float
+    at_bound_fraction: float
+    converged: bool
+    at_edge: tuple[str, ...]
+    identified: bool
+    message: str
 
 
 class Identification(eqx.Module):
-    """What `identify` returns: the estimates at every sample and the settings used.
+    """What `identify` returns: the estimates at every sample, their bands and the settings.
 
-    - `alpha` (N,): the identified order α̂ (the order used at each sample).
-    - `p` (N, n): the identified parameters p̂.
-    - `dp` (N, n): ∂p/∂β along a uniform order shift (26).
-    - `y_hat` (N,): the identified output x̂ = x0 + p̂ᵀφ(α̂, t) (eq. 25).
-    - `y_pred` (N,): the a-priori prediction x0 + p̂_{k−1}ᵀφ(α̂, t_k), made before y_k is used.
-    - `Lambda` (N,): Λ of eq. (30).
-    - `gamma`, `lam`, `alpha0`, `x0`, `dt`: the settings used.
+    - `alpha` (N,): the identified order α̂; `alpha_std` (N,): its standard deviation;
+      `alpha_lower`, `alpha_upper` (N,): the ±2σ band (for ``method="kalman"`` taken on the
+      unbounded scale and mapped back, so it stays inside `alpha_bounds`).
+    - `p` (N, n): the identified parameters p̂; `p_std` (N, n): their standard deviations.
+    - `x0`, `x0_std`: the output offset x(0) used (``"gradient"``) or estimated (``"kalman"``).
+    - `y_hat` (N,): the identified output x0 + p̂ᵀφ(α̂, t) (eq. 25).
+    - `y_pred` (N,): the a-priori prediction, made before y_k is used.
+    - `dp` (N, n): ∂p/∂β along a uniform order shift (26), and `Lambda` (N,): Λ of eq. (30);
+      ``None`` for ``method="kalman"``.
+    - `method`, `diagnostics` (`Diagnostics`), and the settings used: `gamma`, `lam`, `alpha0`,
+      `dt`, `alpha_bounds`, `memory` (for ``"kalman"``, `gamma` and `lam` are NaN and
+      `diagnostics`/`tuning` say what was chosen).
+
+    For ``method="gradient"`` the band is the law's spread over realisations of the
+    measurement noise, by the delta method through its own recursion (see
+    `vojax._adaptive._bands`); it does not include the law's tracking bias. For ``method="kalman"`` it is
+    the posterior of the tracker's random-walk model, given its tuned noise intensities.
     """
 
     alpha: Float[Array, " N"]
+    alpha_std: Float[Array, " N"]
+    alpha_lower: Float[Array, " N"]
+    alpha_upper: Float[Array, " N"]
     p: Float[Array, "N n"]
-    dp: Float[Array, "N n"]
+    p_std: Float[Array, "N n"]
     y_hat: Float[Array, " N"]
     y_pred: Float[Array, " N"]
-    Lambda: Float[Array, " N"]
+    x0: Float[Array, ""]
+    x0_std: Float[Array, ""]
+    dp: Float[Array, "N n"] | None
+    Lambda: Float[Array, " N"] | None
     gamma: Float[Array, ""]
     lam: Float[Array, ""]
     alpha0: Float[Array, ""]
-    x0: Float[Array, ""]
     dt: Float[Array, ""]
     alpha_bounds: tuple[float, float] = eqx.field(static=True)
     memory: str = eqx.field(static=True)
+    method: str = eqx.field(static=True)
+    diagnostics: Diagnostics = eqx.field(static=True)
+    tuning: object = eqx.field(static=True, default=None)
 
 
 TRACES = {"scan": 0}
@@ -85,8 +137,10 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
         raise ValueError(
             f"`u` and `y` must have the same number of samples, got {u2.shape[0]} and {y.shape[0]}."
         )
+    if u2.shape[0] < 3:
+        raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
     check.step(dt)
-    if lam is not None:
+    if lam is not None and not isinstance(lam, str):
         check.positive(lam, "lam")
     bounds = check.interval(alpha_bounds, "alpha_bounds")
     a0 = (
@@ -99,14 +153,32 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
     check.choice(memory, check.MEMORIES, "memory")
     check.choice(rule, RULES, "rule")
     x0 = y[0] if x0 is None else _scalar(x0, "x0")
-    if r0 is not None:
+    if isinstance(r0, str):
+        if r0 != "auto":
+            raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
+    elif r0 is not None:
         r0 = jnp.asarray(r0, jnp.result_type(float))
         n = u2.shape[1]
         if r0.shape != (n, n):
             raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
-        if not isinstance(r0, jax.core.Tracer) and np.any(np.linalg.eigvalsh(np.asarray(r0)) <= 0):
+        if not isinstance(r0, jax.core.Tracer) and (
+            not np.all(np.isfinite(np.asarray(r0)))
+            or np.any(np.linalg.eigvalsh(np.asarray(r0)) <= 0)
+        ):
             raise ValueError("`r0` must be symmetric positive definite.")
     return u2, y, bounds, x0, r0
+
+
+def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds):
+    """``R_0`` worth one sample of information at the initial order: ``h·diag(mean φ²)`` with
+    ``φ = Φ(α̂(0), t)``. It scales with the inputs, so the law does not depend on their units."""
+    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds)
+    phi = scan_memory(mem, u2, jnp.full((u2.shape[0],), float(alpha0)), False)
+    power = jnp.mean(phi * phi, axis=0)
+    if not bool(jnp.all(power > 0)):
+        j = int(jnp.argmin(power))
+        raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")
+    return float(dt) * jnp.diag(power)
 
 
 def _scalar(x, name):
@@ -118,67 +190,234 @@ def _scalar(x, name):
     return arr
 
 
+def _first_bad(*arrays):
+    """Index of the first sample at which any of the arrays is not finite, or None."""
+    bad = np.zeros(np.shape(arrays[0])[0], bool)
+    for a in arrays:
+        a = np.asarray(a)
+        bad |= ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+    return int(np.argmax(bad)) if bad.any() else None
+
+
+def diagnose(alpha, lower, upper, bounds, converged, at_edge) -> Diagnostics:
+    """The `Diagnostics` of an order trajectory and its band."""
+    alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
+    lo, hi = bounds
+    half = alpha.shape[0] // 2
+    width = float(np.median((upper - lower)[half:]) / 2)
+    tol = BOUND_TOL * (hi - lo)
+    at_bound = float(np.mean((alpha <= lo + tol) | (alpha >= hi - tol)))
+    problems = []
+    if width > IDENTIFIED_HALFWIDTH:
+        problems.append(
+            f"the order band is ±{width:.2g} wide: these data do not determine the order"
+        )
+    if at_bound >= 0.05:
+        problems.append(f"the order sits at a bound of {bounds} for {100 * at_bound:.0f} % of samples")
+    if not converged:
+        problems.append("the estimation did not converge")
+    if at_edge:
+        problems.append(f"{', '.join(at_edge)} at the edge of the search box")
+    identified = width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05
+    message = "; ".join(problems)
+    return Diagnostics(width, at_bound, bool(converged), tuple(at_edge), identified, message)
+
+
 def identify(
     u,
     y,
     dt,
     *,
-    lam=0.9,
-    gamma=0.01,
+    method: str = "gradient",
+    smooth: bool = True,
+    lam=None,
+    gamma="auto",
     alpha0=0.5,
-    alpha_bounds=DEFAULT_BOUNDS,
+    alpha_bounds=None,
     memory: str = "exponential",
     rule: str = "trapezoid",
     x0=None,
-    r0=None,
+    r0="auto",
+    noise=None,
     tol: float = 1e-10,
+    warn: bool = True,
 ) -> Identification:
-    """Identifies the order α(t) and parameters p of ``D^{α(t)} x = pᵀu`` online (Theorem 1).
+    """Identifies the order α(t) and parameters p of ``D^{α(t)} x = pᵀu`` with a band for each.
 
-    Runs the law (29)–(30) in the exact discrete form of NOTES §3 over the whole record in one
-    jit-compiled `lax.scan`: LSFF with forgetting ``λ`` for ``p``, the order-gradient law with
-    gain ``γ`` and projection onto `alpha_bounds` for ``α``, and ``∂p/∂β`` by forward-mode
-    autodiff of the LSFF step.
+    Two methods over the same memory kernels:
+
+    - ``method="gradient"`` (default): the paper's adaptive law (Theorem 1) in the exact
+      discrete form, one jit-compiled `lax.scan` — LSFF with forgetting ``λ`` for ``p``, the
+      order-gradient law with gain ``γ`` and projection onto `alpha_bounds`, ``∂p/∂β`` (26) by
+      forward-mode autodiff. The law sees ``y − x0`` with ``x0 = y[0]`` unless given (Remark 4).
+    - ``method="kalman"``: a joint Bayesian tracker of ``(α, p, x0)`` — order (through a
+      logistic map of `alpha_bounds`) and parameters as random walks, the offset estimated —
+      whose noise intensities are chosen by maximising the innovation likelihood, started from
+      a constant-order least-squares fit. ``smooth=True`` returns the posterior mode of the
+      whole trajectory (iterated extended Kalman smoother: Gauss–Newton) with its Laplace
+      bands; ``smooth=False`` the online iterated EKF's causal estimates.
+
+    With one input a variable order is not determined by the data alone: a rescaled ``p`` has
+    an order trajectory that fits as well, and what settles it is the regularity assumed (the
+    law's gains, the tracker's drift intensities). The bands say how well the data pin the
+    estimate down *under that assumption*; `diagnostics` flags wide bands, orders at a bound
+    and settings at the edge of their search, and an `IdentifiabilityWarning` is issued then
+    (``warn=False`` to silence it).
 
     **Arguments:**
 
     - `u`: inputs, ``(N,)`` or ``(N, n)``; `y`: measured output ``(N,)``; `dt`: the step.
-    - `lam`: forgetting factor λ > 0 (the paper's 0.9); larger forgets faster.
-    - `gamma`: order gain γ > 0, or ``"auto"`` to choose ``(γ, λ)`` by `tune_gains`. The law is
-      sensitive to it: too large and α̂ chatters between the bounds.
-    - `alpha0`: α̂(0), inside `alpha_bounds`; `alpha_bounds`: the projection interval ⊂ (0, 1).
+    - `method`, `smooth`: see above.
+    - `gamma`: the law's order gain γ > 0, or ``"auto"`` (default) to choose it by `tune_gains`
+      from normalised signals (unit-free). A number is taken literally, as the paper's 0.01.
+    - `lam`: forgetting factor λ > 0; ``None`` (default): tuned with γ when ``gamma="auto"``,
+      the paper's 0.9 otherwise. A number with ``gamma="auto"`` tunes γ alone at that λ.
+    - `alpha0`: α̂(0) of the law, inside `alpha_bounds`.
+    - `alpha_bounds`: the order range ⊂ (0, 1); default (0.05, 0.95) for the law (its
+      projection), (0.01, 0.99) for the tracker.
     - `memory`: ``"exponential"`` (O(1) per sample) or ``"direct"``; `rule`: the quadrature.
-    - `x0`: the initial output; ``None`` takes ``y[0]`` (Remark 4: the law sees ``y − x0``).
-    - `r0`: initial information matrix ``R_0`` (identity by default: ``P(0) = I``).
-    - `tol`: accuracy of the exponential memory.
+    - `x0`: the law's initial output (default ``y[0]``); the tracker estimates it (pass None).
+    - `r0`: the law's initial information ``R_0``: ``"auto"`` (default: one sample's worth at
+      α̂(0), scaled to the inputs), or an ``(n, n)`` matrix taken literally (the paper's
+      ``P(0) = I`` is ``np.eye(n)``).
+    - `noise`: the tracker's noise intensities, instead of tuning them: a dict with
+      ``order_drift`` (variance of the logistic order coordinate's change over the record),
+      ``parameter_drift`` (variance of each normalised parameter's change over the record)
+      and ``noise_std`` (of the measurement, in the units of `y`).
+    - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
 
-    **Returns:** an `Identification`.
+    **Returns:** an `Identification`. **Raises:** `ValueError` for bad input and when the
+    estimate is not finite (the law diverged), naming the sample.
     """
+    check.choice(method, ("gradient", "kalman"), "method")
+    if alpha_bounds is None:
+        alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
+    if method == "kalman":
+        if x0 is not None:
+            raise ValueError("`x0` is estimated by method='kalman'; leave it None.")
+        return _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, warn)
     if isinstance(gamma, str) and gamma != "auto":
         raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
+    if isinstance(lam, str):
+        raise ValueError(f"`lam` must be a positive number or None, got {lam!r}.")
     # validate once, before any (possibly long) tuning; the law and the tuner share the settings
     u2, y, bounds, x0, r0 = check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0)
+    if isinstance(r0, str):
+        r0 = auto_r0(u2, dt, alpha0, memory, rule, tol, bounds)
     shared = dict(alpha0=alpha0, alpha_bounds=bounds, memory=memory, rule=rule, r0=r0, tol=tol)
+    at_edge = ()
     if isinstance(gamma, str):  # "auto", checked above
         from ._tune import tune_gains
 
-        gains = tune_gains(u2, y, dt, x0=x0, **shared)
+        gains = tune_gains(u2, y, dt, x0=x0, lam=lam, **shared)
         gamma, lam = gains.gamma, gains.lam
+        at_edge = gains.at_edge
+    elif lam is None:
+        lam = PAPER_LAM
     check.positive(gamma, "gamma")
     law = build_law(dt, u2.shape[0], lam=lam, gamma=gamma, **shared)
     out = run_law(law, u2, y - x0)
+    bad = _first_bad(out.alpha, out.p, out.dp, out.y_hat)
+    if bad is not None:
+        raise ValueError(
+            f"the adaptive law diverged at sample {bad} (non-finite estimate): the inputs do not "
+            f"excite every parameter within the forgetting horizon 1/λ = {1 / float(lam):.3g}; "
+            "use a smaller `lam`, fewer inputs, or r0='auto'."
+        )
+    alpha_std, p_std, lower, upper = _law_bands(law, u2, y - x0, out, dt, bounds)
+    diagnostics = diagnose(out.alpha, lower, upper, bounds, True, at_edge)
+    if warn and diagnostics.message:
+        warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=2)
     return Identification(
         alpha=out.alpha,
+        alpha_std=alpha_std,
+        alpha_lower=lower,
+        alpha_upper=upper,
         p=out.p,
-        dp=out.dp,
+        p_std=p_std,
         y_hat=out.y_hat + x0,
         y_pred=out.y_pred + x0,
+        x0=x0,
+        x0_std=jnp.zeros(()),
+        dp=out.dp,
         Lambda=out.Lambda,
         gamma=law.order.gamma,
         lam=law.lsff.lam,
         alpha0=law.order.alpha0,
-        x0=x0,
         dt=law.lsff.dt,
         alpha_bounds=bounds,
         memory=memory,
+        method="gradient",
+        diagnostics=diagnostics,
+    )
+
+
+def noise_variance(y) -> float:
+    """Measurement-noise variance from the data alone: the median absolute second difference,
+    ``σ̂ = 1.4826·median|y_{k+1} − 2y_k + y_{k−1}| / √6`` (white noise: Var Δ²y = 6σ²; the
+    median ignores the few large differences of steps and ramps). Not from the law's residuals,
+    which carry its tracking error as well."""
+    d2 = np.diff(np.asarray(y), 2)
+    return float((1.4826 * np.median(np.abs(d2))) ** 2 / 6.0)
+
+
+def _law_bands(law, u2, big_y, out, dt, bounds):
+    """The law's spread over noise realisations (see `vojax._adaptive._bands`)."""
+    from ._adaptive._bands import law_covariance
+
+    sigma2 = noise_variance(big_y)
+    var_alpha, var_p = law_covariance(law, u2, big_y, jnp.asarray(sigma2))
+    alpha_std = jnp.sqrt(jnp.maximum(var_alpha, 0.0))
+    lo, hi = bounds
+    lower = jnp.clip(out.alpha - 2 * alpha_std, lo, hi)
+    upper = jnp.clip(out.alpha + 2 * alpha_std, lo, hi)
+    return alpha_std, jnp.sqrt(jnp.maximum(var_p, 0.0)), lower, upper
+
+
+def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, warn):
+    from ._tracker import track
+
+    u2, y, bounds, _, _ = check_options(
+        u, y, dt, None, sum(check.interval(alpha_bounds, "alpha_bounds")) / 2, alpha_bounds,
+        memory, rule, None, None,
+    )
+    if noise is not None:
+        keys = {"order_drift", "parameter_drift", "noise_std"}
+        if not isinstance(noise, dict) or set(noise) != keys:
+            raise ValueError(f"`noise` must be a dict with keys {sorted(keys)}, got {noise!r}.")
+        for k, v in noise.items():
+            check.positive(v, f"noise[{k!r}]")
+    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds)
+    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise)
+    bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
+    if bad is not None:
+        raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
+    diagnostics = diagnose(
+        res.alpha, res.alpha_lower, res.alpha_upper, bounds, res.converged, res.tuning.at_edge
+    )
+    if warn and diagnostics.message:
+        warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)
+    nan = jnp.asarray(jnp.nan)
+    return Identification(
+        alpha=res.alpha,
+        alpha_std=res.alpha_std,
+        alpha_lower=res.alpha_lower,
+        alpha_upper=res.alpha_upper,
+        p=res.p,
+        p_std=res.p_std,
+        y_hat=res.y_hat,
+        y_pred=res.y_pred,
+        x0=res.x0,
+        x0_std=res.x0_std,
+        dp=None,
+        Lambda=None,
+        gamma=nan,
+        lam=nan,
+        alpha0=nan,
+        dt=jnp.asarray(float(dt)),
+        alpha_bounds=bounds,
+        memory=memory,
+        method="kalman",
+        diagnostics=diagnostics,
+        tuning=res.tuning,
     )

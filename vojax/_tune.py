@@ -20,6 +20,7 @@ class Gains(eqx.Module):
     grid_lam: np.ndarray
     grid_loss: np.ndarray
     refined: bool
+    at_edge: tuple[str, ...] = ()
 
 
 def tune_gains(
@@ -32,7 +33,8 @@ def tune_gains(
     memory: str = "exponential",
     rule: str = "trapezoid",
     x0=None,
-    r0=None,
+    r0="auto",
+    lam=None,
     tol: float = 1e-10,
     burn_in: float = 0.1,
     lag: float = 0.1,
@@ -49,7 +51,7 @@ def tune_gains(
     to absorb a wrong order (order and parameters compensate), which a one-step prediction
     cannot see but a prediction ``D`` samples ahead can. A coarse grid comes first (``γ`` over five decades around
     ``1/mean((y−x0)²)``, the scale at which ``γ Λ e`` is O(1) per unit time; ``λ`` from
-    ``3/T`` to ``0.1/dt``), all runs in one vmapped scan. From the best grid point,
+    ``0.3/T`` to ``0.3/dt``, or the given `lam` alone), all runs in one vmapped scan. From the best grid point,
     BFGS on ``(log γ, log λ)`` with ``jax.grad`` through the checkpointed scan refines it; the
     refinement is kept only when it lowers the loss. Starting from the grid keeps the search out
     of the chattering region, where the loss is large and its gradient meaningless.
@@ -60,8 +62,12 @@ def tune_gains(
     **Returns:** a `Gains`.
     """
     u2, y, bounds, x0, r0 = check_options(
-        u, y, dt, None, alpha0, alpha_bounds, memory, rule, x0, r0
+        u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0
     )
+    if isinstance(r0, str):
+        from ._identify import auto_r0
+
+        r0 = auto_r0(u2, dt, alpha0, memory, rule, tol, bounds)
     if not 0 <= burn_in < 1:
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
@@ -93,7 +99,8 @@ def tune_gains(
         return jnp.mean((pred - big_y[start:]) ** 2) / jnp.mean(big_y[start:] ** 2)
 
     gammas = scale * np.logspace(-3, 2, num_gamma)
-    lams = np.geomspace(3.0 / horizon, 0.1 / float(dt), num_lam)
+    # forgetting horizons from 3 records (no forgetting) to 3 samples
+    lams = np.geomspace(0.3 / horizon, 0.3 / float(dt), num_lam) if lam is None else np.array([float(lam)])
     g, lm = np.meshgrid(np.log(gammas), np.log(lams), indexing="ij")
     grid = np.asarray(jax.jit(jax.vmap(loss))(jnp.asarray(g.ravel()), jnp.asarray(lm.ravel())))
     grid = np.where(np.isfinite(grid), grid, np.inf).reshape(g.shape)
@@ -102,19 +109,34 @@ def tune_gains(
     best_loss = float(grid[i, j])
     refined = False
     if refine_steps > 0:
+        # in coordinates relative to the data's scale, so that the search does not depend on
+        # the units of u and y; λ is tuned only when it was not given
+        ref = np.array([np.log(scale), 0.0])
+        free = np.array([1.0, 1.0 if lam is None else 0.0])
+        fixed = (1.0 - free) * np.asarray(best)
+
+        def absolute(z):  # relative coordinates → (log γ, log λ)
+            return free * (z + ref) + fixed
+
         solution = optx.minimise(
-            lambda z, _: loss(z[0], z[1]),
+            lambda z, _: loss(*absolute(z)),
             optx.BFGS(rtol=1e-4, atol=1e-6),
-            jnp.asarray(best),
+            jnp.asarray(np.asarray(best) - ref),
             max_steps=refine_steps,
             throw=False,
         )
-        z = np.asarray(solution.value)
+        z = np.asarray(absolute(np.asarray(solution.value)))
         value = float(loss(*z))
         # stay within the searched box: the gradient may point out of it in flat regions
         inside = g.min() <= z[0] <= g.max() and lm.min() <= z[1] <= lm.max()
         if np.isfinite(value) and value < best_loss and inside:
             best, best_loss, refined = (float(z[0]), float(z[1])), value, True
+    edge = 0.05 * np.log(10.0)  # within 5 % of a decade of the box's edge
+    at_edge = tuple(
+        name
+        for name, v, axis in (("gamma", best[0], g), ("lam", best[1], lm))
+        if axis.max() > axis.min() and min(v - axis.min(), axis.max() - v) < edge
+    )
     return Gains(
         gamma=float(np.exp(best[0])),
         lam=float(np.exp(best[1])),
@@ -123,4 +145,5 @@ def tune_gains(
         grid_lam=lams,
         grid_loss=grid,
         refined=refined,
+        at_edge=at_edge,
     )

@@ -1,0 +1,81 @@
+"""Kalman filter and Rauch–Tung–Striebel smoother for a random walk seen through one scalar,
+linear measurement per sample: ``θ_{k+1} = θ_k + w_k``, ``z_k = H_k θ_k + v_k``.
+
+This is the linear engine of the tracker: each Gauss–Newton iteration of the iterated smoother
+linearises the measurement around a nominal trajectory and runs these two scans. The process
+noise is diagonal, ``w_k ~ N(0, diag(q_k))``; ``v_k ~ N(0, r / mask_k)`` and a sample with
+``mask_k = 0`` is skipped (padding, or a sample outside a fit window).
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jax import lax
+from jaxtyping import Array, Float
+
+LOG_2PI = 1.8378770664093453
+
+
+class Filtered(eqx.Module):
+    mean: Float[Array, "N d"]  # m_k = E[θ_k | z_0 … z_k]
+    cov: Float[Array, "N d d"]
+    pred_mean: Float[Array, "N d"]  # m_k⁻ = E[θ_k | z_0 … z_{k−1}]
+    pred_cov: Float[Array, "N d d"]
+    innovation: Float[Array, " N"]  # z_k − H_k m_k⁻
+    innovation_var: Float[Array, " N"]  # H_k P_k⁻ H_kᵀ + r
+    log_likelihood: Float[Array, ""]  # Σ log N(z_k; H_k m_k⁻, S_k) over unmasked samples
+
+
+def _symmetric(a):
+    return 0.5 * (a + a.T)
+
+
+def update(mean, cov, h, z, r, mask):
+    """One measurement update in Joseph form; returns ``(mean, cov, innovation, S, log-lik)``."""
+    ph = cov @ h
+    s = jnp.dot(h, ph) + r
+    gain = mask * ph / s
+    e = z - jnp.dot(h, mean)
+    new_mean = mean + gain * e
+    a = jnp.eye(mean.shape[0], dtype=mean.dtype) - jnp.outer(gain, h)
+    new_cov = _symmetric(a @ cov @ a.T + r * jnp.outer(gain, gain))
+    ll = -0.5 * mask * (LOG_2PI + jnp.log(s) + e * e / s)
+    return new_mean, new_cov, e, s, ll
+
+
+@jax.named_scope("vojax.kalman_filter")
+def kalman_filter(h, z, r, q, m0, p0, mask=None) -> Filtered:
+    """The filter over ``h`` (N, d), ``z`` (N,), with ``r`` the measurement variance, ``q``
+    (N, d) the process variances from sample k to k+1, and the prior ``N(m0, p0)`` of θ_0."""
+    if mask is None:
+        mask = jnp.ones(z.shape, z.dtype)
+
+    def body(carry, x):
+        m_pred, p_pred = carry
+        h_k, z_k, q_k, w_k = x
+        m, p, e, s, ll = update(m_pred, p_pred, h_k, z_k, r, w_k)
+        nxt = (m, p + jnp.diag(q_k))
+        return nxt, (m, p, m_pred, p_pred, e, s, ll)
+
+    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask))
+    return Filtered(m, p, mp, pp, e, s, jnp.sum(ll))
+
+
+@jax.named_scope("vojax.rts_smoother")
+def rts_smoother(filtered: Filtered, q):
+    """Rauch–Tung–Striebel: the smoothed means (N, d) and covariances (N, d, d)."""
+
+    def body(carry, x):
+        ms_next, ps_next = carry
+        m, p, q_k = x
+        p_pred = p + jnp.diag(q_k)
+        # G = P_k (P_{k+1}⁻)⁻¹, both symmetric: solve rather than invert
+        g = jnp.linalg.solve(p_pred, p).T
+        ms = m + g @ (ms_next - m)
+        ps = _symmetric(p + g @ (ps_next - p_pred) @ g.T)
+        return (ms, ps), (ms, ps)
+
+    m, p = filtered.mean, filtered.cov
+    last = (m[-1], p[-1])
+    _, (ms, ps) = lax.scan(body, last, (m[:-1], p[:-1], q[:-1]), reverse=True)
+    return jnp.concatenate([ms, m[-1:]]), jnp.concatenate([ps, p[-1:]])

@@ -1,0 +1,267 @@
+"""The tracker end to end: normalise, start from a constant-order fit, tune the noise
+intensities by the innovation likelihood, then smooth (or filter) with bands."""
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jax import lax
+
+from ._filter import KalmanTracker
+from ._model import Hyper, beta_of, order_of
+from ._smoother import iterated_smoother, linearised_log_likelihood
+
+PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
+PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
+# the box of the likelihood search, natural logs of normalised intensities
+BOX = {
+    "order_drift": (np.log(1e-6), np.log(1e4)),
+    "parameter_drift": (np.log(1e-10), np.log(1e2)),
+    "noise": (np.log(1e-10), np.log(2.0)),
+}
+GRID_ORDER = (1e-3, 1e-1, 1e1)
+GRID_PARAMS = (1e-6, 1e-3, 1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Scales:
+    """Normalisation: ``ỹ = (y − y_ref)/y_scale``, ``ũ_j = u_j/u_scale_j``; the tracker's
+    parameters are then ``p̃ = p · u_scale / y_scale`` and its offset ``c̃ = (x0 − y_ref)/y_scale``."""
+
+    y_ref: float
+    y_scale: float
+    u_scale: tuple[float, ...]
+
+
+def _weighted_mean(x, w):
+    return float(np.sum(w * x) / np.sum(w))
+
+
+def data_scales(u, y, mask) -> Scales:
+    """Reference level and scale of the output, RMS of each input; errors name what is flat."""
+    y, u, w = np.asarray(y), np.asarray(u), np.asarray(mask)
+    y_ref = _weighted_mean(y, w)
+    y_scale = float(np.sqrt(_weighted_mean((y - y_ref) ** 2, w)))
+    if not y_scale > 0 or not np.isfinite(y_scale):
+        raise ValueError("`y` is constant over the fitted samples: there is nothing to identify.")
+    u_scale = np.sqrt(np.mean(u**2, axis=0))
+    if np.any(~(u_scale > 0)) or not np.all(np.isfinite(u_scale)):
+        j = int(np.argmax(~(u_scale > 0) | ~np.isfinite(u_scale)))
+        raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")
+    return Scales(y_ref, y_scale, tuple(float(s) for s in u_scale))
+
+
+@eqx.filter_jit
+def _constant_profile(memory, u, y, mask, alpha):
+    """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order."""
+    phi = memory.run(u, jnp.full((u.shape[0],), alpha), False)
+    x = jnp.concatenate([phi, jnp.ones((u.shape[0], 1), phi.dtype)], axis=1)
+    w = jnp.sqrt(mask)
+    coef = jnp.linalg.lstsq(x * w[:, None], y * w)[0]
+    res = (y - x @ coef) * w
+    return jnp.sum(res * res), coef, jnp.sqrt(jnp.sum(mask[:, None] * phi**2, 0) / jnp.sum(mask))
+
+
+def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
+    """Constant-order least squares with offset: a grid in β, then golden-section search in β
+    between the best grid point's neighbours. Returns ``(α, coef, rss, rms of Φ columns)``."""
+    betas = np.linspace(-4.5, 4.5, num_grid)
+
+    def at(beta):
+        alpha, _ = order_of(jnp.asarray(beta), bounds)
+        return _constant_profile(memory, u, y, mask, alpha)
+
+    values = [float(at(b)[0]) for b in betas]
+    i = int(np.nanargmin(values))
+    lo, hi = betas[max(i - 1, 0)], betas[min(i + 1, num_grid - 1)]
+    ratio = (np.sqrt(5.0) - 1) / 2
+    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    fa, fb = float(at(a)[0]), float(at(b)[0])
+    for _ in range(golden_steps):
+        if fa < fb:
+            hi, b, fb = b, a, fa
+            a = hi - ratio * (hi - lo)
+            fa = float(at(a)[0])
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + ratio * (hi - lo)
+            fb = float(at(b)[0])
+    best = a if fa < fb else b
+    if values[i] < min(fa, fb):
+        best = betas[i]
+    rss, coef, rms_phi = at(best)
+    alpha, _ = order_of(jnp.asarray(best), bounds)
+    return float(alpha), np.asarray(coef), float(rss), np.asarray(rms_phi)
+
+
+@dataclasses.dataclass(frozen=True)
+class Tuning:
+    """How the noise intensities were chosen: their values (normalised units), whether each
+    sits at the edge of the search box, and the likelihood."""
+
+    order_drift: float
+    parameter_drift: float
+    noise: float
+    at_edge: tuple[str, ...]
+    log_likelihood: float
+    tuned: bool
+
+
+def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, max_steps=60):
+    """Maximises the linearised innovation likelihood over the three log-intensities."""
+    jac, z = smoothed.jacobian, smoothed.pseudo
+    count = float(jnp.sum(mask))
+    lo = jnp.asarray([BOX[k][0] for k in BOX])
+    hi = jnp.asarray([BOX[k][1] for k in BOX])
+
+    def loss(zeta, _):
+        # box by a smooth squashing, so that BFGS works unconstrained
+        x = lo + (hi - lo) * jax.nn.sigmoid(zeta)
+        return -linearised_log_likelihood(Hyper.from_array(x), jac, z, mask, steps, horizon, m0, p0) / count
+
+    x0 = jnp.clip(hyper.as_array(), lo + 1e-3, hi - 1e-3)
+    zeta0 = jnp.log((x0 - lo) / (hi - x0))
+    sol = optx.minimise(
+        loss, optx.BFGS(rtol=1e-7, atol=1e-9), zeta0, max_steps=max_steps, throw=False
+    )
+    zeta = jnp.where(jnp.all(jnp.isfinite(sol.value)), sol.value, zeta0)
+    return Hyper.from_array(lo + (hi - lo) * jax.nn.sigmoid(zeta))
+
+
+def tune(memory, u, y, mask, steps, horizon, m0, p0, nominal, noise0, bounds, rounds=2):
+    """Grid over the drift intensities (noise at the constant fit's level), then alternate
+    likelihood refinement and re-smoothing. Returns ``(Hyper, Smoothed, Tuning)``."""
+    best = None
+    for qo in GRID_ORDER:
+        for qp in GRID_PARAMS:
+            hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (qo, qp, noise0)))
+            sm = iterated_smoother(
+                memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 20
+            )
+            ll = float(sm.log_likelihood)
+            if np.isfinite(ll) and (best is None or ll > best[0]):
+                best = (ll, hyper, sm)
+    if best is None:
+        raise ValueError("the tracker diverged for every starting noise level; check the data.")
+    _, hyper, sm = best
+    for _ in range(rounds):
+        hyper = _refine(hyper, sm, mask, steps, horizon, m0, p0)
+        sm = iterated_smoother(
+            memory, u, y, mask, steps, horizon, hyper, m0, p0, sm.theta, bounds, 60
+        )
+    x = np.asarray(hyper.as_array())
+    edges = tuple(
+        name
+        for name, v in zip(BOX, x)
+        if min(v - BOX[name][0], BOX[name][1] - v) < 0.05 * (BOX[name][1] - BOX[name][0])
+    )
+    tuning = Tuning(*map(float, np.exp(x)), edges, float(sm.log_likelihood), True)
+    return hyper, sm, tuning
+
+
+def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
+    """The online iterated EKF over the whole record in one scan."""
+    tracker = KalmanTracker(
+        memory, hyper, jnp.asarray(horizon), m0, p0, bounds, iterations
+    )
+    return _scan_filter(tracker, u, y, steps, mask)
+
+
+@eqx.filter_jit
+def _scan_filter(tracker, u, y, steps, mask):
+    @jax.checkpoint
+    def body(state, x):
+        return tracker.step(state, *x)
+
+    _, out = lax.scan(body, tracker.init(u.shape[1]), (u, y, steps, mask))
+    return out
+
+
+def prior(alpha_c, coef, num_inputs, bounds):
+    """Prior of θ_0 around the constant-order fit (normalised units)."""
+    m0 = jnp.concatenate([jnp.reshape(beta_of(jnp.asarray(alpha_c), bounds), (1,)), coef])
+    p0 = jnp.diag(jnp.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1)))
+    return m0, p0
+
+
+class TrackResult(eqx.Module):
+    """Everything the tracker estimates, in the user's units (see `identify`)."""
+
+    alpha: jax.Array
+    alpha_std: jax.Array
+    alpha_lower: jax.Array
+    alpha_upper: jax.Array
+    p: jax.Array
+    p_std: jax.Array
+    x0: jax.Array
+    x0_std: jax.Array
+    y_hat: jax.Array
+    y_pred: jax.Array
+    converged: bool = eqx.field(static=True)
+    tuning: Tuning = eqx.field(static=True)
+    constant_order: float = eqx.field(static=True)
+
+
+def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3):
+    """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`; see `identify`."""
+    num, n = u.shape
+    mask = jnp.ones((num,), u.dtype) if mask is None else jnp.asarray(mask, u.dtype)
+    scales = data_scales(u, y, mask)
+    un = u / jnp.asarray(scales.u_scale)
+    yn = (y - scales.y_ref) / scales.y_scale
+    alpha_c, coef, rss, rms_phi = constant_fit(memory, un, yn, mask, bounds)
+    if not np.all(rms_phi > 0):
+        raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
+    # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
+    un = un / jnp.asarray(rms_phi)
+    coef = np.concatenate([coef[:n] * rms_phi, coef[n:]])
+    p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
+    m0, p0 = prior(alpha_c, jnp.asarray(coef), n, bounds)
+    steps = jnp.full((num,), float(dt), u.dtype)
+    horizon = max((num - 1) * float(dt), float(dt))
+    nominal = jnp.tile(m0, (num, 1))
+    dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
+    noise0 = max(rss / dof, 1e-10)
+    if hyper is None:
+        hyper, sm, tuning = tune(
+            memory, un, yn, mask, steps, horizon, m0, p0, nominal, noise0, bounds
+        )
+    else:
+        hyper = Hyper(
+            jnp.log(jnp.asarray(float(hyper["order_drift"]))),
+            jnp.log(jnp.asarray(float(hyper["parameter_drift"]))),
+            jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
+        )
+        sm = iterated_smoother(memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 60)
+        tuning = Tuning(*map(float, np.exp(np.asarray(hyper.as_array()))), (), float(sm.log_likelihood), False)
+    if smooth:
+        theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
+        converged = bool(sm.converged)
+    else:
+        out = run_filter(memory, hyper, un, yn, mask, steps, horizon, m0, p0, bounds, iterations)
+        theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
+        converged = True
+    if y_hat_n is None:
+        y_hat_n = theta[:, -1] + jnp.sum(theta[:, 1 : 1 + n] * sm.phi, axis=1)
+    beta_sd = jnp.sqrt(jnp.maximum(cov[:, 0, 0], 0.0))
+    alpha, dalpha = order_of(theta[:, 0], bounds)
+    scale = jnp.asarray(p_scale)
+    var = jnp.maximum(jnp.diagonal(cov, axis1=1, axis2=2), 0.0)
+    return TrackResult(
+        alpha=alpha,
+        alpha_std=dalpha * beta_sd,
+        alpha_lower=order_of(theta[:, 0] - 2 * beta_sd, bounds)[0],
+        alpha_upper=order_of(theta[:, 0] + 2 * beta_sd, bounds)[0],
+        p=theta[:, 1 : 1 + n] * scale,
+        p_std=jnp.sqrt(var[:, 1 : 1 + n]) * scale,
+        x0=scales.y_ref + scales.y_scale * theta[-1, -1],
+        x0_std=scales.y_scale * jnp.sqrt(var[-1, -1]),
+        y_hat=scales.y_ref + scales.y_scale * y_hat_n,
+        y_pred=scales.y_ref + scales.y_scale * y_pred_n,
+        converged=converged,
+        tuning=tuning,
+        constant_order=alpha_c,
+    )
