@@ -41,7 +41,7 @@ def short_study():
 @pytest.mark.parametrize("memory", ["direct", "exponential"])
 def test_recursion_equals_batch_and_sensitivities(short_study, memory):
     t, u, y, _, _ = short_study
-    res = vojax.identify(u, y, H, gamma=0.05, memory=memory, x0=0.0)
+    res = vojax.identify(u, y, H, gamma=0.05, memory=memory, x0=0.0, r0=np.eye(2))
     alpha = np.asarray(res.alpha)
     assert np.ptp(alpha[50:]) > 1e-3  # a genuinely variable α̂ trajectory
     phi = vojax.fractional_integral(u, alpha, H, memory=memory, order_range=(0.05, 0.95))
@@ -131,7 +131,9 @@ def study():
 def test_study_34_accuracy(study):
     from vojax._study import study_errors
 
-    res = vojax.identify(study["u"], study["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0)
+    res = vojax.identify(
+        study["u"], study["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2)
+    )
     errors = study_errors(study["t"], study["alpha"], study["p"], res)
     assert errors["order_rms_t_gt_50"] <= 0.03
     assert errors["order_rms_t_200_300"] <= 0.01
@@ -150,8 +152,8 @@ def test_exponential_and_direct_identify_alike():
 def test_remark4_initial_output():
     t, u, alpha, p = vojax.study_signals(0.1, 60.0)
     x = np.asarray(vojax.simulate(u, alpha, p, 0.1))
-    a = vojax.identify(u, x, 0.1, x0=0.0)
-    b = vojax.identify(u, x + 7.5, 0.1)  # x0 = y[0] = 7.5
+    a = vojax.identify(u, x, 0.1, gamma=0.01, x0=0.0)
+    b = vojax.identify(u, x + 7.5, 0.1, gamma=0.01)  # x0 = y[0] = 7.5
     assert np.max(np.abs(np.asarray(a.alpha) - np.asarray(b.alpha))) < 1e-12
     assert np.max(np.abs(np.asarray(b.y_hat) - np.asarray(a.y_hat) - 7.5)) < 1e-9
 
@@ -175,7 +177,7 @@ def test_streaming_by_hand_equals_identify(short_study):
     for k in range(n):
         state, out = step(state, jnp.asarray(u[k]), jnp.asarray(y[k]))
         alphas.append(float(out.alpha))
-    res = vojax.identify(u[:n], y[:n], H, gamma=0.02, x0=0.0)
+    res = vojax.identify(u[:n], y[:n], H, gamma=0.02, x0=0.0, r0=np.eye(2))
     assert np.max(np.abs(np.array(alphas) - np.asarray(res.alpha))) < 1e-13
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax._identify import build_law, run_law
+from vojax._identify import auto_r0, build_law, run_law
 
 
 def _scenario(name):
@@ -35,6 +35,7 @@ def _scenario(name):
 
 def _order_error(t, u, y, alpha, dt, gamma, lam):
     u2 = jnp.asarray(u if u.ndim == 2 else u[:, None])
+    r0 = auto_r0(u2, dt, 0.5, "exponential", "trapezoid", 1e-10, (0.05, 0.95))  # as tune_gains
     mask = t > t[-1] / 6
 
     def err(g, lm):
@@ -47,6 +48,7 @@ def _order_error(t, u, y, alpha, dt, gamma, lam):
             alpha_bounds=(0.05, 0.95),
             memory="exponential",
             rule="trapezoid",
+            r0=r0,
         )
         out = run_law(law, u2, jnp.asarray(y - y[0]))
         return jnp.sqrt(jnp.mean(jnp.where(mask, out.alpha - alpha, 0.0) ** 2) / np.mean(mask))

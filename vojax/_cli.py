@@ -28,6 +28,10 @@ def _new_dir(out: str | None) -> Path:
     return path
 
 
+def _rate(text: str):
+    return None if text == "auto" else _gain(text)
+
+
 def _gain(text: str):
     if text == "auto":
         return "auto"
@@ -65,6 +69,7 @@ def demo(args) -> int:
         lam=args.lam,
         gamma=args.gamma,
         alpha0=args.alpha0,
+        r0=np.eye(2),  # the paper's P(0) = I
         memory=args.memory,
         rule=args.rule,
         x0=0.0,
@@ -127,7 +132,13 @@ def _data_options(p, *, many: bool):
     p.add_argument("--model", choices=("springpot", "kelvin-voigt", "linear"), default="springpot")
     p.add_argument("--method", choices=("adaptive", "refit", "both"), default="adaptive")
     p.add_argument("--gamma", type=_gain, default="auto", help="order gain γ or 'auto' (default)")
-    p.add_argument("--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9)")
+    p.add_argument(
+        "--lam",
+        type=_rate,
+        default=None,
+        help="forgetting factor λ in 1/s (default: tuned with γ when --gamma auto, else 0.9); "
+        "a number with --gamma auto tunes γ alone at that λ",
+    )
     p.add_argument("--area", type=float, help="contact area a of eq. (35): σ = F/a")
     p.add_argument("--length", type=float, help="specimen length l of eq. (35): ε = d/l")
     p.add_argument("--group-by", help="column naming the record in a long-format file")

@@ -39,7 +39,7 @@ def tune_gains(
     burn_in: float = 0.1,
     lag: float = 0.1,
     num_gamma: int = 11,
-    num_lam: int = 6,
+    num_lam: int = 8,
     refine_steps: int = 20,
 ) -> Gains:
     """Picks ``(γ, λ)`` by minimising the identifier's lagged output prediction error.

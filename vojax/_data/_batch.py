@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._identify import DEFAULT_BOUNDS, build_law, run_law
+from .._identify import DEFAULT_BOUNDS, PAPER_LAM, auto_r0, build_law, run_law
 from .._io import atomic_path
 from ._pipeline import identify_record, nrmse, regressors, write_outputs
 
@@ -25,14 +25,19 @@ def _sharded(x, mesh):
     return jax.device_put(x, jax.sharding.NamedSharding(mesh, spec))
 
 
-def adaptive_batch(us, ys, dt, gammas, lams, *, alpha0=0.5, mesh=None):
+def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None):
     """The adaptive law on records of equal length at once: ``us`` (B, N, n), ``ys`` (B, N),
-    gains (B,). Returns the law's outputs with a leading batch axis. ``y − y[0]`` is identified
+    gains (B,), ``r0s`` (B, n, n) (default: each record's automatic ``R_0``, as `identify`).
+    Returns the law's outputs with a leading batch axis. ``y − y[0]`` is identified
     (Remark 4), as `identify` does by default."""
+    if r0s is None:
+        r0s = np.stack(
+            [auto_r0(jnp.asarray(u), dt, alpha0, "exponential", "trapezoid", 1e-10, DEFAULT_BOUNDS) for u in us]
+        )
     num = us.shape[1]
     x0 = ys[:, :1]
 
-    def one(u, y, gamma, lam):
+    def one(u, y, gamma, lam, r0):
         law = build_law(
             dt,
             num,
@@ -42,10 +47,11 @@ def adaptive_batch(us, ys, dt, gammas, lams, *, alpha0=0.5, mesh=None):
             alpha_bounds=DEFAULT_BOUNDS,
             memory="exponential",
             rule="trapezoid",
+            r0=r0,
         )
         return run_law(law, u, y)
 
-    args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams)]
+    args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams, r0s)]
     if mesh is not None:
         size = mesh.devices.size
         pad = (-args[0].shape[0]) % size
@@ -103,10 +109,10 @@ def run_batch(
             try:
                 u, y, names, physical = regressors(r, model, area, length)
                 if gamma == "auto":
-                    g = tune_gains(u, y, dt)
+                    g = tune_gains(u, y, dt, lam=lam)
                     gains.append((g.gamma, g.lam))
                 else:
-                    gains.append((float(gamma), float(lam)))
+                    gains.append((float(gamma), PAPER_LAM if lam is None else float(lam)))
                 prepared.append((r, u, y, names, physical))
             except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
                 failed.append((r.source, r.name, str(e).splitlines()[0]))

@@ -43,7 +43,7 @@ def nrmse(y, y_hat):
 
 
 def identify_record(
-    record, *, model="springpot", method="adaptive", gamma="auto", lam=0.9, area=None, length=None
+    record, *, model="springpot", method="adaptive", gamma="auto", lam=None, area=None, length=None
 ):
     """Runs the adaptive law and/or the refit on one record; returns ``(columns, summary)``."""
     from .._identify import identify

@@ -1,0 +1,209 @@
+"""The tracker and the bands: Kalman = dense batch posterior, accuracy with calibrated bands,
+unit invariance, the law's band against Monte Carlo, no silent NaN."""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vojax
+from vojax._tracker import Hyper, KalmanTracker, kalman_filter, rts_smoother
+from vojax._tracker._track import _scan_filter
+
+
+def _batch_posterior(h, z, r, q, m0, p0):
+    """Dense Gaussian conditioning of the whole trajectory θ_0 … θ_{N−1} (written without any
+    recursion): prior θ = m0 + L w with L the cumulative-sum map of the increments."""
+    n, d = h.shape
+    # θ_k = θ_0 + Σ_{j<k} w_j: covariance of the stacked trajectory
+    cov = np.zeros((n * d, n * d))
+    for i in range(n):
+        for k in range(n):
+            c = p0 + np.diag(q[: min(i, k)].sum(axis=0))
+            cov[i * d : (i + 1) * d, k * d : (k + 1) * d] = c
+    mean = np.tile(m0, n)
+    big_h = np.zeros((n, n * d))
+    for k in range(n):
+        big_h[k, k * d : (k + 1) * d] = h[k]
+    s = big_h @ cov @ big_h.T + r * np.eye(n)
+    gain = cov @ big_h.T @ np.linalg.inv(s)
+    post_mean = mean + gain @ (z - big_h @ mean)
+    post_cov = cov - gain @ big_h @ cov
+    e = z - big_h @ mean
+    _, logdet = np.linalg.slogdet(s)
+    loglik = -0.5 * (n * np.log(2 * np.pi) + logdet + e @ np.linalg.solve(s, e))
+    means = post_mean.reshape(n, d)
+    covs = np.stack([post_cov[k * d : (k + 1) * d, k * d : (k + 1) * d] for k in range(n)])
+    return means, covs, loglik
+
+
+def test_kalman_and_rts_equal_the_dense_posterior():
+    rng = np.random.default_rng(3)
+    n, d = 25, 3
+    h = rng.standard_normal((n, d))
+    z = rng.standard_normal(n)
+    q = np.abs(rng.standard_normal((n, d))) * 0.1
+    q[:, -1] = 0.0  # a constant component, as the tracker's offset
+    m0 = rng.standard_normal(d)
+    a = rng.standard_normal((d, d))
+    p0 = a @ a.T + np.eye(d)
+    r = 0.3
+    filt = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)))
+    ms, ps = rts_smoother(filt, jnp.asarray(q))
+    means, covs, loglik = _batch_posterior(h, z, r, q, m0, p0)
+    np.testing.assert_allclose(ms, means, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(ps, covs, rtol=0, atol=1e-11)
+    # the innovation likelihood is the batch Gaussian likelihood of all the measurements
+    assert float(filt.log_likelihood) == pytest.approx(loglik, rel=1e-12)
+    # the filtered mean at k is the batch posterior given z_0 … z_k
+    k = 11
+    mk, _, _ = _batch_posterior(h[: k + 1], z[: k + 1], r, q[: k + 1], m0, p0)
+    np.testing.assert_allclose(filt.mean[k], mk[-1], atol=1e-11)
+    # a masked sample is skipped: the same as leaving it out of the record
+    mask = np.ones(n)
+    mask[5] = 0.0
+    fm = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0, mask)))
+    keep = np.arange(n) != 5
+    q_drop = q.copy()
+    q_drop[4] += q[5]  # the two steps around the dropped sample merge
+    ref = kalman_filter(*(jnp.asarray(x) for x in (h[keep], z[keep], r, q_drop[keep], m0, p0)))
+    np.testing.assert_allclose(fm.mean[-1], ref.mean[-1], atol=1e-11)
+    assert float(fm.log_likelihood) == pytest.approx(float(ref.log_likelihood), rel=1e-12)
+
+
+def _ramp_case(n=1500, dt=0.1, noise=0.02, seed=0):
+    t = np.arange(n) * dt
+    u = np.stack([np.sin(0.5 * t) + 0.3, np.cos(0.2 * t)], axis=1)
+    alpha = 0.3 + 0.4 * t / t[-1]
+    p = np.array([2.0, -1.5])
+    x = np.asarray(vojax.simulate(u, alpha, p, dt)) + 0.7
+    y = x + noise * np.std(x) * np.random.default_rng(seed).standard_normal(n)
+    return t, u, y, alpha, p, dt
+
+
+@pytest.fixture(scope="module")
+def ramp():
+    return _ramp_case()
+
+
+@pytest.fixture(scope="module")
+def smoothed(ramp):
+    t, u, y, *_, dt = ramp
+    return vojax.identify(u, y, dt, method="kalman")
+
+
+def test_smoother_tracks_a_ramp_with_calibrated_bands(ramp, smoothed):
+    t, u, y, alpha, p, dt = ramp
+    res = smoothed
+    err = np.asarray(res.alpha) - alpha
+    second = t > t[-1] / 2
+    assert np.sqrt(np.mean(err[second] ** 2)) < 0.004
+    assert np.sqrt(np.mean(err**2)) < 0.015
+    inside = (alpha >= np.asarray(res.alpha_lower)) & (alpha <= np.asarray(res.alpha_upper))
+    assert 0.8 <= inside.mean() <= 1.0
+    # constant truth: the parameters and the offset lie within 3 standard deviations
+    z = (np.asarray(res.p[-1]) - p) / np.asarray(res.p_std[-1])
+    assert np.all(np.abs(z) < 3), z
+    assert abs(float(res.x0) - 0.7) < 3 * float(res.x0_std)
+    assert res.diagnostics.converged and res.diagnostics.identified
+    assert res.dp is None and res.method == "kalman"
+
+
+def test_filter_scan_equals_streaming_by_hand(ramp):
+    t, u, y, *_ = ramp
+    n = 60
+    mem = vojax.ExponentialMemory.design(0.1, n, order_range=(0.01, 0.99))
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.1, 1e-4, 1e-3)))
+    m0 = jnp.asarray([0.0, 1.0, -1.0, 0.5])
+    tracker = KalmanTracker(mem, hyper, jnp.asarray(6.0), m0, 4.0 * jnp.eye(4), (0.01, 0.99), 3)
+    un, yn = jnp.asarray(u[:n]), jnp.asarray((y[:n] - y.mean()) / y.std())
+    steps = jnp.full((n,), 0.1)
+    out = _scan_filter(tracker, un, yn, steps, jnp.ones(n))
+    state, step = tracker.init(2), eqx.filter_jit(tracker.step)
+    for k in range(n):
+        state, o = step(state, un[k], yn[k], steps[k], 1.0)
+    np.testing.assert_allclose(out.mean[-1], o.mean, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out.cov[-1], o.cov, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("method", ["gradient", "kalman"])
+def test_automatic_settings_are_unit_free(ramp, smoothed, method):
+    t, u, y, *_, dt = ramp
+    a = smoothed if method == "kalman" else vojax.identify(u, y, dt)
+    for cu, cy in ((1e3, 1e-3), (1e-3, 1e3)):
+        b = vojax.identify(u * cu, y * cy, dt, method=method)
+        assert np.max(np.abs(np.asarray(b.alpha) - np.asarray(a.alpha))) < 1e-6
+        np.testing.assert_allclose(np.asarray(b.p)[5:], np.asarray(a.p)[5:] * cy / cu, rtol=1e-6)
+        np.testing.assert_allclose(b.alpha_std, a.alpha_std, rtol=1e-5, atol=1e-9)
+    # numbers the user gives are literal: the same gains in other units give another answer
+    c = vojax.identify(u, y, dt, gamma=0.01, lam=0.9, method="gradient")
+    d = vojax.identify(u * 1e3, y, dt, gamma=0.01, lam=0.9, method="gradient", r0=np.eye(2))
+    e = vojax.identify(u, y, dt, gamma=0.01, lam=0.9, method="gradient", r0=np.eye(2))
+    assert np.max(np.abs(np.asarray(d.alpha) - np.asarray(e.alpha))) > 1e-3
+    assert np.max(np.abs(np.asarray(c.alpha) - np.asarray(e.alpha))) > 0  # R0 = auto ≠ I
+
+
+def test_law_band_matches_monte_carlo():
+    """The law's alpha_std against the spread of α̂ over 30 noise realisations."""
+    t, u, _, alpha, p, dt = _ramp_case()
+    x = np.asarray(vojax.simulate(u, alpha, p, dt))
+    sd = 0.05 * np.std(x)
+    alphas, stds = [], []
+    for seed in range(30):
+        y = x + sd * np.random.default_rng(100 + seed).standard_normal(x.shape)
+        res = vojax.identify(u, y, dt, gamma=0.01, lam=0.9, x0=0.0)
+        alphas.append(np.asarray(res.alpha))
+        stds.append(np.asarray(res.alpha_std))
+    half = slice(t.size // 2, None)
+    ratio = np.median(np.std(alphas, axis=0)[half] / np.mean(stds, axis=0)[half])
+    assert 0.7 <= ratio <= 1.4, ratio
+
+
+def test_noise_variance_estimate():
+    from vojax._identify import noise_variance
+
+    t = np.linspace(0, 10, 4000)
+    y = np.sin(t) + 0.3 * np.random.default_rng(0).standard_normal(t.size)
+    assert noise_variance(y) == pytest.approx(0.09, rel=0.08)
+
+
+def test_no_silent_nan():
+    t = np.arange(400) * 60.0
+    u = np.stack([np.sin(1e-4 * t) + 1.0, np.cos(2e-4 * t)], axis=1)  # two slow inputs
+    y = np.asarray(vojax.simulate(u, 0.5, np.array([1.0, 0.5]), 60.0))
+    with pytest.raises(ValueError, match="diverged at sample"):
+        vojax.identify(u, y, 60.0, gamma=0.01, lam=0.9, r0=np.eye(2))
+    # the automatic prior scales with the inputs: no breakdown at any input scale
+    for scale in (1.0, 1e11, 1e-11):
+        res = vojax.identify(u * scale, y, 1.0, gamma=0.01, lam=0.01)
+        assert np.all(np.isfinite(res.alpha)) and np.all(np.isfinite(res.p))
+
+
+def test_wide_band_warns():
+    t, u, y, *_ = _ramp_case(n=60, noise=0.5, seed=1)
+    with pytest.warns(vojax.IdentifiabilityWarning, match="do not determine the order"):
+        res = vojax.identify(u[:, :1], y, 0.1, method="kalman")
+    assert not res.diagnostics.identified
+    assert res.diagnostics.band_halfwidth > 0.1
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(method="ekf"), "`method` must be one of"),
+        (dict(method="kalman", x0=0.0), "`x0` is estimated"),
+        (dict(method="kalman", noise=dict(order_drift=1.0)), "`noise` must be a dict"),
+        (dict(lam="auto"), "`lam` must be a positive number or None"),
+        (dict(r0="eye"), "`r0` must be 'auto'"),
+    ],
+)
+def test_identify_kalman_validation(ramp, kwargs, match):
+    t, u, y, *_, dt = ramp
+    with pytest.raises(ValueError, match=match):
+        vojax.identify(u, y, dt, **kwargs)
+
+
+def test_constant_output_is_refused(ramp):
+    t, u, y, *_, dt = ramp
+    with pytest.raises(ValueError, match="`y` is constant"):
+        vojax.identify(u, np.ones_like(y), dt, method="kalman")
