@@ -95,7 +95,7 @@ def test_npz_records(tmp_path):
     assert rec.name == "r" and rec.inputs.shape == (50, 1) and rec.dt == pytest.approx(DT)
 
 
-@pytest.mark.parametrize("method", ["adaptive", "refit", "both"])
+@pytest.mark.parametrize("method", ["adaptive", "kalman", "refit", "both"])
 def test_cli_identify_end_to_end(tmp_path, method):
     _springpot_csv(tmp_path / "test.csv")
     proc = _cli(
@@ -119,18 +119,30 @@ def test_cli_identify_end_to_end(tmp_path, method):
     out = tmp_path / "out"
     with open(out / "identification.csv") as f:
         rows = list(csv.reader(f))
-    expected = ["time"] + (["alpha", "eta"] if method != "refit" else []) + ["y"]
+    band = ["alpha", "alpha_lower", "alpha_upper", "eta"]
+    expected = ["time"] + (band if method != "refit" else []) + ["y"]
     expected += ["y_hat"] if method != "refit" else []
-    expected += ["refit_alpha", "refit_y_hat"] if method != "adaptive" else []
+    expected += ["refit_alpha", "refit_y_hat"] if method in ("refit", "both") else []
     assert rows[0] == expected and len(rows) == 151
     values = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
     assert np.all(np.isfinite(values[1:]))  # η is undefined (empty) only at sample 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["samples"] == 150 and summary["model"] == "springpot"
-    if method != "adaptive":
-        assert summary["refit"]["converged"]
-        assert abs(summary["refit"]["order"] - 0.35) < 1e-6
-        assert abs(summary["refit"]["parameters"]["eta"] - 4.0) < 1e-5
+    if method in ("refit", "both"):
+        r = summary["refit"]
+        assert r["converged"] and not r["at_bound"]
+        assert abs(r["order"] - 0.35) < 1e-6
+        assert abs(r["parameters"]["eta"] - 4.0) < 1e-5
+        assert r["order_lower"] < r["order"] < r["order_upper"]
+        assert abs(r["x0"]) < 1e-6  # noise-free, starts at 0
+        # η = 1/p: its error by the delta method is p's relative error times η
+        rel = r["p_stderr"][0] / r["p"][0]
+        assert r["parameters_stderr"]["eta"] == pytest.approx(rel * r["parameters"]["eta"], rel=1e-9)
+    if method == "kalman":
+        a = summary["adaptive"]
+        assert a["method"] == "kalman" and a["converged"]
+        assert abs(a["alpha_final"] - 0.35) < max(3 * a["alpha_final_std"], 1e-3)
+        assert abs(a["parameters_final"]["eta"] - 4.0) < 0.05
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
 
 

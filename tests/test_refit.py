@@ -82,3 +82,32 @@ def test_lbfgsb_second_opinion_agrees(order):
         np.max(np.abs(np.asarray(beta) - np.asarray(lm.order)) / np.asarray(lm.order_stderr)) < 0.1
     )
     assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1
+
+
+def test_refit_intervals_cover_and_offset_is_estimated():
+    """20 noise seeds of a white-noise-driven record: the ±2σ interval (95 %) of the order,
+    of p and of the estimated offset cover the truth in ≥ 17 of 20."""
+    n, dt = 600, 0.05
+    rng = np.random.default_rng(7)
+    u = rng.standard_normal(n)
+    x = np.asarray(vojax.simulate(u, 0.45, np.array([1.3]), dt)) + 2.0
+    hits = np.zeros(3, int)
+    for seed in range(20):
+        y = x + 0.05 * np.std(x) * np.random.default_rng(seed).standard_normal(n)
+        fit = vojax.refit(u, y, dt)
+        hits[0] += float(fit.order_lower[0]) <= 0.45 <= float(fit.order_upper[0])
+        hits[1] += abs(float(fit.p[0]) - 1.3) <= 2 * float(fit.p_stderr[0])
+        hits[2] += abs(float(fit.x0) - 2.0) <= 2 * float(fit.x0_stderr)
+        assert not fit.at_bound
+    assert np.all(hits >= 17), hits
+
+
+def test_refit_knots_avoid_t0_and_flag_bounds():
+    n, dt = 400, 0.05
+    u = np.random.default_rng(2).standard_normal(n)
+    x = np.asarray(vojax.simulate(u, 0.02, np.array([1.0]), dt))
+    fit = vojax.refit(u, x, dt, order=3, order_bounds=(0.05, 0.95))
+    assert float(fit.knot_times[0]) > 0.0
+    np.testing.assert_allclose(fit.knot_times, (np.arange(3) + 0.5) / 3 * (n - 1) * dt)
+    assert fit.at_bound  # the truth 0.02 lies below the range: the fit sits on the bound
+    assert np.all(np.asarray(fit.order_lower) >= 0.05)

@@ -130,7 +130,14 @@ def _data_options(p, *, many: bool):
     p.add_argument("--output", required=True, help="output column (strain or displacement)")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--model", choices=("springpot", "kelvin-voigt", "linear"), default="springpot")
-    p.add_argument("--method", choices=("adaptive", "refit", "both"), default="adaptive")
+    p.add_argument(
+        "--method",
+        choices=("adaptive", "kalman", "refit", "both"),
+        default="adaptive",
+        help="adaptive: the paper's law (default); kalman: the Bayesian tracker (smoother, "
+        "offset estimated, likelihood-tuned); refit: constant-order least squares; both: "
+        "adaptive and refit",
+    )
     p.add_argument("--gamma", type=_gain, default="auto", help="order gain γ or 'auto' (default)")
     p.add_argument(
         "--lam",
@@ -197,12 +204,17 @@ def identify_command(args) -> int:
         if "adaptive" in summary:
             a = summary["adaptive"]
             parts.append(
-                f"adaptive q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}], NRMSE {a['nrmse']:.3g}"
+                f"{a['method']} q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}] "
+                f"(band ±{a['band_halfwidth']:.2g}), NRMSE {a['nrmse']:.3g}"
             )
+            if a["message"]:
+                print(f"vojax: warning: {record.name}: {a['message']}.", file=sys.stderr)
         if "refit" in summary:
             r = summary["refit"]
+            flag = " (at a bound: the interval is not meaningful)" if r["at_bound"] else ""
             parts.append(
-                f"refit q = {r['order']:.4f} ± {r['order_stderr']:.1g}, NRMSE {r['nrmse']:.3g}"
+                f"refit q = {r['order']:.4f} [{r['order_lower']:.4f}, {r['order_upper']:.4f}]"
+                f"{flag}, NRMSE {r['nrmse']:.3g}"
             )
         print("; ".join(parts) + f" → {target}/")
     return 0

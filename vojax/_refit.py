@@ -15,8 +15,14 @@ from ._integral import make_memory, scan_memory
 class Refit(eqx.Module):
     """What `refit` returns.
 
-    - `order` (N,): the fitted order trajectory; `order_stderr` (N,): its standard error.
-    - `p` (n,), `p_stderr` (n,): the fitted parameters and their standard errors.
+    - `order` (N,): the fitted order trajectory; `order_stderr` (N,): its standard error (delta
+      method); `order_lower`, `order_upper` (N,): the ±2σ Wald interval taken on the unbounded
+      (logistic) scale and mapped back, so it stays inside the bounds and keeps its meaning
+      near them; `at_bound`: a knot lies within 0.1 % of the range of a bound (then the interval
+      is one-sided in effect and the standard error small by construction: do not trust it).
+    - `p` (n,), `p_stderr` (n,), `p_cov` (n, n): the fitted parameters, their standard errors
+      and covariance.
+    - `x0`, `x0_stderr`: the output offset, estimated unless given (then its error is 0).
     - `knots` (K,), `knot_times` (K,): the fitted orders at the knots (K = 1: constant).
     - `y_hat` (N,), `residuals` (N,) = y − y_hat, `sigma`: residual standard deviation.
     - `result`: optimistix's result code (`optx.RESULTS.successful` when it converged),
@@ -25,8 +31,13 @@ class Refit(eqx.Module):
 
     order: Float[Array, " N"]
     order_stderr: Float[Array, " N"]
+    order_lower: Float[Array, " N"]
+    order_upper: Float[Array, " N"]
     p: Float[Array, " n"]
     p_stderr: Float[Array, " n"]
+    p_cov: Float[Array, "n n"]
+    x0: Float[Array, ""]
+    x0_stderr: Float[Array, ""]
     knots: Float[Array, " K"]
     knot_times: Float[Array, " K"]
     y_hat: Float[Array, " N"]
@@ -34,16 +45,27 @@ class Refit(eqx.Module):
     sigma: Float[Array, ""]
     result: optx.RESULTS
     steps: Array
+    at_bound: bool = eqx.field(static=True, default=False)
+
+
+def _knot_places(num_knots):
+    """Knots at the centres of K equal parts of the record (as fractions of its length): none at
+    t = 0, where Φ = 0 says nothing about the order."""
+    return (jnp.arange(num_knots, dtype=jnp.result_type(float)) + 0.5) / num_knots
+
+
+def _raw_curve(raw, num):
+    """The unbounded order at every sample: linear between knots, constant beyond the end ones."""
+    grid = jnp.linspace(0.0, 1.0, num)
+    if raw.shape[0] == 1:
+        return jnp.full((num,), raw[0])
+    return jnp.interp(grid, _knot_places(raw.shape[0]), raw)
 
 
 def _order_curve(raw, num, bounds):
-    """Order at every sample: knot values ``bounds[0] + (hi−lo)·sigmoid(raw)``, interpolated
-    linearly in the raw (unbounded) variable between knots spread evenly over the record."""
+    """Order at every sample: ``bounds[0] + (hi−lo)·sigmoid(curve)`` of `_raw_curve`."""
     lo, hi = bounds
-    grid = jnp.linspace(0.0, 1.0, num)
-    where = jnp.linspace(0.0, 1.0, raw.shape[0]) if raw.shape[0] > 1 else None
-    curve = jnp.interp(grid, where, raw) if where is not None else jnp.full((num,), raw[0])
-    return lo + (hi - lo) * jax.nn.sigmoid(curve)
+    return lo + (hi - lo) * jax.nn.sigmoid(_raw_curve(raw, num))
 
 
 def refit(
@@ -54,7 +76,7 @@ def refit(
     order="constant",
     order_bounds=(0.01, 0.99),
     order0=0.5,
-    x0=None,
+    x0="estimate",
     memory: str = "exponential",
     rule: str = "trapezoid",
     rtol: float = 1e-10,
@@ -62,7 +84,10 @@ def refit(
     max_steps: int = 200,
     throw: bool = False,
 ) -> Refit:
-    """Fits ``y − x0 = pᵀ φ(β, t)`` over the whole record by Levenberg–Marquardt.
+    """Fits ``y = x0 + pᵀ φ(β, t)`` over the whole record by Levenberg–Marquardt.
+
+    The offset ``x0 = x(0)`` is estimated with the rest (``x0="estimate"``, the default), taken
+    as ``y[0]`` (``None``) or fixed (a number).
 
     The order is a constant (``order="constant"``), a smooth curve through ``K`` knots spread
     evenly over the record (``order=K``, K ≥ 2; linear in a logit variable, so it stays inside
@@ -74,9 +99,14 @@ def refit(
     **Returns:** a `Refit`.
     """
     bounds = check.interval(order_bounds, "order_bounds")
-    u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)
+    estimate = isinstance(x0, str)
+    if estimate and x0 != "estimate":
+        raise ValueError(f"`x0` must be 'estimate', None (y[0]) or a number, got {x0!r}.")
+    u2, y, _, x0, _ = check_options(
+        u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None
+    )
     num, width = u2.shape
-    big_y = y - x0
+    big_y = y - x0  # with an estimated offset, x0 = y[0] + the fitted correction
     mem = make_memory(memory, dt, num, rule=rule, order_range=bounds)
 
     if isinstance(order, str):
@@ -94,19 +124,22 @@ def refit(
     else:
         fixed = check.order(order, num, bounds=bounds, closed=True)
         phi = scan_memory(mem, u2, fixed, False)
-        return _linear(phi, big_y, fixed, x0, width)
+        return _linear(phi, big_y, fixed, x0, width, estimate)
 
     lo, hi = bounds
     z0 = (order0 - lo) / (hi - lo)
     raw0 = jnp.full((num_knots,), jnp.log(z0 / (1 - z0)))
 
+    def design(phi):  # regressors of the linear part: Φ and, for an estimated offset, 1
+        return jnp.concatenate([phi, jnp.ones((num, 1), phi.dtype)], 1) if estimate else phi
+
     def model(theta):
         raw, p = theta[:num_knots], theta[num_knots:]
         beta = _order_curve(raw, num, bounds)
-        return scan_memory(mem, u2, beta, False) @ p
+        return design(scan_memory(mem, u2, beta, False)) @ p
 
     # a start for p: linear least squares at the initial order
-    phi0 = scan_memory(mem, u2, _order_curve(raw0, num, bounds), False)
+    phi0 = design(scan_memory(mem, u2, _order_curve(raw0, num, bounds), False))
     p0 = jnp.linalg.lstsq(phi0, big_y)[0]
     theta0 = jnp.concatenate([raw0, p0])
     sol = optx.least_squares(
@@ -123,46 +156,59 @@ def refit(
     dof = max(num - theta.size, 1)
     sigma2 = jnp.sum(residuals**2) / dof
     cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)
-    beta_of = lambda th: _order_curve(th[:num_knots], num, bounds)  # noqa: E731
-    gb = jax.jacfwd(beta_of)(theta)
-    order_var = jnp.einsum("ni,ij,nj->n", gb, cov, gb)
-    knot_times = (
-        jnp.linspace(0.0, (num - 1) * float(dt), num_knots) if num_knots > 1 else jnp.zeros(1)
-    )
-    knot_idx = (
-        jnp.round(jnp.linspace(0, num - 1, num_knots)).astype(int)
-        if num_knots > 1
-        else jnp.zeros(1, int)
-    )
-    beta = beta_of(theta)
+    raw_of = lambda th: _raw_curve(th[:num_knots], num)  # noqa: E731
+    graw = jax.jacfwd(raw_of)(theta)
+    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, cov, graw), 0.0))
+    raw = raw_of(theta)
+    beta = _order_curve(theta[:num_knots], num, bounds)
+    slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
+    places = _knot_places(num_knots) if num_knots > 1 else jnp.zeros(1)
+    knot_idx = jnp.round(places * (num - 1)).astype(int)
+    knots = lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots])
+    margin = 1e-3 * (hi - lo)
+    pc = cov[num_knots : num_knots + width, num_knots : num_knots + width]
     return Refit(
         order=beta,
-        order_stderr=jnp.sqrt(jnp.maximum(order_var, 0.0)),
-        p=theta[num_knots:],
-        p_stderr=jnp.sqrt(jnp.maximum(jnp.diag(cov)[num_knots:], 0.0)),
-        knots=beta[knot_idx],
-        knot_times=knot_times,
+        order_stderr=slope * raw_sd,
+        order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
+        order_upper=lo + (hi - lo) * jax.nn.sigmoid(raw + 2 * raw_sd),
+        p=theta[num_knots : num_knots + width],
+        p_stderr=jnp.sqrt(jnp.maximum(jnp.diag(pc), 0.0)),
+        p_cov=pc,
+        x0=x0 + (theta[-1] if estimate else 0.0),
+        x0_stderr=jnp.sqrt(jnp.maximum(cov[-1, -1], 0.0)) if estimate else jnp.zeros(()),
+        knots=knots,
+        knot_times=places * (num - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
         y_hat=fit + x0,
         residuals=residuals,
         sigma=jnp.sqrt(sigma2),
         result=sol.result,
         steps=sol.stats["num_steps"],
+        at_bound=bool(jnp.any((knots < lo + margin) | (knots > hi - margin))),
     )
 
 
-def _linear(phi, big_y, fixed, x0, width):
-    """With the order fixed the model is linear in p: ordinary least squares."""
+def _linear(phi, big_y, fixed, x0, width, estimate):
+    """With the order fixed the model is linear in p (and the offset): ordinary least squares."""
+    if estimate:
+        phi = jnp.concatenate([phi, jnp.ones((phi.shape[0], 1), phi.dtype)], 1)
     p, *_ = jnp.linalg.lstsq(phi, big_y)
     fit = phi @ p
     residuals = big_y - fit
-    dof = max(phi.shape[0] - width, 1)
+    dof = max(phi.shape[0] - phi.shape[1], 1)
     sigma2 = jnp.sum(residuals**2) / dof
     cov = sigma2 * jnp.linalg.pinv(phi.T @ phi)
+    zero = jnp.zeros_like(fixed)
     return Refit(
         order=fixed,
-        order_stderr=jnp.zeros_like(fixed),
-        p=p,
-        p_stderr=jnp.sqrt(jnp.diag(cov)),
+        order_stderr=zero,
+        order_lower=fixed,
+        order_upper=fixed,
+        p=p[:width],
+        p_stderr=jnp.sqrt(jnp.diag(cov)[:width]),
+        p_cov=cov[:width, :width],
+        x0=x0 + (p[-1] if estimate else 0.0),
+        x0_stderr=jnp.sqrt(cov[-1, -1]) if estimate else jnp.zeros(()),
         knots=fixed[:0],
         knot_times=fixed[:0],
         y_hat=fit + x0,

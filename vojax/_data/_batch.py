@@ -108,7 +108,7 @@ def run_batch(
         for r in group:
             try:
                 u, y, names, physical = regressors(r, model, area, length)
-                if gamma == "auto":
+                if gamma == "auto" and method in ("adaptive", "both"):
                     g = tune_gains(u, y, dt, lam=lam)
                     gains.append((g.gamma, g.lam))
                 else:
@@ -138,9 +138,9 @@ def run_batch(
                         columns["refit_alpha"] = refit_cols["refit_alpha"]
                         columns["refit_y_hat"] = refit_cols["refit_y_hat"]
                         summary["refit"] = refit_summary["refit"]
-                else:
+                else:  # "refit" or "kalman": one record at a time
                     columns, summary = identify_record(
-                        r, model=model, method="refit", area=area, length=length
+                        r, model=model, method=method, area=area, length=length
                     )
                 if not np.all(
                     np.isfinite(columns["y_hat" if "y_hat" in columns else "refit_y_hat"])

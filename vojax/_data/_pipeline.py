@@ -1,6 +1,7 @@
 """Identify one recorded test and write its outputs (CSV, JSON, PNG), atomically."""
 
 import csv
+import dataclasses
 import io
 
 import numpy as np
@@ -34,6 +35,24 @@ def regressors(record, model: str, area=None, length=None):
     return np.asarray(u), strain, list(law.names), lambda p: law.parameters(p)
 
 
+def diagnostics_dict(d):
+    """The `Diagnostics` of an identification as JSON-ready values."""
+    out = dataclasses.asdict(d)
+    out["at_edge"] = list(out["at_edge"])
+    return out
+
+
+def physical_stderr(physical, p, cov):
+    """Standard errors of the physical parameters by the delta method through `physical`."""
+    import jax
+    import jax.numpy as jnp
+
+    names = list(physical(p))
+    jac = jax.jacfwd(lambda q: jnp.stack([physical(q)[k] for k in names]))(jnp.asarray(p))
+    var = np.einsum("ij,jk,ik->i", np.asarray(jac), cov, np.asarray(jac))
+    return {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, var)}
+
+
 def nrmse(y, y_hat):
     """Root-mean-square error normalised by the range of ``y``."""
     span = float(np.ptp(y))
@@ -64,24 +83,37 @@ def identify_record(
         "area": area,
         "length": length,
     }
-    if method in ("adaptive", "both"):
-        res = identify(u, y, record.dt, gamma=gamma, lam=lam)
+    if method in ("adaptive", "both", "kalman"):
+        if method == "kalman":
+            res = identify(u, y, record.dt, method="kalman", warn=False)
+        else:
+            res = identify(u, y, record.dt, gamma=gamma, lam=lam, warn=False)
         alpha = np.asarray(res.alpha)
         params = {k: np.asarray(v) for k, v in physical(np.asarray(res.p)).items()}
         columns["alpha"] = alpha
+        columns["alpha_lower"] = np.asarray(res.alpha_lower)
+        columns["alpha_upper"] = np.asarray(res.alpha_upper)
         columns.update(params)
-        summary["adaptive"] = {
-            "gamma": float(res.gamma),
-            "lam": float(res.lam),
+        part = {
+            "method": res.method,
             "nrmse": nrmse(y, res.y_hat),
             "alpha_min": float(alpha.min()),
             "alpha_max": float(alpha.max()),
             "alpha_mean": float(alpha.mean()),
             "alpha_final": float(alpha[-1]),
+            "alpha_final_std": float(res.alpha_std[-1]),
             "parameters_final": {k: float(v[-1]) for k, v in params.items()},
+            "x0": float(res.x0),
+            "x0_std": float(res.x0_std),
+            **diagnostics_dict(res.diagnostics),
         }
+        if res.method == "gradient":
+            part.update(gamma=float(res.gamma), lam=float(res.lam))
+        else:
+            part.update(tuning=dataclasses.asdict(res.tuning))
+        summary["adaptive"] = part
     columns["y"] = y
-    if method in ("adaptive", "both"):
+    if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
     if method in ("refit", "both"):
         fit = refit(u, y, record.dt)
@@ -92,9 +124,15 @@ def identify_record(
         summary["refit"] = {
             "order": float(fit.order[0]),
             "order_stderr": float(fit.order_stderr[0]),
+            "order_lower": float(fit.order_lower[0]),
+            "order_upper": float(fit.order_upper[0]),
+            "at_bound": bool(fit.at_bound),
             "p": p.tolist(),
             "p_stderr": np.asarray(fit.p_stderr).tolist(),
             "parameters": phys,
+            "parameters_stderr": physical_stderr(physical, p, np.asarray(fit.p_cov)),
+            "x0": float(fit.x0),
+            "x0_stderr": float(fit.x0_stderr),
             "nrmse": nrmse(y, fit.y_hat),
             "converged": bool(fit.result == optx.RESULTS.successful),
         }
