@@ -41,9 +41,12 @@ def law_covariance(law, u, big_y, sigma2):
     def body(carry, x):
         flat, memory, cov = carry
         u_k, y_k = x
-        f = lambda v, yy: one(v, memory, u_k, yy)[1][:2]  # noqa: E731
-        (jv_state, jy_state), (jv_p, jy_p) = jax.jacfwd(f, argnums=(0, 1))(flat, y_k)
-        _, (flat_new, _, memory_new) = one(flat, memory, u_k, y_k)
+        def f(v, yy):  # the outputs to differentiate, and the step's primal results as aux
+            _, (flat_new, p, memory_new) = one(v, memory, u_k, yy)
+            return (flat_new, p), (flat_new, memory_new)
+
+        jacobians, (flat_new, memory_new) = jax.jacfwd(f, argnums=(0, 1), has_aux=True)(flat, y_k)
+        (jv_state, jy_state), (jv_p, jy_p) = jacobians
         cov_new = jv_state @ cov @ jv_state.T + sigma2 * jnp.outer(jy_state, jy_state)
         var_p = jnp.einsum("ij,jk,ik->i", jv_p, cov, jv_p) + sigma2 * jy_p**2
         # α̂_k (the order used at sample k) is part of the state before the step

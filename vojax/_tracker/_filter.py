@@ -61,11 +61,11 @@ class KalmanTracker(eqx.Module):
             h0, jac = linearise(theta, phi, dphi, self.bounds)
             return h0, jac
 
-        h0, jac = linear_at(prior_mean)
-        y_pred = h0
         theta = prior_mean
-        for _ in range(self.iterations):
+        for i in range(self.iterations):
             h0, jac = linear_at(theta)
+            if i == 0:
+                y_pred = h0  # the prediction before y_k is used
             z = y_k - h0 + jnp.dot(jac, theta)
             mean, cov, *_ = update(prior_mean, prior_cov, jac, z, r, mask_k)
             theta = mean
