@@ -88,15 +88,19 @@ def test_sharded_batch_equals_single_device():
         us, ys = np.stack(us), np.stack(ys)
         g, lam = np.full(5, 0.05), np.full(5, 0.9)
         mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
-        a, _ = adaptive_batch(us, ys, dt, g, lam, mesh=mesh)
-        b, _ = adaptive_batch(us, ys, dt, g, lam, mesh=None)
-        single = vojax.identify(us[2], ys[2], dt, gamma=0.05)
+        (a, va, _), _ = adaptive_batch(us, ys, dt, g, lam, mesh=mesh)
+        (b, vb, _), _ = adaptive_batch(us, ys, dt, g, lam, mesh=None)
+        single = vojax.identify(us[2], ys[2], dt, gamma=0.05, lam=0.9, warn=False)
         print(np.max(np.abs(a.alpha - b.alpha)), np.max(np.abs(a.p - b.p)),
-              np.max(np.abs(b.alpha[2] - np.asarray(single.alpha))))
+              np.max(np.abs(b.alpha[2] - np.asarray(single.alpha))),
+              np.max(np.abs(np.sqrt(vb[2]) - np.asarray(single.alpha_std))) / np.max(np.asarray(single.alpha_std)),
+              np.max(np.abs(va - vb)) / np.max(vb))
         """
     )
     env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4")
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env)
     assert proc.returncode == 0, proc.stderr
-    d_alpha, d_p, d_single = map(float, proc.stdout.split())
+    d_alpha, d_p, d_single, d_band, d_band_sharded = map(float, proc.stdout.split())
     assert d_alpha < 1e-12 and d_p < 1e-10 and d_single < 1e-12
+    # the batch's band is identify's band, sharded or not
+    assert d_band < 1e-9 and d_band_sharded < 1e-9

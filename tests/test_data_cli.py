@@ -122,7 +122,8 @@ def test_cli_identify_end_to_end(tmp_path, method):
     band = ["alpha", "alpha_lower", "alpha_upper", "eta"]
     expected = ["time"] + (band if method != "refit" else []) + ["y"]
     expected += ["y_hat"] if method != "refit" else []
-    expected += ["refit_alpha", "refit_y_hat"] if method in ("refit", "both") else []
+    if method in ("refit", "both"):
+        expected += ["refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"]
     assert rows[0] == expected and len(rows) == 151
     values = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
     assert np.all(np.isfinite(values[1:]))  # η is undefined (empty) only at sample 0

@@ -48,3 +48,17 @@ def test_kelvin_voigt_refit_recovers_eta_k_q():
     assert abs(float(phys["eta"]) - eta) < 1e-5 * eta
     assert abs(float(phys["k"]) - k) < 1e-5 * k
     assert model.parameters(model.regression(eta=eta, k=k))["k"] == pytest.approx(k, rel=1e-15)
+
+
+def test_parameters_stderr_is_the_delta_method_closed_form():
+    """η = 1/p₁, k = −p₂/p₁: J = [[−1/p₁², 0], [p₂/p₁², −1/p₁]], se = sqrt(diag(J C Jᵀ))."""
+    p = np.array([0.5, -3.0])
+    cov = np.array([[4e-4, -1e-4], [-1e-4, 9e-4]])
+    jac = np.array([[-1 / p[0] ** 2, 0.0], [p[1] / p[0] ** 2, -1 / p[0]]])
+    expected = np.sqrt(np.diag(jac @ cov @ jac.T))
+    se = vojax.KelvinVoigt().parameters_stderr(p, cov)
+    np.testing.assert_allclose([se["eta"], se["k"]], expected, rtol=1e-12)
+    se = vojax.Springpot().parameters_stderr(p[:1], cov[:1, :1])
+    np.testing.assert_allclose(se["eta"], 0.02 / 0.25, rtol=1e-12)
+    with pytest.raises(ValueError, match="`cov` must have shape"):
+        vojax.Springpot().parameters_stderr(p[:1], cov)

@@ -71,6 +71,46 @@ def test_kalman_and_rts_equal_the_dense_posterior():
     assert float(fm.log_likelihood) == pytest.approx(float(ref.log_likelihood), rel=1e-12)
 
 
+def test_damped_pass_is_the_posterior_with_the_anchor_observed():
+    """The Levenberg–Marquardt step of the smoother: the same dense conditioning with every
+    state also observed at its anchor value with variance 1/μ (and no change of likelihood)."""
+    rng = np.random.default_rng(4)
+    n, d, mu = 12, 3, 0.7
+    h = rng.standard_normal((n, d))
+    z = rng.standard_normal(n)
+    q = np.abs(rng.standard_normal((n, d))) * 0.1
+    q[:, -1] = 0.0
+    m0, p0, r = rng.standard_normal(d), 2.0 * np.eye(d), 0.3
+    anchor = rng.standard_normal((n, d))
+    filt = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)), None, jnp.asarray(anchor), mu)
+    ms, ps = rts_smoother(filt, jnp.asarray(q))
+    # dense: append d identity rows per sample, measured as the anchor with variance 1/μ
+    rows_h, rows_z, rows_r = [], [], []
+    for k in range(n):
+        rows_h.append(np.eye(d))
+        rows_z.append(anchor[k])
+    big_h = np.zeros((n + n * d, n * d))
+    big_z = np.concatenate([z, np.concatenate(rows_z)])
+    for k in range(n):
+        big_h[k, k * d : (k + 1) * d] = h[k]
+        big_h[n + k * d : n + (k + 1) * d, k * d : (k + 1) * d] = np.eye(d)
+    var = np.concatenate([np.full(n, r), np.full(n * d, 1.0 / mu)])
+    cov = np.zeros((n * d, n * d))
+    for i in range(n):
+        for k in range(n):
+            cov[i * d : (i + 1) * d, k * d : (k + 1) * d] = p0 + np.diag(q[: min(i, k)].sum(axis=0))
+    s = big_h @ cov @ big_h.T + np.diag(var)
+    gain = cov @ big_h.T @ np.linalg.inv(s)
+    mean = np.tile(m0, n) + gain @ (big_z - big_h @ np.tile(m0, n))
+    post = cov - gain @ big_h @ cov
+    np.testing.assert_allclose(ms, mean.reshape(n, d), atol=1e-11)
+    np.testing.assert_allclose(ps[3], post[3 * d : 4 * d, 3 * d : 4 * d], atol=1e-11)
+    # the innovations are those of the real measurements: with μ → 0 the plain filter's
+    plain = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)))
+    tiny = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)), None, jnp.asarray(anchor), 1e-12)
+    assert float(tiny.log_likelihood) == pytest.approx(float(plain.log_likelihood), rel=1e-9)
+
+
 def _ramp_case(n=1500, dt=0.1, noise=0.02, seed=0):
     t = np.arange(n) * dt
     u = np.stack([np.sin(0.5 * t) + 0.3, np.cos(0.2 * t)], axis=1)
@@ -107,6 +147,36 @@ def test_smoother_tracks_a_ramp_with_calibrated_bands(ramp, smoothed):
     assert abs(float(res.x0) - 0.7) < 3 * float(res.x0_std)
     assert res.diagnostics.converged and res.diagnostics.identified
     assert res.dp is None and res.method == "kalman"
+
+
+def test_smoother_bands_are_calibrated_over_noise_seeds():
+    """40 noise realisations of one record whose truth comes from `vojax.reference` (direct
+    sums on a grid twice as fine, no JAX kernel): the ±2σ band covers the true order at 80–99 %
+    of all samples, and the errors in units of the reported σ have an RMS in [0.7, 1.4]."""
+    from vojax import reference
+
+    n, dt = 300, 0.05
+    t = np.arange(n) * dt
+    u = np.stack([np.sin(0.9 * t) + 0.5 * np.cos(2.3 * t) + 0.4, np.cos(0.3 * t)], axis=1)
+    alpha = 0.35 + 0.25 * t / t[-1]
+    p = np.array([1.5, -1.0])
+    fine = np.arange(2 * n - 1) * dt / 2
+    af = np.interp(fine, t, alpha)
+    x = 0.3 + sum(
+        p[j] * np.asarray(reference.fractional_integral(np.interp(fine, t, u[:, j]), af, dt / 2))[::2]
+        for j in range(2)
+    )
+    inside, z = [], []
+    for seed in range(40):
+        y = x + 0.03 * np.std(x) * np.random.default_rng(seed).standard_normal(n)
+        res = vojax.identify(u, y, dt, method="kalman", warn=False)
+        lo, hi = np.asarray(res.alpha_lower), np.asarray(res.alpha_upper)
+        inside.append((alpha >= lo) & (alpha <= hi))
+        z.append((np.asarray(res.alpha) - alpha) / np.asarray(res.alpha_std))
+    coverage = np.mean(inside)
+    z_rms = np.sqrt(np.mean(np.square(z)))
+    assert 0.8 <= coverage <= 0.99, coverage
+    assert 0.7 <= z_rms <= 1.4, z_rms
 
 
 def test_filter_scan_equals_streaming_by_hand(ramp):
@@ -160,7 +230,7 @@ def test_law_band_matches_monte_carlo():
 
 
 def test_noise_variance_estimate():
-    from vojax._identify import noise_variance
+    from vojax._stats import noise_variance
 
     t = np.linspace(0, 10, 4000)
     y = np.sin(t) + 0.3 * np.random.default_rng(0).standard_normal(t.size)

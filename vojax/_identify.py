@@ -14,6 +14,7 @@ from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
 from ._integral import make_memory, scan_memory
 from ._kernels import RULES
+from ._stats import noise_variance
 
 DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
@@ -324,54 +325,53 @@ def identify(
             f"excite every parameter within the forgetting horizon 1/λ = {1 / float(lam):.3g}; "
             "use a smaller `lam`, fewer inputs, or r0='auto'."
         )
-    alpha_std, p_std, lower, upper = _law_bands(law, u2, y - x0, out, dt, bounds)
+    from ._adaptive._bands import law_covariance
+
+    var_alpha, var_p = law_covariance(law, u2, y - x0, jnp.asarray(noise_variance(y - x0)))
+    res = law_identification(
+        out, var_alpha, var_p, x0, law.order.gamma, law.lsff.lam, law.order.alpha0,
+        law.lsff.dt, bounds, memory, at_edge,
+    )
+    if warn and res.diagnostics.message:
+        warnings.warn(
+            f"vojax.identify: {res.diagnostics.message}.", IdentifiabilityWarning, stacklevel=2
+        )
+    return res
+
+
+def law_identification(
+    out, var_alpha, var_p, x0, gamma, lam, alpha0, dt, bounds, memory, at_edge=()
+) -> Identification:
+    """An `Identification` from the law's outputs (of ``y − x0``) and the variances of its
+    estimates (`vojax._adaptive._bands.law_covariance`); shared by `identify` and the batch."""
+    alpha_std = jnp.sqrt(jnp.maximum(jnp.asarray(var_alpha), 0.0))
+    lo, hi = bounds
+    lower = jnp.clip(out.alpha - 2 * alpha_std, lo, hi)
+    upper = jnp.clip(out.alpha + 2 * alpha_std, lo, hi)
     diagnostics = diagnose(out.alpha, lower, upper, bounds, True, at_edge)
-    if warn and diagnostics.message:
-        warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=2)
+    dtype = jnp.asarray(out.alpha).dtype
     return Identification(
-        alpha=out.alpha,
+        alpha=jnp.asarray(out.alpha),
         alpha_std=alpha_std,
         alpha_lower=lower,
         alpha_upper=upper,
-        p=out.p,
-        p_std=p_std,
+        p=jnp.asarray(out.p),
+        p_std=jnp.sqrt(jnp.maximum(jnp.asarray(var_p), 0.0)),
         y_hat=out.y_hat + x0,
         y_pred=out.y_pred + x0,
-        x0=x0,
-        x0_std=jnp.zeros(()),
-        dp=out.dp,
-        Lambda=out.Lambda,
-        gamma=law.order.gamma,
-        lam=law.lsff.lam,
-        alpha0=law.order.alpha0,
-        dt=law.lsff.dt,
+        x0=jnp.asarray(x0, dtype),
+        x0_std=jnp.zeros((), dtype),
+        dp=jnp.asarray(out.dp),
+        Lambda=jnp.asarray(out.Lambda),
+        gamma=jnp.asarray(gamma, dtype),
+        lam=jnp.asarray(lam, dtype),
+        alpha0=jnp.asarray(alpha0, dtype),
+        dt=jnp.asarray(dt, dtype),
         alpha_bounds=bounds,
         memory=memory,
         method="gradient",
         diagnostics=diagnostics,
     )
-
-
-def noise_variance(y) -> float:
-    """Measurement-noise variance from the data alone: the median absolute second difference,
-    ``σ̂ = 1.4826·median|y_{k+1} − 2y_k + y_{k−1}| / √6`` (white noise: Var Δ²y = 6σ²; the
-    median ignores the few large differences of steps and ramps). Not from the law's residuals,
-    which carry its tracking error as well."""
-    d2 = np.diff(np.asarray(y), 2)
-    return float((1.4826 * np.median(np.abs(d2))) ** 2 / 6.0)
-
-
-def _law_bands(law, u2, big_y, out, dt, bounds):
-    """The law's spread over noise realisations (see `vojax._adaptive._bands`)."""
-    from ._adaptive._bands import law_covariance
-
-    sigma2 = noise_variance(big_y)
-    var_alpha, var_p = law_covariance(law, u2, big_y, jnp.asarray(sigma2))
-    alpha_std = jnp.sqrt(jnp.maximum(var_alpha, 0.0))
-    lo, hi = bounds
-    lower = jnp.clip(out.alpha - 2 * alpha_std, lo, hi)
-    upper = jnp.clip(out.alpha + 2 * alpha_std, lo, hi)
-    return alpha_std, jnp.sqrt(jnp.maximum(var_p, 0.0)), lower, upper
 
 
 def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, warn):

@@ -49,37 +49,71 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
     return written
 
 
+def _robust_limits(ax, series):
+    """y-limits from the 1st–99th percentiles of the second half of each series, so that a
+    start-up transient does not swamp the panel."""
+    import numpy as np
+
+    tails = [np.asarray(v)[len(v) // 2 :] for v in series]
+    tails = [v[np.isfinite(v)] for v in tails if np.any(np.isfinite(v))]
+    if not tails:
+        return
+    lo = min(np.percentile(v, 1) for v in tails)
+    hi = max(np.percentile(v, 99) for v in tails)
+    pad = 0.15 * (hi - lo) if hi > lo else 0.1 * max(abs(hi), 1e-300)
+    ax.set_ylim(lo - pad, hi + pad)
+
+
 def record_figure(columns, summary, inputs, path) -> None:
-    """The layout of the paper's Figs. 7–8: output and identified output, input, order,
-    parameters."""
+    """The layout of the paper's Figs. 7–8: output and identified output, input, order with
+    its ±2σ band, parameters; axes labelled with the file's column names (their units)."""
     plt = _pyplot()
     t = columns["time"]
-    fig, axes = plt.subplots(2, 2, figsize=(9, 6), layout="constrained")
+    time_label = f"time ({summary.get('time_column', 't')}, from the first sample)"
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), layout="constrained")
     ax = axes[0, 0]
     ax.plot(t, columns["y"], "k", lw=1.2, label="measured")
     if "y_hat" in columns:
-        ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label="adaptive")
+        ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label=summary.get("method", "identified"))
     if "refit_y_hat" in columns:
         ax.plot(t, columns["refit_y_hat"], "C0:", lw=1.2, label="refit")
-    ax.set(title=f"output ({summary['output_column']})", xlabel="t")
+    out = summary["output_column"]
+    if summary.get("length"):
+        out = f"{out} / {summary['length']:g}"
+    ax.set(title="output", xlabel=time_label, ylabel=out)
     ax.legend()
     ax = axes[0, 1]
     for i, name in enumerate(summary["input_columns"]):
         ax.plot(t, inputs[:, i], label=name)
-    ax.set(title="input", xlabel="t")
+    ax.set(title="input", xlabel=time_label, ylabel=", ".join(summary["input_columns"]))
     ax.legend()
     ax = axes[1, 0]
     if "alpha" in columns:
-        ax.plot(t, columns["alpha"], "C3", label="adaptive")
+        if "alpha_lower" in columns:
+            ax.fill_between(
+                t, columns["alpha_lower"], columns["alpha_upper"], color="C3", alpha=0.2,
+                lw=0, label="±2σ band",
+            )
+        ax.plot(t, columns["alpha"], "C3", label=summary.get("method", "identified"))
     if "refit_alpha" in columns:
+        if "refit_alpha_lower" in columns:
+            ax.fill_between(
+                t, columns["refit_alpha_lower"], columns["refit_alpha_upper"], color="C0",
+                alpha=0.15, lw=0, label="refit 95 %",
+            )
         ax.plot(t, columns["refit_alpha"], "C0:", label="refit")
-    ax.set(title="identified order", xlabel="t")
+    ax.set(title="identified order", xlabel=time_label, ylabel="order α (dimensionless)")
     ax.legend()
     ax = axes[1, 1]
-    for name in summary["parameter_names"]:
-        if name in columns:
-            ax.plot(t, columns[name], label=name)
-    ax.set(title="parameters (adaptive)", xlabel="t")
+    shown = [name for name in summary["parameter_names"] if name in columns]
+    for name in shown:
+        ax.plot(t, columns[name], label=name)
+    _robust_limits(ax, [columns[name] for name in shown])
+    ax.set(
+        title="parameters (per sample; limits from the second half)",
+        xlabel=time_label,
+        ylabel="value (units of the fitted columns)",
+    )
     ax.legend()
     fig.suptitle(f"{summary['record']} — {summary['model']}")
     with atomic_path(path) as tmp:

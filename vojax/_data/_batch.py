@@ -14,9 +14,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._identify import DEFAULT_BOUNDS, PAPER_LAM, auto_r0, build_law, run_law
+from .._adaptive._bands import law_covariance
+from .._identify import DEFAULT_BOUNDS, PAPER_LAM, auto_r0, build_law, law_identification, run_law
 from .._io import atomic_path
-from ._pipeline import identify_record, nrmse, regressors, write_outputs
+from .._stats import noise_variance
+from ._pipeline import adaptive_part, identify_record, record_header, regressors, write_outputs
 
 
 def _sharded(x, mesh):
@@ -28,7 +30,8 @@ def _sharded(x, mesh):
 def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None):
     """The adaptive law on records of equal length at once: ``us`` (B, N, n), ``ys`` (B, N),
     gains (B,), ``r0s`` (B, n, n) (default: each record's automatic ``R_0``, as `identify`).
-    Returns the law's outputs with a leading batch axis. ``y − y[0]`` is identified
+    Returns ``((law outputs, var α̂, var p̂), x0)`` with a leading batch axis; the variances
+    are the law's band, as in `identify`. ``y − y[0]`` is identified
     (Remark 4), as `identify` does by default."""
     if r0s is None:
         r0s = np.stack(
@@ -37,7 +40,9 @@ def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None)
     num = us.shape[1]
     x0 = ys[:, :1]
 
-    def one(u, y, gamma, lam, r0):
+    sigma2 = np.array([noise_variance(y - y[0]) for y in ys])
+
+    def one(u, y, gamma, lam, r0, s2):
         law = build_law(
             dt,
             num,
@@ -49,9 +54,11 @@ def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None)
             rule="trapezoid",
             r0=r0,
         )
-        return run_law(law, u, y)
+        out = run_law(law, u, y)
+        var_alpha, var_p = law_covariance(law, u, y, s2)
+        return out, var_alpha, var_p
 
-    args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams, r0s)]
+    args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams, r0s, sigma2)]
     if mesh is not None:
         size = mesh.devices.size
         pad = (-args[0].shape[0]) % size
@@ -129,14 +136,14 @@ def run_batch(
             try:
                 if method in ("adaptive", "both"):
                     columns, summary = _columns_from_batch(
-                        r, y, names, physical, out, x0, i, g[i], model, method
+                        r, y, names, physical, out, x0, i, g[i], model, method, area, length
                     )
                     if method == "both":
                         refit_cols, refit_summary = identify_record(
                             r, model=model, method="refit", area=area, length=length
                         )
-                        columns["refit_alpha"] = refit_cols["refit_alpha"]
-                        columns["refit_y_hat"] = refit_cols["refit_y_hat"]
+                        for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
+                            columns[k] = refit_cols[k]
                         summary["refit"] = refit_summary["refit"]
                 else:  # "refit" or "kalman": one record at a time
                     columns, summary = identify_record(
@@ -162,33 +169,17 @@ def run_batch(
     return len(failed)
 
 
-def _columns_from_batch(r, y, names, physical, out, x0, i, gains, model, method):
-    y_hat = out.y_hat[i] + x0[i, 0]
-    alpha = out.alpha[i]
-    params = {k: np.asarray(v) for k, v in physical(out.p[i]).items()}
-    columns = {"time": r.time, "alpha": alpha, **params, "y": y, "y_hat": y_hat}
-    summary = {
-        "record": r.name,
-        "source": r.source,
-        "samples": int(r.time.size),
-        "dt": r.dt,
-        "resampled_step_spread": r.resampled,
-        "model": model,
-        "method": method,
-        "input_columns": list(r.input_names),
-        "output_column": r.output_name,
-        "parameter_names": names,
-        "adaptive": {
-            "gamma": float(gains[0]),
-            "lam": float(gains[1]),
-            "nrmse": nrmse(y, y_hat),
-            "alpha_min": float(alpha.min()),
-            "alpha_max": float(alpha.max()),
-            "alpha_mean": float(alpha.mean()),
-            "alpha_final": float(alpha[-1]),
-            "parameters_final": {k: float(v[-1]) for k, v in params.items()},
-        },
-    }
+def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, method, area, length):
+    out, var_alpha, var_p = jax.tree_util.tree_map(lambda a: a[i], batch)
+    res = law_identification(
+        out, var_alpha, var_p, float(x0[i, 0]), gains[0], gains[1], 0.5, r.dt, DEFAULT_BOUNDS,
+        "exponential",
+    )
+    cols, part = adaptive_part(res, y, physical)
+    columns = {"time": r.time, **cols, "y": y, "y_hat": np.asarray(res.y_hat)}
+    summary = record_header(r, model, method, area, length)
+    summary["parameter_names"] = names
+    summary["adaptive"] = part
     return columns, summary
 
 

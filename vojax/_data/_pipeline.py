@@ -8,6 +8,7 @@ import numpy as np
 import optimistix as optx
 
 from .._io import atomic_path, write_json
+from .._stats import delta_stderr
 from .._models import KelvinVoigt, Springpot
 
 MODELS = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt()}
@@ -44,13 +45,59 @@ def diagnostics_dict(d):
 
 def physical_stderr(physical, p, cov):
     """Standard errors of the physical parameters by the delta method through `physical`."""
-    import jax
-    import jax.numpy as jnp
+    return delta_stderr(physical, p, cov)
 
-    names = list(physical(p))
-    jac = jax.jacfwd(lambda q: jnp.stack([physical(q)[k] for k in names]))(jnp.asarray(p))
-    var = np.einsum("ij,jk,ik->i", np.asarray(jac), cov, np.asarray(jac))
-    return {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, var)}
+
+def record_header(record, model, method, area, length):
+    """The part of a record's summary that describes the data and the settings."""
+    return {
+        "record": record.name,
+        "source": record.source,
+        "samples": int(record.time.size),
+        "dt": record.dt,
+        "resampled_step_spread": record.resampled,
+        "model": model,
+        "method": method,
+        "time_column": record.time_name,
+        "input_columns": list(record.input_names),
+        "output_column": record.output_name,
+        "area": area,
+        "length": length,
+    }
+
+
+def adaptive_part(res, y, physical):
+    """Per-sample columns and the summary block of an `Identification` (either method)."""
+    alpha = np.asarray(res.alpha)
+    p = np.asarray(res.p)
+    params = {k: np.asarray(v) for k, v in physical(p).items()}
+    columns = {
+        "alpha": alpha,
+        "alpha_lower": np.asarray(res.alpha_lower),
+        "alpha_upper": np.asarray(res.alpha_upper),
+        **params,
+    }
+    part = {
+        "method": res.method,
+        "nrmse": nrmse(y, res.y_hat),
+        "alpha_min": float(alpha.min()),
+        "alpha_max": float(alpha.max()),
+        "alpha_mean": float(alpha.mean()),
+        "alpha_final": float(alpha[-1]),
+        "alpha_final_std": float(res.alpha_std[-1]),
+        "parameters_final": {k: float(v[-1]) for k, v in params.items()},
+        "parameters_final_stderr": physical_stderr(
+            physical, p[-1], np.diag(np.asarray(res.p_std)[-1] ** 2)
+        ),
+        "x0": float(res.x0),
+        "x0_std": float(res.x0_std),
+        **diagnostics_dict(res.diagnostics),
+    }
+    if res.method == "gradient":
+        part.update(gamma=float(res.gamma), lam=float(res.lam))
+    else:
+        part.update(tuning=dataclasses.asdict(res.tuning))
+    return columns, part
 
 
 def nrmse(y, y_hat):
@@ -70,48 +117,14 @@ def identify_record(
 
     u, y, names, physical = regressors(record, model, area, length)
     columns = {"time": record.time}
-    summary = {
-        "record": record.name,
-        "source": record.source,
-        "samples": int(record.time.size),
-        "dt": record.dt,
-        "resampled_step_spread": record.resampled,
-        "model": model,
-        "method": method,
-        "input_columns": list(record.input_names),
-        "output_column": record.output_name,
-        "area": area,
-        "length": length,
-    }
+    summary = record_header(record, model, method, area, length)
     if method in ("adaptive", "both", "kalman"):
         if method == "kalman":
             res = identify(u, y, record.dt, method="kalman", warn=False)
         else:
             res = identify(u, y, record.dt, gamma=gamma, lam=lam, warn=False)
-        alpha = np.asarray(res.alpha)
-        params = {k: np.asarray(v) for k, v in physical(np.asarray(res.p)).items()}
-        columns["alpha"] = alpha
-        columns["alpha_lower"] = np.asarray(res.alpha_lower)
-        columns["alpha_upper"] = np.asarray(res.alpha_upper)
-        columns.update(params)
-        part = {
-            "method": res.method,
-            "nrmse": nrmse(y, res.y_hat),
-            "alpha_min": float(alpha.min()),
-            "alpha_max": float(alpha.max()),
-            "alpha_mean": float(alpha.mean()),
-            "alpha_final": float(alpha[-1]),
-            "alpha_final_std": float(res.alpha_std[-1]),
-            "parameters_final": {k: float(v[-1]) for k, v in params.items()},
-            "x0": float(res.x0),
-            "x0_std": float(res.x0_std),
-            **diagnostics_dict(res.diagnostics),
-        }
-        if res.method == "gradient":
-            part.update(gamma=float(res.gamma), lam=float(res.lam))
-        else:
-            part.update(tuning=dataclasses.asdict(res.tuning))
-        summary["adaptive"] = part
+        cols, summary["adaptive"] = adaptive_part(res, y, physical)
+        columns.update(cols)
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
@@ -120,6 +133,8 @@ def identify_record(
         p = np.asarray(fit.p)
         phys = {k: float(v) for k, v in physical(p).items()}
         columns["refit_alpha"] = np.asarray(fit.order)
+        columns["refit_alpha_lower"] = np.asarray(fit.order_lower)
+        columns["refit_alpha_upper"] = np.asarray(fit.order_upper)
         columns["refit_y_hat"] = np.asarray(fit.y_hat)
         summary["refit"] = {
             "order": float(fit.order[0]),

@@ -32,6 +32,7 @@ class Record:
     output_name: str
     dt: float
     resampled: float | None = None
+    time_name: str = "time"
 
 
 def _read_csv(path: Path):
@@ -191,6 +192,7 @@ def load_records(
                 output_name=output,
                 dt=dt,
                 resampled=spread,
+                time_name=time,
             )
         )
     return records

@@ -39,6 +39,13 @@ class AbstractViscoelasticModel(eqx.Module):
     def regression(self, **physical):
         """``p`` from the physical parameters; the inverse of `parameters`."""
 
+    def parameters_stderr(self, p, cov) -> dict:
+        """Standard errors of the physical parameters at ``p`` (n,) given the covariance
+        ``cov`` (n, n) of ``p`` (e.g. `Refit.p_cov`), by the delta method."""
+        from .._stats import delta_stderr
+
+        return delta_stderr(self.parameters, p, cov)
+
 
 class Springpot(AbstractViscoelasticModel):
     """``σ = η D^{q(t)} ε``: ``u = σ``, ``p = 1/η`` (section 6 of the paper)."""

@@ -43,21 +43,39 @@ def update(mean, cov, h, z, r, mask):
     return new_mean, new_cov, e, s, ll
 
 
+def anchor_update(mean, cov, anchor, damping):
+    """Levenberg–Marquardt damping as a measurement: ``anchor = θ + v``, ``v ~ N(0, I/damping)``."""
+    d = mean.shape[0]
+    s = cov + jnp.eye(d, dtype=cov.dtype) / damping
+    gain = jnp.linalg.solve(s, cov).T  # P S⁻¹ (both symmetric)
+    new_cov = _symmetric(cov - gain @ cov)
+    return mean + gain @ (anchor - mean), new_cov
+
+
 @jax.named_scope("vojax.kalman_filter")
-def kalman_filter(h, z, r, q, m0, p0, mask=None) -> Filtered:
+def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None) -> Filtered:
     """The filter over ``h`` (N, d), ``z`` (N,), with ``r`` the measurement variance, ``q``
-    (N, d) the process variances from sample k to k+1, and the prior ``N(m0, p0)`` of θ_0."""
+    (N, d) the process variances from sample k to k+1, and the prior ``N(m0, p0)`` of θ_0.
+
+    With `anchor` (N, d) and `damping` μ > 0, each state is also observed as ``anchor_k`` with
+    variance ``1/μ`` per component: the smoothed mean is then the Levenberg–Marquardt step of
+    the Gauss–Newton iteration around ``anchor``. These pseudo-measurements do not enter the
+    innovations or the likelihood."""
     if mask is None:
         mask = jnp.ones(z.shape, z.dtype)
+    if anchor is None:
+        anchor = jnp.zeros(h.shape, h.dtype)
 
     def body(carry, x):
         m_pred, p_pred = carry
-        h_k, z_k, q_k, w_k = x
+        h_k, z_k, q_k, w_k, a_k = x
         m, p, e, s, ll = update(m_pred, p_pred, h_k, z_k, r, w_k)
+        if damping is not None:
+            m, p = anchor_update(m, p, a_k, damping)
         nxt = (m, p + jnp.diag(q_k))
         return nxt, (m, p, m_pred, p_pred, e, s, ll)
 
-    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask))
+    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask, anchor))
     return Filtered(m, p, mp, pp, e, s, jnp.sum(ll))
 
 

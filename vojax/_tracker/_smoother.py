@@ -4,7 +4,7 @@ trajectory, with the bands from the curvature at the mode.
 Each iteration linearises the measurement at the nominal trajectory θ̄ (one memory scan gives
 ``Φ`` and ``∂Φ/∂b`` at every sample's order), runs the linear filter and the RTS smoother of the
 linearised model — whose smoothed mean is the Gauss–Newton point of the negative log posterior
-— and moves towards it with a step that is halved until the posterior improves. At
+— and moves towards it, damped (Levenberg–Marquardt) until the posterior improves. At
 convergence the linearised model's smoothed covariances are the Laplace approximation of the
 posterior marginals, and its innovation likelihood that of the marginal likelihood used to
 tune the noise intensities.
@@ -19,6 +19,7 @@ from ._kalman import kalman_filter, rts_smoother
 from ._model import Hyper, linearise, objective, order_of
 
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
+MU_START, MU_MIN, MU_MAX = 1e-2, 1e-9, 1e12  # Levenberg–Marquardt damping (normalised units)
 
 
 class Smoothed(eqx.Module):
@@ -41,10 +42,11 @@ def _regressors(memory, u, theta, bounds):
     return memory.run(u, alpha, True)
 
 
-def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds):
+def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, damping=None):
     h0, jac = linearise(theta, phi, dphi, bounds)
     z = y - h0 + jnp.sum(jac * theta, axis=-1)
-    filtered = kalman_filter(jac, z, r, q, m0, p0, mask)
+    anchor = None if damping is None else theta
+    filtered = kalman_filter(jac, z, r, q, m0, p0, mask, anchor, damping)
     return filtered, rts_smoother(filtered, q), jac, z
 
 
@@ -52,7 +54,30 @@ def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds):
 def iterated_smoother(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
-    """Runs the Gauss–Newton iteration from the trajectory `nominal` (N, d)."""
+    """See `_iterate`; one run, compiled."""
+    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
+
+
+@eqx.filter_jit
+def smoother_batch(
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
+) -> Smoothed:
+    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B) and
+    starting trajectories `nominal` (B, N, d), in one vmapped program."""
+
+    def one(h, nom):
+        return _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nom, bounds, max_iter)
+
+    return eqx.filter_vmap(one)(hyper, nominal)
+
+
+def _iterate(
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
+) -> Smoothed:
+    """Runs the damped Gauss–Newton (Levenberg–Marquardt) iteration from the trajectory
+    `nominal` (N, d): each step is the smoothed mean of the model linearised at the current
+    trajectory, with every state also observed at its current value with precision μ; μ falls
+    tenfold after a step that lowers the posterior and rises tenfold after one that does not."""
     n = u.shape[1]
     q = hyper.process(steps, horizon, n)
     r = hyper.r
@@ -62,33 +87,35 @@ def iterated_smoother(
         return objective(theta, phi, y, mask, r, q, m0, p0_inv)
 
     phi, dphi = _regressors(memory, u, nominal, bounds)
-    start = (nominal, phi, dphi, cost(nominal, phi), jnp.ones(()), jnp.asarray(jnp.inf), 0)
+    mu0 = jnp.asarray(MU_START, y.dtype)
+    start = (nominal, phi, dphi, cost(nominal, phi), mu0, jnp.asarray(jnp.inf, y.dtype), 0)
 
     def cond(carry):
-        *_, step, rel, i = carry
-        return (i < max_iter) & (rel > REL_TOL) & (step > 1e-6)
+        *_, mu, rel, i = carry
+        return (i < max_iter) & (rel > REL_TOL) & (mu < MU_MAX)
 
     def body(carry):
-        theta, phi, dphi, value, step, rel, i = carry
-        _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds)
-        cand = theta + step * (ms - theta)
-        phic, dphic = _regressors(memory, u, cand, bounds)
-        valc = cost(cand, phic)
+        theta, phi, dphi, value, mu, rel, i = carry
+        _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, mu)
+        phic, dphic = _regressors(memory, u, ms, bounds)
+        valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
         pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
-        new_rel = jnp.where(ok, (value - valc) / jnp.maximum(jnp.abs(valc), 1.0), rel)
-        new_step = jnp.where(ok, jnp.minimum(1.0, 2.0 * step), 0.5 * step)
+        # a small decrease counts towards convergence only when the step was barely damped
+        dec = (value - valc) / jnp.maximum(jnp.abs(valc), 1.0)
+        new_rel = jnp.where(ok & (mu <= MU_START), dec, jnp.where(ok, jnp.inf, rel))
+        new_mu = jnp.where(ok, jnp.maximum(mu / 10.0, MU_MIN), mu * 10.0)
         return (
-            pick(cand, theta),
+            pick(ms, theta),
             pick(phic, phi),
             pick(dphic, dphi),
             pick(valc, value),
-            new_step,
+            new_mu,
             new_rel,
             i + 1,
         )
 
-    theta, phi, dphi, value, step, rel, iters = lax.while_loop(cond, body, start)
+    theta, phi, dphi, value, mu, rel, iters = lax.while_loop(cond, body, start)
     filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds)
     y_pred = y - filtered.innovation
     return Smoothed(
@@ -103,7 +130,7 @@ def iterated_smoother(
         jacobian=jac,
         pseudo=z,
         # no further decrease, or none possible along the Gauss–Newton direction
-        converged=(rel <= REL_TOL) | (step <= 1e-6),
+        converged=(rel <= REL_TOL) | (mu >= MU_MAX),
         iterations=iters,
     )
 

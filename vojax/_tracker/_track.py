@@ -10,9 +10,10 @@ import numpy as np
 import optimistix as optx
 from jax import lax
 
+from .._stats import noise_variance
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of, order_of
-from ._smoother import iterated_smoother, linearised_log_likelihood
+from ._smoother import iterated_smoother, linearised_log_likelihood, smoother_batch
 
 PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
 PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
@@ -22,8 +23,10 @@ BOX = {
     "parameter_drift": (np.log(1e-10), np.log(1e2)),
     "noise": (np.log(1e-10), np.log(2.0)),
 }
-GRID_ORDER = (1e-3, 1e-1, 1e1)
-GRID_PARAMS = (1e-6, 1e-3, 1.0)
+GRID_ORDER = (1e-1, 1.0, 1e1)  # variance of the change of β over the record, first pass
+PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's p is constant)
+START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
+MAX_ITER = 400  # Levenberg–Marquardt iterations of one smoothing
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,17 +115,21 @@ class Tuning:
 
 def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, max_steps=60):
     """Maximises the linearised innovation likelihood over the three log-intensities."""
-    jac, z = smoothed.jacobian, smoothed.pseudo
-    count = float(jnp.sum(mask))
-    lo = jnp.asarray([BOX[k][0] for k in BOX])
-    hi = jnp.asarray([BOX[k][1] for k in BOX])
+    return _refine_compiled(hyper.as_array(), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, max_steps)
+
+
+@eqx.filter_jit
+def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, max_steps):
+    count = jnp.sum(mask)
+    lo = jnp.asarray([BOX[k][0] for k in BOX], x0.dtype)
+    hi = jnp.asarray([BOX[k][1] for k in BOX], x0.dtype)
 
     def loss(zeta, _):
         # box by a smooth squashing, so that BFGS works unconstrained
         x = lo + (hi - lo) * jax.nn.sigmoid(zeta)
         return -linearised_log_likelihood(Hyper.from_array(x), jac, z, mask, steps, horizon, m0, p0) / count
 
-    x0 = jnp.clip(hyper.as_array(), lo + 1e-3, hi - 1e-3)
+    x0 = jnp.clip(x0, lo + 1e-3, hi - 1e-3)
     zeta0 = jnp.log((x0 - lo) / (hi - x0))
     sol = optx.minimise(
         loss, optx.BFGS(rtol=1e-7, atol=1e-9), zeta0, max_steps=max_steps, throw=False
@@ -131,27 +138,81 @@ def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, max_steps=60):
     return Hyper.from_array(lo + (hi - lo) * jax.nn.sigmoid(zeta))
 
 
-def tune(memory, u, y, mask, steps, horizon, m0, p0, nominal, noise0, bounds, rounds=2):
-    """Grid over the drift intensities (noise at the constant fit's level), then alternate
-    likelihood refinement and re-smoothing. Returns ``(Hyper, Smoothed, Tuning)``."""
+def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
+    """Constant-order trajectories to start the smoother from: the constant fit's order (kept
+    off the flat ends of the logistic map) and `START_ORDERS` across the range, each with its
+    least-squares parameters and offset. Returns (S, d)."""
+    lo, hi = bounds
+    frac = (alpha_c - lo) / (hi - lo)
+    fracs = [float(np.clip(frac, START_ORDERS[0], START_ORDERS[-1]))]
+    fracs += [f for f in START_ORDERS if min(abs(f - g) for g in fracs) > 0.05]
+    out = []
+    for f in fracs:
+        alpha = lo + (hi - lo) * f
+        _, coef, _ = _constant_profile(memory, u, y, mask, jnp.asarray(alpha, u.dtype))
+        out.append(np.concatenate([[float(beta_of(jnp.asarray(alpha), bounds))], np.asarray(coef)]))
+    return np.stack(out)
+
+
+def _stack_hypers(values):
+    """A batched `Hyper` from rows ``(q_order, q_params, r)``."""
+    arr = jnp.log(jnp.asarray(values))
+    return Hyper(arr[:, 0], arr[:, 1], arr[:, 2])
+
+
+def _pick(tree, i):
+    return jax.tree_util.tree_map(lambda a: a[i], tree)
+
+
+def _score(sm):
+    """Laplace evidence of a smoothing run; −∞ unless it converged to a finite mode."""
+    ll = np.asarray(sm.log_likelihood)
+    ok = np.asarray(sm.converged) & np.isfinite(ll) & np.isfinite(np.asarray(sm.objective))
+    return np.where(ok, ll, -np.inf)
+
+
+def tune(memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, rounds=2, keep=1):
+    """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
+    noise intensities and over starting trajectories, since the posterior of a variable order
+    can have several modes. One vmapped smoothing of every start × order-drift on `GRID_ORDER`
+    (parameter drift `PARAM_DRIFT0`, noise `noise0`); then, for the `keep` best, alternate a
+    BFGS refinement of the likelihood of the linearised model and re-smoothing. Returns
+    ``(Hyper, Smoothed, Tuning)``."""
+    num = u.shape[0]
+    rows = [(qo, PARAM_DRIFT0, noise0) for _ in starts for qo in GRID_ORDER]
+    noms = np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0)
+    nominal = jnp.broadcast_to(jnp.asarray(noms)[:, None, :], (len(rows), num, noms.shape[1]))
+    batch = smoother_batch(
+        memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, nominal, bounds, MAX_ITER
+    )
+    score = _score(batch)
+    if not np.any(np.isfinite(score)):
+        # none converged: fall back on the best finite objective rather than giving up
+        obj = np.asarray(batch.objective)
+        if not np.any(np.isfinite(obj)):
+            raise ValueError("the tracker diverged from every starting order; check the data.")
+        score = np.where(np.isfinite(obj), -obj, -np.inf)
     best = None
-    for qo in GRID_ORDER:
-        for qp in GRID_PARAMS:
-            hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (qo, qp, noise0)))
+    for i in np.argsort(-score)[:keep]:
+        if not np.isfinite(score[i]):
+            continue
+        hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
+        sm = _pick(batch, int(i))
+        cand = (float(score[i]), hyper, sm)
+        for _ in range(rounds):
+            # the refinement maximises the likelihood of the model linearised at this mode;
+            # keep it only if the re-smoothed mode's own evidence is higher
+            hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0)
             sm = iterated_smoother(
-                memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 20
+                memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
             )
-            ll = float(sm.log_likelihood)
-            if np.isfinite(ll) and (best is None or ll > best[0]):
-                best = (ll, hyper, sm)
-    if best is None:
-        raise ValueError("the tracker diverged for every starting noise level; check the data.")
+            ll = float(_score(sm))
+            if not ll > cand[0]:
+                break
+            cand = (ll, hyper, sm)
+        if best is None or cand[0] > best[0]:
+            best = cand
     _, hyper, sm = best
-    for _ in range(rounds):
-        hyper = _refine(hyper, sm, mask, steps, horizon, m0, p0)
-        sm = iterated_smoother(
-            memory, u, y, mask, steps, horizon, hyper, m0, p0, sm.theta, bounds, 60
-        )
     x = np.asarray(hyper.as_array())
     edges = tuple(
         name
@@ -180,10 +241,12 @@ def _scan_filter(tracker, u, y, steps, mask):
     return out
 
 
-def prior(alpha_c, coef, num_inputs, bounds):
-    """Prior of θ_0 around the constant-order fit (normalised units)."""
-    m0 = jnp.concatenate([jnp.reshape(beta_of(jnp.asarray(alpha_c), bounds), (1,)), coef])
-    p0 = jnp.diag(jnp.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1)))
+def prior(num_inputs, dtype):
+    """Prior of θ_0 in normalised units, the same whatever the start: the order's β centred
+    on the middle of the range, parameters and offset centred on zero, all wide."""
+    d = num_inputs + 2
+    m0 = jnp.zeros((d,), dtype)
+    p0 = jnp.diag(jnp.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1), dtype))
     return m0, p0
 
 
@@ -212,22 +275,25 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
     scales = data_scales(u, y, mask)
     un = u / jnp.asarray(scales.u_scale)
     yn = (y - scales.y_ref) / scales.y_scale
-    alpha_c, coef, rss, rms_phi = constant_fit(memory, un, yn, mask, bounds)
+    alpha_c, _, rss, rms_phi = constant_fit(memory, un, yn, mask, bounds)
     if not np.all(rms_phi > 0):
         raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
     # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
     un = un / jnp.asarray(rms_phi)
-    coef = np.concatenate([coef[:n] * rms_phi, coef[n:]])
     p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
-    m0, p0 = prior(alpha_c, jnp.asarray(coef), n, bounds)
+    m0, p0 = prior(n, u.dtype)
     steps = jnp.full((num,), float(dt), u.dtype)
-    horizon = max((num - 1) * float(dt), float(dt))
-    nominal = jnp.tile(m0, (num, 1))
+    # an array, not a Python number: a new record length or step must not recompile
+    horizon = jnp.asarray(max((num - 1) * float(dt), float(dt)), u.dtype)
+    starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
+    nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
-    noise0 = max(rss / dof, 1e-10)
+    # the data's own noise level (second differences), capped by the constant fit's residual
+    noise0 = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
+    noise0 = float(np.clip(noise0, 1e-10, max(rss / dof, 1e-10)))
     if hyper is None:
         hyper, sm, tuning = tune(
-            memory, un, yn, mask, steps, horizon, m0, p0, nominal, noise0, bounds
+            memory, un, yn, mask, steps, horizon, m0, p0, starts, noise0, bounds
         )
     else:
         hyper = Hyper(
@@ -235,13 +301,20 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
             jnp.log(jnp.asarray(float(hyper["parameter_drift"]))),
             jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
-        sm = iterated_smoother(memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 60)
+        sm = iterated_smoother(
+            memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
+        )
         tuning = Tuning(*map(float, np.exp(np.asarray(hyper.as_array()))), (), float(sm.log_likelihood), False)
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
     else:
-        out = run_filter(memory, hyper, un, yn, mask, steps, horizon, m0, p0, bounds, iterations)
+        # the online filter starts from the constant-order fit (a whole-record summary, like
+        # the tuned intensities): from the neutral prior its first samples cannot place p
+        out = run_filter(
+            memory, hyper, un, yn, mask, steps, horizon, jnp.asarray(starts[0]), p0, bounds,
+            iterations,
+        )
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
         converged = True
     if y_hat_n is None:
