@@ -111,8 +111,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
         "out",
         "--method",
         method,
-        "--gamma",
-        "0.5",
+        *(["--gamma", "0.5"] if method in ("adaptive", "both") else []),
         cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr

@@ -87,6 +87,15 @@ def test_demo_writes_figures_and_summary(tmp_path):
         (["demo", "--dt", "-1"], "--dt must be positive"),
         (["demo", "--gamma", "fast"], "expected a positive number or 'auto'"),
         (["demo", "--alpha0", "0.99"], "`alpha0` must lie inside"),
+        (
+            ["identify", "x.csv", "--time", "t", "--input", "F", "--output", "d", "--gamma", "1"],
+            "--gamma set the paper's law, which --method kalman does not use",
+        ),
+        (
+            ["batch", "x.csv", "--time", "t", "--input", "F", "--output", "d", "--lam", "1",
+             "--method", "refit"],
+            "--lam set the paper's law, which --method refit does not use",
+        ),
     ],
 )
 def test_cli_errors_are_one_sentence(tmp_path, args, message):

@@ -133,18 +133,24 @@ def _data_options(p, *, many: bool):
     p.add_argument(
         "--method",
         choices=("adaptive", "kalman", "refit", "both"),
-        default="adaptive",
-        help="adaptive: the paper's law (default); kalman: the Bayesian tracker (smoother, "
-        "offset estimated, likelihood-tuned); refit: constant-order least squares; both: "
-        "adaptive and refit",
+        default="kalman",
+        help="kalman (default): the Bayesian tracker — smoother, offset estimated, noise "
+        "intensities by likelihood; the most accurate, with calibrated bands "
+        "(scripts/bench_identifiability.py); adaptive: the paper's law; refit: "
+        "constant-order least squares; both: adaptive and refit",
     )
-    p.add_argument("--gamma", type=_gain, default="auto", help="order gain γ or 'auto' (default)")
+    p.add_argument(
+        "--gamma",
+        type=_gain,
+        default=None,
+        help="the law's order gain γ or 'auto' (default); for --method adaptive|both only",
+    )
     p.add_argument(
         "--lam",
         type=_rate,
         default=None,
         help="forgetting factor λ in 1/s (default: tuned with γ when --gamma auto, else 0.9); "
-        "a number with --gamma auto tunes γ alone at that λ",
+        "a number with --gamma auto tunes γ alone at that λ; for --method adaptive|both only",
     )
     p.add_argument("--area", type=float, help="contact area a of eq. (35): σ = F/a")
     p.add_argument("--length", type=float, help="specimen length l of eq. (35): ε = d/l")
@@ -152,6 +158,19 @@ def _data_options(p, *, many: bool):
     p.add_argument("--strict", action="store_true", help="reject non-uniform time steps")
     p.add_argument("--trim-column", help="drop leading samples while |column| < --trim-below")
     p.add_argument("--trim-below", type=float)
+
+
+def _law_options(args):
+    """``--gamma``/``--lam`` apply to the paper's law only: refused with another method."""
+    if args.method not in ("adaptive", "both"):
+        given = [f"--{k}" for k in ("gamma", "lam") if getattr(args, k) is not None]
+        if given:
+            raise CLIError(
+                f"{' and '.join(given)} set the paper's law, which --method {args.method} does "
+                "not use; add --method adaptive (or both), or leave them out."
+            )
+    if args.gamma is None:
+        args.gamma = "auto"
 
 
 def _load(path, args):
@@ -184,12 +203,14 @@ def _load(path, args):
 
 
 def identify_command(args) -> int:
-    from ._data._pipeline import identify_record, write_outputs
+    from ._data._paths import inside, record_folder
+    from ._data._pipeline import check_finite, identify_record, write_outputs
 
+    _law_options(args)
     records = _load(args.file, args)
     out = _new_dir(args.out)
     for record in records:
-        target = out / record.name if len(records) > 1 else out
+        target = inside(out, record_folder(record.name)) if len(records) > 1 else out
         columns, summary = identify_record(
             record,
             model=args.model,
@@ -199,6 +220,10 @@ def identify_command(args) -> int:
             area=args.area,
             length=args.length,
         )
+        try:
+            check_finite(summary, columns)
+        except ValueError as e:
+            raise CLIError(f"{record.name}: {e}") from None
         write_outputs(target, columns, summary, record.inputs)
         parts = [f"{record.name}: {record.time.size} samples"]
         if "adaptive" in summary:
@@ -224,6 +249,7 @@ def batch_command(args) -> int:
     from ._data import DataError
     from ._data._batch import run_batch
 
+    _law_options(args)
     out = _new_dir(args.out)
     records, failures = [], []
     for path in args.files:
@@ -239,22 +265,39 @@ def batch_command(args) -> int:
         raise CLIError(
             f"two records share the name {duplicated[0]!r}; rename a file or use --group-by."
         )
-    failed = run_batch(
-        records,
-        out,
-        model=args.model,
-        method=args.method,
-        gamma=args.gamma,
-        lam=args.lam,
-        area=args.area,
-        length=args.length,
-        failures=failures,
-        progress=not args.quiet,
+    from ._data._batch import BatchBusy
+
+    loader = dict(
+        time=args.time,
+        inputs=list(args.inputs),
+        output=args.output,
+        group_by=args.group_by,
+        strict=args.strict,
+        trim_column=args.trim_column,
+        trim_below=args.trim_below,
     )
+    try:
+        report = run_batch(
+            records,
+            out,
+            model=args.model,
+            method=args.method,
+            gamma=args.gamma,
+            lam=args.lam,
+            area=args.area,
+            length=args.length,
+            failures=failures,
+            progress=not args.quiet,
+            loader=loader,
+            overwrite=not args.no_overwrite,
+        )
+    except BatchBusy as e:
+        raise CLIError(str(e)) from None
     print(
-        f"vojax batch: {len(records) + len(failures) - failed} records identified, {failed} failed → {out}/"
+        f"vojax batch: {report.computed} computed, {report.skipped} up to date (skipped), "
+        f"{report.redone} redone, {report.failed} failed → {out}/"
     )
-    if failed:
+    if report.failed:
         print(
             f"vojax batch: the failures and their reasons are in {out / 'failures.csv'}",
             file=sys.stderr,
@@ -292,6 +335,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("files", nargs="+", help="CSV or NPZ files; each is a record unless --group-by")
     _data_options(b, many=True)
     b.add_argument("--quiet", action="store_true", help="no progress line")
+    b.add_argument(
+        "--no-overwrite",
+        action="store_true",
+        help="fail a record whose outputs exist from other settings or inputs instead of redoing it",
+    )
     b.set_defaults(run=batch_command)
     return parser
 

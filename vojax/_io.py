@@ -1,20 +1,31 @@
-"""Atomic output files: written beside the target, then renamed over it."""
+"""Output files: written atomically (beside the target, then renamed over it), with the
+permissions the user's umask gives new files, and JSON that strict parsers accept."""
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
 
 
+def _file_mode() -> int:
+    """``0o666`` less the process's umask (read without changing it where the OS allows)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yields a temporary path in the target's folder; renames it onto ``path`` on success."""
+    """Yields a temporary path in the target's folder; renames it onto ``path`` on success
+    (a reader never sees a partial file; a crash leaves at most a hidden ``.tmp`` file)."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
         yield tmp
+        os.chmod(tmp, _file_mode())  # mkstemp creates 0600 whatever the umask
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -22,7 +33,19 @@ def atomic_path(path):
         raise
 
 
+def strict_json(data):
+    """``data`` with every non-finite float replaced by ``None`` (JSON has no NaN/Infinity)."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: strict_json(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json(v) for v in data]
+    return data
+
+
 def write_json(path, data) -> None:
+    """Writes ``data`` as strict JSON (non-finite numbers become ``null``), atomically."""
+    text = json.dumps(strict_json(data), indent=2, sort_keys=True, allow_nan=False)
     with atomic_path(path) as tmp, open(tmp, "w") as f:
-        json.dump(data, f, indent=2, sort_keys=True)
-        f.write("\n")
+        f.write(text + "\n")

@@ -6,9 +6,14 @@ then spans `jax.devices()` of all hosts, and each host should be given its own s
 files (the outputs are per record, so hosts do not collide).
 """
 
+import contextlib
 import csv
+import dataclasses
 import io
+import json
 import sys
+import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -18,7 +23,18 @@ from .._adaptive._bands import law_covariance
 from .._identify import DEFAULT_BOUNDS, PAPER_LAM, auto_r0, build_law, law_identification, run_law
 from .._io import atomic_path
 from .._stats import noise_variance
-from ._pipeline import adaptive_part, identify_record, record_header, regressors, write_outputs
+from ._paths import inside, record_folder
+from ._pipeline import (
+    adaptive_part,
+    check_finite,
+    identify_record,
+    make_provenance,
+    record_header,
+    regressors,
+    write_outputs,
+)
+
+LOCK_NAME = ".vojax-batch.lock"
 
 
 def _sharded(x, mesh):
@@ -69,6 +85,55 @@ def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None)
     return jax.tree_util.tree_map(lambda a: np.asarray(a)[: us.shape[0]], out), np.asarray(x0)
 
 
+class BatchBusy(RuntimeError):
+    """Another batch holds the output folder's lock."""
+
+
+@contextlib.contextmanager
+def _locked(out_dir: Path):
+    """An exclusive, non-blocking lock on ``out_dir`` for the whole run (POSIX ``flock``;
+    released by the OS if the process dies)."""
+    path = out_dir / LOCK_NAME
+    f = open(path, "a")
+    try:
+        try:
+            import fcntl
+
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:  # not POSIX: no lock
+            pass
+        except OSError:
+            raise BatchBusy(
+                f"another vojax batch is writing to {out_dir}; wait for it or use another --out."
+            ) from None
+        yield
+    finally:
+        f.close()
+
+
+def _remove_orphans(out_dir: Path):
+    """Temporary files left by a killed run (the lock is held: no one else writes here)."""
+    for tmp in list(out_dir.glob(".*.tmp")) + list(out_dir.glob("*/.*.tmp")):
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+def _state(folder: Path, provenance: dict) -> str:
+    """``"missing"``, ``"current"`` (complete, same provenance) or ``"stale"``."""
+    summary = folder / "summary.json"
+    if not summary.is_file():
+        return "missing" if not folder.exists() else "stale"
+    try:
+        old = json.loads(summary.read_text())
+        with open(folder / "identification.csv", newline="") as f:
+            lines = sum(1 for _ in csv.reader(f))
+    except (OSError, ValueError):
+        return "stale"
+    complete = lines == old.get("samples", -1) + 1 and (folder / "identification.png").is_file()
+    same = old.get("provenance", {}).get("hash") == provenance["hash"]
+    return "current" if complete and same else "stale"
+
+
 def run_batch(
     records,
     out_dir,
@@ -81,92 +146,152 @@ def run_batch(
     length=None,
     failures=(),
     progress=True,
+    loader=None,
+    overwrite=True,
 ):
-    """Identifies every record into ``out_dir/<record>/``; returns the number that failed.
+    """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
+    returns a `BatchReport`.
 
-    A record whose ``summary.json`` exists is skipped (complete). A record that fails is listed
-    in ``failures.csv`` with its reason and the rest go on. ``summary.csv`` gets a row per record.
+    Each record's ``summary.json`` carries a provenance block (versions, input file and its
+    SHA-256, record name, every setting that affects the numbers, and their hash). A record is
+    skipped only when its outputs are complete and its provenance matches; otherwise it is
+    redone (``overwrite=False``: it fails, saying why). A record that fails is listed in
+    ``failures.csv`` with its reason and the rest go on. ``summary.csv`` is rebuilt from the
+    records' own ``summary.json`` after every record, sorted by record, so a killed run loses
+    nothing and a re-run gives exactly one row per record. The folder is locked for the run.
     """
     from .._tune import tune_gains
 
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    failed = list(failures)
-    rows = []
-    todo = [r for r in records if not (out_dir / r.name / "summary.json").is_file()]
-    done = len(records) - len(todo)
-    mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
+    settings = dict(
+        model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
+        **(loader or {}),
+    )
+    with _locked(out_dir):
+        _remove_orphans(out_dir)
+        report = BatchReport()
+        failed = list(failures)
+        report.failed = len(failed)
+        folders = {r.name: inside(out_dir, record_folder(r.name)) for r in records}
+        hashes = {}
+        provenance = {r.name: make_provenance(r, settings, hashes) for r in records}
+        todo = []
+        for r in records:
+            state = _state(folders[r.name], provenance[r.name])
+            if state == "current":
+                report.skipped += 1
+            elif state == "stale" and not overwrite:
+                failed.append((r.source, r.name, "outputs from other settings or inputs exist "
+                               "(--no-overwrite)"))
+                report.failed += 1
+            else:
+                todo.append((r, state))
+        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
+        started = time.perf_counter()
+        total = len(todo)
 
-    def report():
-        if progress:
-            print(
-                f"\rvojax batch: {done}/{len(records)} records done",
-                end="",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    report()
-    # equal lengths (and steps) run together under vmap
-    buckets = {}
-    for r in todo:
-        buckets.setdefault((r.time.size, r.dt), []).append(r)
-    for (num, dt), group in buckets.items():
-        prepared, gains = [], []
-        for r in group:
-            try:
-                u, y, names, physical = regressors(r, model, area, length)
-                if gamma == "auto" and method in ("adaptive", "both"):
-                    g = tune_gains(u, y, dt, lam=lam)
-                    gains.append((g.gamma, g.lam))
+        def finished(r, state, ok):
+            if ok:
+                if state == "stale":
+                    report.redone += 1
                 else:
-                    gains.append((float(gamma), PAPER_LAM if lam is None else float(lam)))
-                prepared.append((r, u, y, names, physical))
-            except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
-                failed.append((r.source, r.name, str(e).splitlines()[0]))
-                done += 1
-                report()
-        if not prepared:
-            continue
-        if method in ("adaptive", "both"):
-            us = np.stack([p[1] for p in prepared])
-            ys = np.stack([p[2] for p in prepared])
-            g = np.array(gains)
-            out, x0 = adaptive_batch(us, ys, dt, g[:, 0], g[:, 1], mesh=mesh)
-        for i, (r, u, y, names, physical) in enumerate(prepared):
-            try:
-                if method in ("adaptive", "both"):
-                    columns, summary = _columns_from_batch(
-                        r, y, names, physical, out, x0, i, g[i], model, method, area, length
-                    )
-                    if method == "both":
-                        refit_cols, refit_summary = identify_record(
-                            r, model=model, method="refit", area=area, length=length
+                    report.computed += 1
+                _write_summary_table(out_dir, records, folders, provenance)
+            else:
+                report.failed += 1
+            if progress:
+                n = report.computed + report.redone + report.failed - len(failures)
+                eta = (time.perf_counter() - started) / max(n, 1) * (total - n)
+                print(
+                    f"\rvojax batch: {n}/{total} to do, {report.skipped} up to date; "
+                    f"about {eta:.0f} s left   ",
+                    end="",
+                    file=sys.stderr,
+                    flush=True,
+                )
+
+        def fail(r, e):
+            failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
+
+        # equal lengths (and steps) run together under vmap
+        buckets = {}
+        for r, state in todo:
+            buckets.setdefault((r.time.size, r.dt), []).append((r, state))
+        for (num, dt), group in buckets.items():
+            prepared, gains = [], []
+            for r, state in group:
+                try:
+                    u, y, names, physical = regressors(r, model, area, length)
+                    if method not in ("adaptive", "both"):
+                        gains.append((np.nan, np.nan))  # the law is not run
+                    elif gamma == "auto":
+                        g = tune_gains(u, y, dt, lam=lam)
+                        gains.append((g.gamma, g.lam))
+                    else:
+                        gains.append((float(gamma), PAPER_LAM if lam is None else float(lam)))
+                    prepared.append((r, state, u, y, names, physical))
+                except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
+                    fail(r, e)
+                    finished(r, state, False)
+            if not prepared:
+                continue
+            if method in ("adaptive", "both"):
+                us = np.stack([p[2] for p in prepared])
+                ys = np.stack([p[3] for p in prepared])
+                g = np.array(gains)
+                try:
+                    out, x0 = adaptive_batch(us, ys, dt, g[:, 0], g[:, 1], mesh=mesh)
+                except Exception as e:  # noqa: BLE001
+                    for r, state, *_ in prepared:
+                        fail(r, e)
+                        finished(r, state, False)
+                    continue
+            for i, (r, state, u, y, names, physical) in enumerate(prepared):
+                try:
+                    if method in ("adaptive", "both"):
+                        columns, summary = _columns_from_batch(
+                            r, y, names, physical, out, x0, i, g[i], model, method, area, length
                         )
-                        for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
-                            columns[k] = refit_cols[k]
-                        summary["refit"] = refit_summary["refit"]
-                else:  # "refit" or "kalman": one record at a time
-                    columns, summary = identify_record(
-                        r, model=model, method=method, area=area, length=length
-                    )
-                if not np.all(
-                    np.isfinite(columns["y_hat" if "y_hat" in columns else "refit_y_hat"])
-                ):
-                    raise ValueError("the identification diverged (non-finite output)")
-                write_outputs(out_dir / r.name, columns, summary, r.inputs)
-                rows.append(_summary_row(summary))
-            except Exception as e:  # noqa: BLE001
-                failed.append((r.source, r.name, str(e).splitlines()[0]))
-            done += 1
-            report()
-    if progress:
-        print(file=sys.stderr)
-    _write_table(out_dir / "summary.csv", rows, append=True)
-    if failed:
-        _write_table(
-            out_dir / "failures.csv", [dict(file=f, record=n, reason=m) for f, n, m in failed]
-        )
-    return len(failed)
+                        if method == "both":
+                            refit_cols, refit_summary = identify_record(
+                                r, model=model, method="refit", area=area, length=length
+                            )
+                            for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
+                                columns[k] = refit_cols[k]
+                            summary["refit"] = refit_summary["refit"]
+                    else:  # "refit" or "kalman": one record at a time
+                        columns, summary = identify_record(
+                            r, model=model, method=method, area=area, length=length
+                        )
+                    check_finite(summary, columns)
+                    summary["provenance"] = provenance[r.name]
+                    write_outputs(folders[r.name], columns, summary, r.inputs)
+                    finished(r, state, True)
+                except Exception as e:  # noqa: BLE001
+                    fail(r, e)
+                    finished(r, state, False)
+        if progress:
+            print(file=sys.stderr)
+        _write_summary_table(out_dir, records, folders, provenance)
+        path = out_dir / "failures.csv"
+        if failed:
+            rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (x[1], x[0]))]
+            _write_table(path, rows)
+        else:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()  # a clean run leaves no stale failures
+    return report
+
+
+@dataclasses.dataclass
+class BatchReport:
+    """What a batch did: records computed, skipped as up to date, redone, and failed."""
+
+    computed: int = 0
+    skipped: int = 0
+    redone: int = 0
+    failed: int = 0
 
 
 def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, method, area, length):
@@ -186,28 +311,37 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
 def _summary_row(summary):
     row = {"record": summary["record"], "source": summary["source"], "samples": summary["samples"]}
     for part in ("adaptive", "refit"):
-        if part in summary:
-            for k, v in summary[part].items():
-                if isinstance(v, (int, float, bool)):
-                    row[f"{part}_{k}"] = v
+        if part not in summary:
+            continue
+        for k, v in summary[part].items():
+            if isinstance(v, (int, float, bool)) or v is None:
+                row[f"{part}_{k}"] = v
+        for group in ("parameters_final", "parameters_final_stderr", "parameters", "parameters_stderr"):
+            for name, v in (summary[part].get(group) or {}).items():
+                row[f"{part}_{group}_{name}"] = v
     return row
 
 
-def _write_table(path, rows, append=False):
-    """Writes (or extends) a CSV table atomically, keeping earlier rows of an interrupted run."""
-    old = []
-    if append and not rows:
-        return  # nothing new: leave the table as it is
-    if append and path.is_file():
-        with open(path, newline="") as f:
-            old = list(csv.DictReader(f))
-    rows = old + rows
-    if not rows:
-        return
-    fields = list(dict.fromkeys(k for row in rows for k in row))
+def _write_summary_table(out_dir, records, folders, provenance):
+    """``summary.csv``: one row per record of this run whose outputs are current, by name."""
+    rows = []
+    for r in sorted(records, key=lambda r: r.name):
+        path = folders[r.name] / "summary.json"
+        try:
+            summary = json.loads(path.read_text())
+        except (OSError, ValueError):
+            continue
+        if summary.get("provenance", {}).get("hash") == provenance[r.name]["hash"]:
+            rows.append(_summary_row(summary))
+    _write_table(out_dir / "summary.csv", rows)
+
+
+def _write_table(path, rows):
+    """Writes a CSV table atomically (an empty table is written as its header only)."""
+    fields = list(dict.fromkeys(k for row in rows for k in row)) or ["record"]
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=fields)
     writer.writeheader()
     writer.writerows(rows)
-    with atomic_path(path) as tmp, open(tmp, "w") as f:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
         f.write(buffer.getvalue())

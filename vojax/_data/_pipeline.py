@@ -48,6 +48,78 @@ def physical_stderr(physical, p, cov):
     return delta_stderr(physical, p, cov)
 
 
+ESTIMATES = ("alpha", "alpha_lower", "alpha_upper", "y_hat", "refit_alpha", "refit_y_hat")
+
+
+def _non_finite(data, where=""):
+    """The key path of the first non-finite number in a JSON-like structure, or None."""
+    if isinstance(data, float):
+        return where if not np.isfinite(data) else None
+    if isinstance(data, dict):
+        items = data.items()
+    elif isinstance(data, (list, tuple)):
+        items = enumerate(data)
+    else:
+        return None
+    for k, v in items:
+        bad = _non_finite(v, f"{where}.{k}" if where else str(k))
+        if bad is not None:
+            return bad
+    return None
+
+
+def check_finite(summary, columns):
+    """Raises `ValueError` naming the first non-finite estimate: a failure is never a result."""
+    for name in ESTIMATES:
+        if name in columns:
+            values = np.asarray(columns[name], dtype=float)
+            if not np.all(np.isfinite(values)):
+                k = int(np.argmax(~np.isfinite(values)))
+                raise ValueError(f"the identification diverged: {name} is not finite at sample {k}.")
+    bad = _non_finite({k: v for k, v in summary.items() if k in ("adaptive", "refit")})
+    if bad is not None:
+        raise ValueError(f"the identification diverged: {bad} is not finite.")
+
+
+def file_sha256(path) -> str:
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def make_provenance(record, settings, cache=None) -> dict:
+    """Versions, the input file and its SHA-256, the record and every setting that affects the
+    numbers, with the SHA-256 of all of it (`hash`) for deciding whether outputs are current."""
+    import hashlib
+    import json
+    import platform
+    from pathlib import Path
+
+    import jax
+
+    from .. import __version__
+
+    source = str(Path(record.source).resolve())
+    cache = {} if cache is None else cache
+    if source not in cache:
+        cache[source] = file_sha256(source) if Path(source).is_file() else None
+    block = {
+        "vojax": __version__,
+        "jax": jax.__version__,
+        "python": platform.python_version(),
+        "source": source,
+        "source_sha256": cache[source],
+        "record": record.name,
+        "settings": {k: settings[k] for k in sorted(settings)},
+    }
+    text = json.dumps(block, sort_keys=True, default=str)
+    return {**block, "hash": hashlib.sha256(text.encode()).hexdigest()}
+
+
 def record_header(record, model, method, area, length):
     """The part of a record's summary that describes the data and the settings."""
     return {

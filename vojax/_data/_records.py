@@ -36,26 +36,51 @@ class Record:
 
 
 def _read_csv(path: Path):
-    """Header and rows of a CSV file, skipping blank lines and lines that start with ``#``."""
+    """Header and rows of a CSV file. Blank lines, and lines starting with ``#`` before the
+    header, are skipped; a UTF-8 byte-order mark is removed. Errors name the file and line."""
     try:
-        with open(path, newline="") as f:
-            lines = [
-                (i + 1, line)
-                for i, line in enumerate(f)
-                if line.strip() and not line.lstrip().startswith("#")
-            ]
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            text = f.read()
     except UnicodeDecodeError:
-        raise DataError(f"{path}: not a text CSV file.") from None
+        raise DataError(f"{path}: not a text CSV file (not UTF-8).") from None
+    except PermissionError:
+        raise DataError(f"{path}: not readable (permission denied).") from None
+    lines, header_seen = [], False
+    for i, line in enumerate(text.splitlines(keepends=True)):
+        if not line.strip():
+            continue
+        if line.lstrip().startswith("#"):
+            if header_seen:
+                raise DataError(
+                    f"{path}, line {i + 1}: starts with '#' after the header; comments are "
+                    "allowed only before the header row."
+                )
+            continue
+        header_seen = True
+        lines.append((i + 1, line))
     if not lines:
         raise DataError(f"{path}: no header row (the file is empty or only comments).")
     reader = csv.reader([line for _, line in lines])
-    header = [h.strip() for h in next(reader)]
+    header = next(reader)
+    seen = set()
+    for name in header:
+        if name in seen:
+            raise DataError(
+                f"{path}, line {lines[0][0]}: the column name {name!r} appears twice in the header."
+            )
+        seen.add(name)
     rows = list(reader)
     return header, rows, [n for n, _ in lines[1:]]
 
 
 def _column(path, header, rows, line_numbers, name, numeric=True):
     if name not in header:
+        spaced = [h for h in header if h.strip() == name]
+        if spaced:
+            raise DataError(
+                f"{path}: no column {name!r}; the header has {spaced[0]!r}, with spaces around "
+                "the name (remove them, or pass the name with its spaces)."
+            )
         raise DataError(f"{path}: no column {name!r} (columns: {', '.join(header)}).")
     j = header.index(name)
     values = []
@@ -64,10 +89,10 @@ def _column(path, header, rows, line_numbers, name, numeric=True):
             raise DataError(
                 f"{path}, line {line}: row has {len(row)} fields, column {name!r} is field {j + 1}."
             )
-        text = row[j].strip()
         if not numeric:
-            values.append(text)
+            values.append(row[j])  # a record's name is kept exactly: ' pad ' is not 'pad'
             continue
+        text = row[j].strip()
         try:
             values.append(float(text))
         except ValueError:
@@ -91,7 +116,8 @@ def _uniform(path, name, t, columns: dict, lines, strict: bool):
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0)) + 1
         raise DataError(
-            f"{label}, line {lines[i]}: time does not increase ({t[i - 1]!r} then {t[i]!r})."
+            f"{label}, line {lines[i]}: time does not increase ({float(t[i - 1])!r} then "
+            f"{float(t[i])!r})."
         )
     dt = float(np.median(steps))
     spread = float(np.max(np.abs(steps - dt)) / dt)
@@ -136,6 +162,8 @@ def load_records(
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
     path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path}: is a folder, not a CSV or NPZ file.")
     if not path.is_file():
         raise DataError(f"{path}: no such file.")
     wanted = [time, *inputs, output] + ([trim_column] if trim_column else [])

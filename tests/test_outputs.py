@@ -1,0 +1,233 @@
+"""Outputs a lab can trust: safe record folders, provenance and re-runs, crash-safe tables,
+the lock, strict JSON, no silent NaN, the umask."""
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from vojax._data._paths import MAX_LEN, record_folder
+
+from .test_data_cli import _cli, _springpot_csv
+
+HOSTILE = [
+    "..",
+    ".",
+    "../escaped",
+    "/abs/path/x",
+    "dup",
+    "dup/",
+    "x//y",
+    "x/y",
+    "summary.csv",
+    "CON",
+    "A",
+    "a",
+    "%2e%2e",
+    "",
+    "n" * 300,
+    "#hash",
+    " pad ",
+    "pad",
+]
+
+
+def test_record_folder_is_injective_and_safe():
+    folders = [record_folder(n) for n in HOSTILE]
+    assert len(set(folders)) == len(HOSTILE)
+    assert len({f.lower() for f in folders}) == len(HOSTILE)  # case-insensitive systems too
+    for f in folders:
+        assert f and f not in (".", "..") and "/" not in f and "\\\\" not in f
+        assert not f.startswith(".") and len(f) <= MAX_LEN + 11
+    assert record_folder("specimen_1-a.b") == "specimen_1-a.b"  # plain names stay readable
+
+
+def _long_csv(path, names, n=40):
+    rows = ["specimen,time_s,stress,strain"]
+    t = np.arange(n) * 0.1
+    for j, name in enumerate(names):
+        quoted = '"' + name.replace('"', '""') + '"'
+        stress = np.minimum(t, 1.0) + 0.1 * j
+        strain = np.cumsum(stress) * 0.1 * (1 + 0.1 * j)
+        rows += [f"{quoted},{float(a)!r},{float(b)!r},{float(c)!r}" for a, b, c in zip(t, stress, strain)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+BASE = ["--time", "time_s", "--input", "stress", "--output", "strain", "--quiet"]
+
+
+def test_hostile_record_names_stay_inside_out(tmp_path):
+    names = [n for n in HOSTILE if n.strip() and n != "#hash"]  # CSV cannot hold an empty key
+    work = tmp_path / "work"
+    work.mkdir()
+    _long_csv(work / "long.csv", names)
+    before = {p for p in tmp_path.rglob("*")}
+    proc = _cli(
+        "batch", "long.csv", *BASE, "--group-by", "specimen", "--out", "out",
+        "--method", "refit", cwd=work,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out = (work / "out").resolve()
+    new = {p for p in tmp_path.rglob("*")} - before
+    assert all(p.resolve() == out or out in p.resolve().parents for p in new if p != out)
+    assert not (tmp_path / "escaped").exists() and not os.path.exists("/abs/path/x")
+    with open(out / "summary.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["record"] for r in rows] == sorted(names)  # one row each, original names, sorted
+    for name in names:
+        summary = json.loads((out / record_folder(name) / "summary.json").read_text())
+        assert summary["record"] == name
+
+
+def _strict(text):
+    def refuse(c):
+        raise ValueError(f"non-standard JSON constant {c}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def _batch(work, *extra, method="adaptive"):
+    return _cli(
+        "batch", *sorted(p.name for p in work.glob("*.csv")), *BASE, "--out", "out",
+        *(["--gamma", "0.5"] if method == "adaptive" else []), "--method", method, *extra,
+        cwd=work,
+    )
+
+
+def test_reruns_redo_what_changed_and_only_that(tmp_path):
+    work = tmp_path / "w"
+    work.mkdir()
+    for k, q in enumerate((0.3, 0.5, 0.4)):
+        _springpot_csv(work / f"r{k}.csv", n=60, q=q)
+    first = _batch(work)
+    assert first.returncode == 0, first.stderr
+    assert "3 computed, 0 up to date (skipped), 0 redone, 0 failed" in first.stdout
+    out = work / "out"
+    for p in out.rglob("summary.json"):
+        prov = _strict(p.read_text())["provenance"]
+        assert prov["settings"]["gamma"] == 0.5 and len(prov["source_sha256"]) == 64
+    # a truncated output, a changed input file: those two records are redone
+    ident = out / "r0" / "identification.csv"
+    ident.write_text("\n".join(ident.read_text().splitlines()[:10]) + "\n")
+    _springpot_csv(work / "r1.csv", n=60, q=0.45)
+    again = _batch(work)
+    assert "0 computed, 1 up to date (skipped), 2 redone, 0 failed" in again.stdout, again.stdout
+    with open(out / "summary.csv") as f:
+        rows = {r["record"]: r for r in csv.DictReader(f)}
+    assert sorted(rows) == ["r0", "r1", "r2"]
+    # another setting: every record is stale; --no-overwrite refuses and says why
+    refused = _batch(work, "--no-overwrite", method="refit")
+    assert refused.returncode == 2
+    with open(out / "failures.csv") as f:
+        reasons = [r["reason"] for r in csv.DictReader(f)]
+    assert len(reasons) == 3 and all("--no-overwrite" in r for r in reasons)
+    redo = _batch(work, method="refit")
+    assert redo.returncode == 0 and "3 redone" in redo.stdout
+    assert not (out / "failures.csv").exists()  # a clean run leaves no stale failures
+    with open(out / "summary.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 3 and all("refit_order" in r for r in rows)
+
+
+def test_killed_batches_lose_no_rows(tmp_path):
+    """SIGKILL at five points, then a full run: one row per record, equal to a clean run's."""
+    work = tmp_path / "w"
+    work.mkdir()
+    for k in range(8):
+        _springpot_csv(work / f"r{k}.csv", n=48, q=0.3 + 0.05 * k)  # one length: one compile
+    clean = tmp_path / "clean"
+    clean.mkdir()
+    for p in work.glob("*.csv"):
+        (clean / p.name).write_bytes(p.read_bytes())
+    assert _batch(clean, method="refit").returncode == 0
+    rng = np.random.default_rng(0)
+    args = [sys.executable, "-m", "vojax", "batch", *sorted(p.name for p in work.glob("*.csv")),
+            *BASE, "--out", "out", "--method", "refit"]
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    done = lambda: len(list((work / "out").glob("*/summary.json")))  # noqa: E731
+    kills = []
+    for _ in range(5):
+        before = done() if (work / "out").exists() else 0
+        proc = subprocess.Popen(args, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # kill while records are being written: just after one more finished (or at 60 s)
+        deadline = time.monotonic() + 60
+        while proc.poll() is None and time.monotonic() < deadline:
+            if (work / "out").exists() and done() > before:
+                time.sleep(float(rng.uniform(0.0, 0.3)))
+                break
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        kills.append(done())
+    assert any(0 < k < 8 for k in kills), kills  # the kills interrupted a run part-way
+    final = _batch(work, method="refit")
+    assert final.returncode == 0, final.stderr
+    def read(folder):
+        with open(folder / "out" / "summary.csv", newline="") as f:
+            return {r["record"]: r for r in csv.DictReader(f)}
+
+    got, want = read(work), read(clean)
+    assert sorted(got) == sorted(want) == [f"r{k}" for k in range(8)]
+    for name in want:
+        assert float(got[name]["refit_order"]) == pytest.approx(float(want[name]["refit_order"]), abs=1e-12)
+    assert not list((work / "out").rglob("*.tmp"))
+
+
+def test_a_second_batch_on_the_same_out_is_refused(tmp_path):
+    fcntl = pytest.importorskip("fcntl")
+    work = tmp_path / "w"
+    work.mkdir()
+    _springpot_csv(work / "r.csv", n=40)
+    (work / "out").mkdir()
+    with open(work / "out" / ".vojax-batch.lock", "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        proc = _batch(work)
+    assert proc.returncode == 1
+    assert "another vojax batch is writing to" in proc.stderr
+    assert not (work / "out" / "r").exists()
+
+
+def test_failure_is_never_a_result(tmp_path):
+    """A record whose estimates are not finite exits non-zero and writes no result."""
+    t = np.arange(400) * 60.0
+    path = tmp_path / "slow.csv"
+    u = np.stack([np.sin(1e-4 * t) + 1.0, np.cos(2e-4 * t)], axis=1)
+    y = u[:, 0] * 1e-3 + np.cumsum(u[:, 1]) * 1e-6
+    with open(path, "w") as f:
+        f.write("t,a,b,y\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r},{float(d)!r}\n" for a, b, c, d in zip(t, u[:, 0], u[:, 1], y)))
+    proc = _cli(
+        "identify", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
+        "--model", "linear", "--method", "adaptive", "--gamma", "0.01", "--lam", "0.9",
+        "--out", "o", cwd=tmp_path,
+    )
+    assert proc.returncode == 1, proc.stdout
+    assert "diverged" in proc.stderr
+    assert not (tmp_path / "o" / "summary.json").exists()
+
+
+def test_json_is_strict_and_files_honour_the_umask(tmp_path):
+    work = tmp_path / "w"
+    work.mkdir()
+    _springpot_csv(work / "r.csv", n=50)
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    for mask, mode in ((0o022, 0o644), (0o077, 0o600)):
+        out = f"out{mask:o}"
+        proc = subprocess.run(
+            [sys.executable, "-c",
+             f"import os, sys; os.umask({mask}); from vojax._cli import main; "
+             f"sys.exit(main(['batch', 'r.csv', *{BASE!r}, '--out', '{out}', '--method', 'both',"
+             " '--gamma', '0.5']))"],
+            cwd=work, env=env, capture_output=True, text=True,
+        )
+        assert proc.returncode == 0, proc.stderr
+        files = [p for p in (work / out).rglob("*") if p.is_file() and not p.name.startswith(".")]
+        assert len(files) >= 4
+        assert {p.stat().st_mode & 0o777 for p in files} == {mode}
+        for p in (work / out).rglob("*.json"):
+            _strict(p.read_text())

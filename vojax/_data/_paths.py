@@ -1,0 +1,72 @@
+"""Record names (from the data: file stems or `--group-by` values) as safe folder names.
+
+`record_folder` is injective and never yields a separator, ``.``, ``..``, an empty name, a
+name over `MAX_LEN` characters, or a name reserved by the batch's own files or by Windows:
+
+- letters, digits, ``-``, ``_`` and (not leading) ``.`` are kept; every other character,
+  ``%`` included, becomes ``%XX`` (UTF-8 bytes in hex), so distinct names stay distinct;
+- a name that had to be shortened, contains an upper-case letter (two names differing only
+  in case would share a folder on a case-insensitive file system) or is reserved gets
+  ``~`` and 10 hex digits of its SHA-256 appended (``~`` is otherwise always encoded).
+
+The original name is kept in the record's ``summary.json`` and in ``summary.csv``.
+"""
+
+import hashlib
+import re
+from pathlib import Path
+
+MAX_LEN = 120
+_KEEP = re.compile(r"[A-Za-z0-9_\-.]")
+RESERVED = {
+    "summary.csv",
+    "failures.csv",
+    "summary.json",
+    "identification.csv",
+    "identification.png",
+    ".vojax-batch.lock",
+    "con",
+    "prn",
+    "aux",
+    "nul",
+    *(f"com{i}" for i in range(10)),
+    *(f"lpt{i}" for i in range(10)),
+}
+
+
+def _encode(name: str) -> str:
+    out = []
+    for i, ch in enumerate(name):
+        if _KEEP.fullmatch(ch) and not (ch == "." and i == 0):
+            out.append(ch)
+        else:
+            out.append("".join(f"%{b:02x}" for b in ch.encode("utf-8")))
+    return "".join(out)
+
+
+def record_folder(name: str) -> str:
+    """The folder name of the record called `name` (see the module's docstring)."""
+    if not isinstance(name, str):
+        raise TypeError(f"a record name must be a string, got {type(name).__name__}.")
+    encoded = _encode(name)
+    stem = encoded.split(".")[0].lower()
+    needs_hash = (
+        not encoded
+        or len(encoded) > MAX_LEN
+        or encoded != encoded.lower()
+        or encoded.lower() in RESERVED
+        or stem in RESERVED
+    )
+    if not needs_hash:
+        return encoded
+    digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:10]
+    return f"{encoded[:MAX_LEN]}~{digest}"
+
+
+def inside(root: Path, component: str) -> Path:
+    """``root/component``, checked to resolve inside ``root`` (never a path outside it)."""
+    root = Path(root).resolve()
+    target = (root / component).resolve()
+    if target.parent != root:
+        raise ValueError(f"record folder {component!r} would leave the output folder {root}.")
+    return target
