@@ -277,3 +277,24 @@ def test_constant_output_is_refused(ramp):
     t, u, y, *_, dt = ramp
     with pytest.raises(ValueError, match="`y` is constant"):
         vojax.identify(u, np.ones_like(y), dt, method="kalman")
+
+
+def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
+    from vojax._identify import diagnose
+
+    alpha = np.full(100, 0.4)
+    lo, hi = alpha - 0.01, alpha + 0.01
+    ok = diagnose(alpha, lo, hi, (0.01, 0.99), True, ())
+    assert ok.identified and ok.message == "" and ok.band_halfwidth == pytest.approx(0.01)
+    for converged, edge, text in (
+        (False, (), "did not converge"),
+        (True, ("noise",), "the band is not a statement about the data"),
+    ):
+        d = diagnose(alpha, lo, hi, (0.01, 0.99), converged, edge)
+        assert not d.identified and text in d.message
+    drift = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("order_drift",))
+    assert drift.identified and "order_drift at the edge" in drift.message
+    wide = diagnose(alpha, alpha - 0.3, alpha + 0.3, (0.01, 0.99), True, ())
+    assert not wide.identified and "±0.3 wide" in wide.message
+    stuck = diagnose(np.full(100, 0.99), lo, hi, (0.01, 0.99), True, ())
+    assert not stuck.identified and "bound" in stuck.message

@@ -38,7 +38,9 @@ class Diagnostics:
     - `at_bound_fraction`: fraction of samples whose order lies at a bound of `alpha_bounds`.
     - `converged`: the tracker's smoother (or the gain tuning) converged.
     - `at_edge`: names of automatically chosen settings that sit at the edge of their search box.
-    - `identified`: the band is narrower than ±0.1 and the order is at a bound for < 5 % of samples.
+    - `identified`: the band is narrower than ±0.1, the order is at a bound for < 5 % of
+      samples, the estimation converged, and the measurement noise was not tuned to the edge
+      of its range (where the band would not be a statement about the data).
     - `message`: one sentence when something is wrong, else ``""``.
     """
 
@@ -217,9 +219,19 @@ def diagnose(alpha, lower, upper, bounds, converged, at_edge) -> Diagnostics:
         problems.append(f"the order sits at a bound of {bounds} for {100 * at_bound:.0f} % of samples")
     if not converged:
         problems.append("the estimation did not converge")
-    if at_edge:
-        problems.append(f"{', '.join(at_edge)} at the edge of the search box")
-    identified = width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05
+    if "noise" in at_edge:
+        problems.append(
+            "the measurement noise was tuned to the edge of its range (an output almost free "
+            "of noise, or drifting states that absorb the misfit): the band is not a "
+            "statement about the data"
+        )
+    others = [name for name in at_edge if name != "noise"]
+    if others:
+        problems.append(f"{', '.join(others)} at the edge of the search box")
+    identified = (
+        width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
+        and "noise" not in at_edge
+    )
     message = "; ".join(problems)
     return Diagnostics(width, at_bound, bool(converged), tuple(at_edge), identified, message)
 

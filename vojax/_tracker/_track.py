@@ -26,6 +26,7 @@ BOX = {
 GRID_ORDER = (1e-1, 1.0, 1e1)  # variance of the change of β over the record, first pass
 PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's p is constant)
 START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
+NOISE_FLOOR = 0.25  # the noise variance stays ≥ this × the second-difference estimate
 MAX_ITER = 400  # Levenberg–Marquardt iterations of one smoothing
 
 
@@ -113,16 +114,26 @@ class Tuning:
     tuned: bool
 
 
-def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, max_steps=60):
+def box(noise_floor):
+    """The search box (natural logs): `BOX`, with the noise's lower end raised to the floor."""
+    out = dict(BOX)
+    out["noise"] = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
+    return out
+
+
+def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, limits, max_steps=60):
     """Maximises the linearised innovation likelihood over the three log-intensities."""
-    return _refine_compiled(hyper.as_array(), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, max_steps)
+    lo = jnp.asarray([v[0] for v in limits.values()], smoothed.pseudo.dtype)
+    hi = jnp.asarray([v[1] for v in limits.values()], smoothed.pseudo.dtype)
+    return _refine_compiled(
+        hyper.as_array(), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
+        hi, max_steps,
+    )
 
 
 @eqx.filter_jit
-def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, max_steps):
+def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps):
     count = jnp.sum(mask)
-    lo = jnp.asarray([BOX[k][0] for k in BOX], x0.dtype)
-    hi = jnp.asarray([BOX[k][1] for k in BOX], x0.dtype)
 
     def loss(zeta, _):
         # box by a smooth squashing, so that BFGS works unconstrained
@@ -171,14 +182,20 @@ def _score(sm):
     return np.where(ok, ll, -np.inf)
 
 
-def tune(memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, rounds=2, keep=1):
+def tune(
+    memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, noise_floor=1e-10,
+    rounds=2, keep=1,
+):
     """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
     noise intensities and over starting trajectories, since the posterior of a variable order
     can have several modes. One vmapped smoothing of every start × order-drift on `GRID_ORDER`
     (parameter drift `PARAM_DRIFT0`, noise `noise0`); then, for the `keep` best, alternate a
     BFGS refinement of the likelihood of the linearised model and re-smoothing. Returns
-    ``(Hyper, Smoothed, Tuning)``."""
+    ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
+    records otherwise reach a higher likelihood by explaining every wiggle with drifting
+    states and no noise at all, with meaningless, vanishing bands."""
     num = u.shape[0]
+    limits = box(noise_floor)
     rows = [(qo, PARAM_DRIFT0, noise0) for _ in starts for qo in GRID_ORDER]
     noms = np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0)
     nominal = jnp.broadcast_to(jnp.asarray(noms)[:, None, :], (len(rows), num, noms.shape[1]))
@@ -202,7 +219,7 @@ def tune(memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, rou
         for _ in range(rounds):
             # the refinement maximises the likelihood of the model linearised at this mode;
             # keep it only if the re-smoothed mode's own evidence is higher
-            hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0)
+            hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0, limits)
             sm = iterated_smoother(
                 memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
             )
@@ -216,8 +233,9 @@ def tune(memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, rou
     x = np.asarray(hyper.as_array())
     edges = tuple(
         name
-        for name, v in zip(BOX, x)
-        if min(v - BOX[name][0], BOX[name][1] - v) < 0.05 * (BOX[name][1] - BOX[name][0])
+        for name, v in zip(limits, x)
+        if min(v - limits[name][0], limits[name][1] - v)
+        < 0.05 * (BOX[name][1] - BOX[name][0])
     )
     tuning = Tuning(*map(float, np.exp(x)), edges, float(sm.log_likelihood), True)
     return hyper, sm, tuning
@@ -289,11 +307,13 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
     nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
-    noise0 = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
-    noise0 = float(np.clip(noise0, 1e-10, max(rss / dof, 1e-10)))
+    noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
+    noise0 = float(np.clip(noise_data, 1e-10, max(rss / dof, 1e-10)))
+    # the noise cannot be much below what the data's second differences show
+    noise_floor = max(NOISE_FLOOR * noise_data, 1e-10)
     if hyper is None:
         hyper, sm, tuning = tune(
-            memory, un, yn, mask, steps, horizon, m0, p0, starts, noise0, bounds
+            memory, un, yn, mask, steps, horizon, m0, p0, starts, noise0, bounds, noise_floor
         )
     else:
         hyper = Hyper(
