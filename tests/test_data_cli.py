@@ -79,6 +79,9 @@ def test_loader_reads_groups_trims_and_resamples(tmp_path):
         ("t,F,d\n0,1,0\n0.1,nan,0\n0.2,3,0\n", r"line 3, column 'F': value is NaN"),
         ("t,F,d\n0,1,0\n0.2,2,0\n0.1,3,0\n", r"line 4: time does not increase"),
         ("# only a comment\n", "no header row"),
+        ("t,F,F,d\n0,1,2,0\n0.1,2,3,0\n0.2,3,4,0\n", r"line 1: the column name 'F' appears twice"),
+        ("t, F,d\n0,1,0\n0.1,2,0\n0.2,3,0\n", r"the header has ' F', with spaces around the name"),
+        ("t,F,d\n0,1,0\n#0.1,2,0\n0.2,3,0\n", r"line 3: starts with '#' after the header"),
     ],
 )
 def test_loader_errors_name_file_line_and_column(tmp_path, content, match):
@@ -86,6 +89,19 @@ def test_loader_errors_name_file_line_and_column(tmp_path, content, match):
     path.write_text(content)
     with pytest.raises(DataError, match=match):
         load_records(path, time="t", inputs=["F"], output="d")
+
+
+def test_loader_bom_folders_and_exact_names(tmp_path):
+    path = tmp_path / "bom.csv"
+    path.write_bytes("\ufefft,F,d\n0,1,0\n0.1,2,0\n0.2,3,0\n".encode("utf-8"))
+    rec = load_records(path, time="t", inputs=["F"], output="d")[0]  # the BOM is not part of 't'
+    assert rec.time.size == 3
+    with pytest.raises(DataError, match="is a folder, not a CSV or NPZ file"):
+        load_records(tmp_path, time="t", inputs=["F"], output="d")
+    long = tmp_path / "long.csv"
+    long.write_text("s,t,F,d\n" + "".join(f"{n},{k * 0.1},{k + 1},{k}\n" for n in (" pad ", "pad") for k in range(4)))
+    names = [r.name for r in load_records(long, time="t", inputs=["F"], output="d", group_by="s")]
+    assert names == [" pad ", "pad"]
 
 
 def test_npz_records(tmp_path):

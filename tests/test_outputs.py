@@ -231,3 +231,23 @@ def test_json_is_strict_and_files_honour_the_umask(tmp_path):
         assert {p.stat().st_mode & 0o777 for p in files} == {mode}
         for p in (work / out).rglob("*.json"):
             _strict(p.read_text())
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--length", "1e-300"], "--length 1e-300 makes the strain reach"),
+        (["--area", "1e-300"], "--area 1e-300 makes the stress reach"),
+    ],
+)
+def test_messages_name_the_option(tmp_path, args, message):
+    _springpot_csv(tmp_path / "r.csv", n=40)
+    proc = _cli("identify", "r.csv", *BASE[:-1], "--out", "o", *args, cwd=tmp_path)
+    assert proc.returncode == 1 and message in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o" / "summary.json").exists()
+
+
+def test_demo_refuses_settings_that_diverge(tmp_path):
+    proc = _cli("demo", "--lam", "1000", "--out", "d", cwd=tmp_path)
+    assert proc.returncode == 1 and "diverged at sample" in proc.stderr
+    assert not (tmp_path / "d" / "summary.json").exists()

@@ -314,7 +314,7 @@ def _summary_row(summary):
         if part not in summary:
             continue
         for k, v in summary[part].items():
-            if isinstance(v, (int, float, bool)) or v is None:
+            if isinstance(v, (int, float, bool, str)) or v is None:
                 row[f"{part}_{k}"] = v
         for group in ("parameters_final", "parameters_final_stderr", "parameters", "parameters_stderr"):
             for name, v in (summary[part].get(group) or {}).items():

@@ -29,8 +29,17 @@ def regressors(record, model: str, area=None, length=None):
             f"--model {model} takes one --input (the stress or force), got {record.inputs.shape[1]}; "
             "use --model linear for several inputs."
         )
-    stress = record.inputs[:, 0] / (area or 1.0)
-    strain = record.output / (length or 1.0)
+    with np.errstate(over="ignore", under="ignore"):
+        stress = record.inputs[:, 0] / (area or 1.0)
+        strain = record.output / (length or 1.0)
+    for option, value, signal in (("--area", area, stress), ("--length", length, strain)):
+        big = float(np.max(np.abs(signal))) if signal.size else 0.0
+        if value is not None and not big < 1e150:  # squares must stay finite
+            raise ValueError(
+                f"{option} {value:g} makes the {'stress' if option == '--area' else 'strain'} "
+                f"reach {big:.3g}, beyond what float64 arithmetic can square; give {option} "
+                "in the units of the data's columns."
+            )
     law = MODELS[model]
     u = law.inputs(stress) if model == "springpot" else law.inputs(stress, strain)
     return np.asarray(u), strain, list(law.names), lambda p: law.parameters(p)

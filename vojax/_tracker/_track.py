@@ -44,14 +44,27 @@ def _weighted_mean(x, w):
     return float(np.sum(w * x) / np.sum(w))
 
 
+def _rms(x, w=None):
+    """Root mean square without overflow (scaled by the largest magnitude first)."""
+    x = np.asarray(x, dtype=float)
+    big = float(np.max(np.abs(x))) if x.size else 0.0
+    if not big > 0 or not np.isfinite(big):
+        return big if np.isfinite(big) else float("inf")
+    z = (x / big) ** 2
+    mean = float(np.sum(w * z) / np.sum(w)) if w is not None else float(np.mean(z))
+    return big * float(np.sqrt(mean))
+
+
 def data_scales(u, y, mask) -> Scales:
     """Reference level and scale of the output, RMS of each input; errors name what is flat."""
     y, u, w = np.asarray(y), np.asarray(u), np.asarray(mask)
+    if not np.all(np.isfinite(y)) or not np.all(np.isfinite(u)):
+        raise ValueError("`u` and `y` must be finite (an overflow in a unit conversion?).")
     y_ref = _weighted_mean(y, w)
-    y_scale = float(np.sqrt(_weighted_mean((y - y_ref) ** 2, w)))
+    y_scale = _rms(y - y_ref, w)
     if not y_scale > 0 or not np.isfinite(y_scale):
         raise ValueError("`y` is constant over the fitted samples: there is nothing to identify.")
-    u_scale = np.sqrt(np.mean(u**2, axis=0))
+    u_scale = np.array([_rms(u[:, j]) for j in range(u.shape[1])])
     if np.any(~(u_scale > 0)) or not np.all(np.isfinite(u_scale)):
         j = int(np.argmax(~(u_scale > 0) | ~np.isfinite(u_scale)))
         raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")
