@@ -209,6 +209,19 @@ def test_failure_is_never_a_result(tmp_path):
     assert proc.returncode == 1, proc.stdout
     assert "diverged" in proc.stderr
     assert not (tmp_path / "o" / "summary.json").exists()
+    # the batch: the record fails with its reason, exit 2, and no row in summary.csv
+    proc = _cli(
+        "batch", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
+        "--model", "linear", "--method", "adaptive", "--gamma", "0.01", "--lam", "0.9",
+        "--out", "b", "--quiet", cwd=tmp_path,
+    )
+    assert proc.returncode == 2
+    with open(tmp_path / "b" / "failures.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert row["record"] == "slow" and "diverged" in row["reason"] and "sample" in row["reason"]
+    with open(tmp_path / "b" / "summary.csv", newline="") as f:
+        assert list(csv.DictReader(f)) == []
+    assert not (tmp_path / "b" / "slow" / "summary.json").exists()
 
 
 def test_json_is_strict_and_files_honour_the_umask(tmp_path):

@@ -202,28 +202,46 @@ def _load(path, args):
     return records
 
 
+def _settings(args) -> dict:
+    """The options that set the identification."""
+    return dict(
+        model=args.model,
+        method=args.method,
+        gamma=args.gamma,
+        lam=args.lam,
+        area=args.area,
+        length=args.length,
+    )
+
+
+def _loader(args) -> dict:
+    """The options that set how records are read."""
+    return dict(
+        time=args.time,
+        inputs=list(args.inputs),
+        output=args.output,
+        group_by=args.group_by,
+        strict=args.strict,
+        trim_column=args.trim_column,
+        trim_below=args.trim_below,
+    )
+
+
 def identify_command(args) -> int:
     from ._data._paths import inside, record_folder
-    from ._data._pipeline import check_finite, identify_record, write_outputs
+    from ._data._pipeline import check_finite, identify_record, make_provenance, write_outputs
 
     _law_options(args)
     records = _load(args.file, args)
     out = _new_dir(args.out)
     for record in records:
         target = inside(out, record_folder(record.name)) if len(records) > 1 else out
-        columns, summary = identify_record(
-            record,
-            model=args.model,
-            method=args.method,
-            gamma=args.gamma,
-            lam=args.lam,
-            area=args.area,
-            length=args.length,
-        )
+        columns, summary = identify_record(record, **_settings(args))
         try:
             check_finite(summary, columns)
         except ValueError as e:
             raise CLIError(f"{record.name}: {e}") from None
+        summary["provenance"] = make_provenance(record, {**_settings(args), **_loader(args)})
         write_outputs(target, columns, summary, record.inputs)
         parts = [f"{record.name}: {record.time.size} samples"]
         if "adaptive" in summary:
@@ -267,28 +285,14 @@ def batch_command(args) -> int:
         )
     from ._data._batch import BatchBusy
 
-    loader = dict(
-        time=args.time,
-        inputs=list(args.inputs),
-        output=args.output,
-        group_by=args.group_by,
-        strict=args.strict,
-        trim_column=args.trim_column,
-        trim_below=args.trim_below,
-    )
     try:
         report = run_batch(
             records,
             out,
-            model=args.model,
-            method=args.method,
-            gamma=args.gamma,
-            lam=args.lam,
-            area=args.area,
-            length=args.length,
+            **_settings(args),
             failures=failures,
             progress=not args.quiet,
-            loader=loader,
+            loader=_loader(args),
             overwrite=not args.no_overwrite,
         )
     except BatchBusy as e:

@@ -48,6 +48,9 @@ class Refit(eqx.Module):
     at_bound: bool = eqx.field(static=True, default=False)
 
 
+TRACES = {"fit": 0}
+
+
 def _knot_places(num_knots):
     """Knots at the centres of K equal parts of the record (as fractions of its length): none at
     t = 0, where Φ = 0 says nothing about the order."""
@@ -126,6 +129,30 @@ def refit(
         phi = scan_memory(mem, u2, fixed, False)
         return _linear(phi, big_y, fixed, x0, width, estimate)
 
+    out = _fit(
+        mem, u2, big_y, jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
+        jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
+    )
+    offset = out.pop("offset")
+    fit = out.pop("fit")
+    knots = out["knots"]
+    margin = 1e-3 * (bounds[1] - bounds[0])
+    places = _knot_places(num_knots) if num_knots > 1 else jnp.zeros(1)
+    return Refit(
+        **out,
+        x0=x0 + offset if estimate else x0,
+        knot_times=places * (num - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
+        y_hat=fit + x0,
+        at_bound=bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin))),
+    )
+
+
+@eqx.filter_jit
+def _fit(mem, u2, big_y, order0, num_knots, bounds, estimate, rtol, atol, max_steps, throw):
+    """The Levenberg–Marquardt fit and its Gauss–Newton errors, compiled once per shape and
+    static setting (numbers are arrays, the model is built inside: no retracing)."""
+    TRACES["fit"] += 1  # runs only while tracing
+    num, width = u2.shape
     lo, hi = bounds
     z0 = (order0 - lo) / (hi - lo)
     raw0 = jnp.full((num_knots,), jnp.log(z0 / (1 - z0)))
@@ -160,31 +187,24 @@ def refit(
     graw = jax.jacfwd(raw_of)(theta)
     raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, cov, graw), 0.0))
     raw = raw_of(theta)
-    beta = _order_curve(theta[:num_knots], num, bounds)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
-    places = _knot_places(num_knots) if num_knots > 1 else jnp.zeros(1)
-    knot_idx = jnp.round(places * (num - 1)).astype(int)
-    knots = lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots])
-    margin = 1e-3 * (hi - lo)
     pc = cov[num_knots : num_knots + width, num_knots : num_knots + width]
-    return Refit(
-        order=beta,
+    return dict(
+        order=_order_curve(theta[:num_knots], num, bounds),
         order_stderr=slope * raw_sd,
         order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
         order_upper=lo + (hi - lo) * jax.nn.sigmoid(raw + 2 * raw_sd),
         p=theta[num_knots : num_knots + width],
         p_stderr=jnp.sqrt(jnp.maximum(jnp.diag(pc), 0.0)),
         p_cov=pc,
-        x0=x0 + (theta[-1] if estimate else 0.0),
+        offset=theta[-1] if estimate else jnp.zeros((), theta.dtype),
         x0_stderr=jnp.sqrt(jnp.maximum(cov[-1, -1], 0.0)) if estimate else jnp.zeros(()),
-        knots=knots,
-        knot_times=places * (num - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
-        y_hat=fit + x0,
+        knots=lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots]),
+        fit=fit,
         residuals=residuals,
         sigma=jnp.sqrt(sigma2),
         result=sol.result,
         steps=sol.stats["num_steps"],
-        at_bound=bool(jnp.any((knots < lo + margin) | (knots > hi - margin))),
     )
 
 
