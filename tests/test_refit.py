@@ -164,3 +164,18 @@ def test_refit_traces_once_per_shape():
     assert TRACES["fit"] == before
     vojax.refit(U[: n + 1], _data(0.6, seed=7)[: n + 1], DT)
     assert TRACES["fit"] == before + 1
+
+
+@pytest.mark.parametrize("order", ["constant", 3])
+def test_padding_with_a_mask_changes_nothing(order):
+    """Padded after the end and masked: the same fit (knots over the fitted span), to the
+    solver's tolerance (rtol = atol = 1e-10 on the parameters)."""
+    from vojax._data._pipeline import _padded
+
+    n = 300
+    y = _data(0.5, seed=8)[:n]
+    a = vojax.refit(U[:n], y, DT, order=order)
+    b = _padded(vojax.refit, U[:n], y, 384, dt=DT, order=order)
+    for name in ("order", "order_stderr", "p", "p_stderr", "y_hat", "knot_times"):
+        np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=1e-8, atol=1e-9)
+    assert float(b.sigma) == pytest.approx(float(a.sigma), rel=1e-8)

@@ -298,3 +298,29 @@ def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
     assert not wide.identified and "±0.3 wide" in wide.message
     stuck = diagnose(np.full(100, 0.99), lo, hi, (0.01, 0.99), True, ())
     assert not stuck.identified and "bound" in stuck.message
+
+
+def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
+    """A record padded after its end and masked gives the unpadded record's results (to the
+    smoother's convergence tolerance, 1e-9 relative in the objective); two records of
+    different lengths padded to one bucket length trace the smoother once."""
+    from vojax._data._pipeline import _padded, bucket_length
+    from vojax._tracker._smoother import TRACES
+
+    t, u, y, *_ = _ramp_case(n=150, dt=0.1, noise=0.02, seed=3)
+    a = vojax.identify(u, y, 0.1, method="kalman", warn=False)
+    b = _padded(vojax.identify, u, y, 192, dt=0.1, method="kalman", warn=False)
+    assert b.alpha.shape == (150,) and b.p.shape == (150, 2)
+    for name in ("alpha", "alpha_std", "p", "p_std", "y_hat", "y_pred"):
+        np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=1e-7, atol=1e-8)
+    assert float(b.x0) == pytest.approx(float(a.x0), rel=1e-8)
+    assert b.diagnostics.band_halfwidth == pytest.approx(a.diagnostics.band_halfwidth, rel=1e-6)
+    before = TRACES["smoother"]
+    t2, u2, y2, *_ = _ramp_case(n=170, dt=0.1, noise=0.02, seed=4)
+    _padded(vojax.identify, u2, y2, 192, dt=0.1, method="kalman", warn=False)
+    assert TRACES["smoother"] == before
+    assert [bucket_length(n) for n in (3, 28, 29, 150, 160, 161, 1000)] == [4, 28, 32, 160, 160, 192, 1024]
+    with pytest.raises(ValueError, match="`mask` must hold only 0"):
+        vojax.identify(u, y, 0.1, method="kalman", mask=np.full(150, 0.5))
+    with pytest.raises(ValueError, match="`mask` is for method='kalman'"):
+        vojax.identify(u, y, 0.1, mask=np.ones(150))

@@ -184,6 +184,20 @@ def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds):
     return float(dt) * jnp.diag(power)
 
 
+def check_mask(mask, num, num_inputs):
+    """A 0/1 mask of shape (N,) with enough fitted samples; returns it as a NumPy array."""
+    arr = np.asarray(mask, dtype=float)
+    if arr.shape != (num,):
+        raise ValueError(f"`mask` must have shape ({num},), got {arr.shape}.")
+    if not np.all((arr == 0) | (arr == 1)):
+        raise ValueError("`mask` must hold only 0 (not fitted) and 1 (fitted).")
+    if arr.sum() < num_inputs + 3:
+        raise ValueError(
+            f"`mask` leaves {int(arr.sum())} fitted samples; at least {num_inputs + 3} are needed."
+        )
+    return arr
+
+
 def _scalar(x, name):
     arr = jnp.asarray(x, jnp.result_type(float))
     if arr.ndim != 0:
@@ -252,6 +266,7 @@ def identify(
     x0=None,
     r0="auto",
     noise=None,
+    mask=None,
     tol: float = 1e-10,
     warn: bool = True,
 ) -> Identification:
@@ -297,6 +312,10 @@ def identify(
       ``order_drift`` (variance of the logistic order coordinate's change over the record),
       ``parameter_drift`` (variance of each normalised parameter's change over the record)
       and ``noise_std`` (of the measurement, in the units of `y`).
+    - `mask`: ``method="kalman"`` only: an ``(N,)`` array of 0 and 1; samples with 0 are not
+      fitted (the tracker still estimates the states there, from its random-walk model). Used
+      to pad records to a common length so that one compiled program serves many lengths;
+      the diagnostics cover the samples up to the last one fitted.
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
 
     **Returns:** an `Identification`. **Raises:** `ValueError` for bad input and when the
@@ -308,7 +327,11 @@ def identify(
     if method == "kalman":
         if x0 is not None:
             raise ValueError("`x0` is estimated by method='kalman'; leave it None.")
-        return _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, warn)
+        return _identify_kalman(
+            u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn
+        )
+    if mask is not None:
+        raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
     if isinstance(gamma, str) and gamma != "auto":
         raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
     if isinstance(lam, str):
@@ -386,7 +409,7 @@ def law_identification(
     )
 
 
-def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, warn):
+def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn):
     from ._tracker import track
 
     u2, y, bounds, _, _ = check_options(
@@ -399,13 +422,18 @@ def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, tol, w
             raise ValueError(f"`noise` must be a dict with keys {sorted(keys)}, got {noise!r}.")
         for k, v in noise.items():
             check.positive(v, f"noise[{k!r}]")
+    span = u2.shape[0]
+    if mask is not None:
+        mask = check_mask(mask, u2.shape[0], u2.shape[1])
+        span = int(np.flatnonzero(mask)[-1]) + 1
     mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds)
-    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise)
+    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask)
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
     diagnostics = diagnose(
-        res.alpha, res.alpha_lower, res.alpha_upper, bounds, res.converged, res.tuning.at_edge
+        res.alpha[:span], res.alpha_lower[:span], res.alpha_upper[:span], bounds,
+        res.converged, res.tuning.at_edge,
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)

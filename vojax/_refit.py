@@ -57,18 +57,20 @@ def _knot_places(num_knots):
     return (jnp.arange(num_knots, dtype=jnp.result_type(float)) + 0.5) / num_knots
 
 
-def _raw_curve(raw, num):
-    """The unbounded order at every sample: linear between knots, constant beyond the end ones."""
-    grid = jnp.linspace(0.0, 1.0, num)
+def _raw_curve(raw, num, span=None):
+    """The unbounded order at every sample: linear between knots, constant beyond the end ones.
+    The knots spread over the first `span` samples (default all; later ones are padding)."""
+    span = num if span is None else span
+    grid = jnp.arange(num, dtype=raw.dtype) / jnp.maximum(jnp.asarray(span, raw.dtype) - 1, 1.0)
     if raw.shape[0] == 1:
         return jnp.full((num,), raw[0])
     return jnp.interp(grid, _knot_places(raw.shape[0]), raw)
 
 
-def _order_curve(raw, num, bounds):
+def _order_curve(raw, num, bounds, span=None):
     """Order at every sample: ``bounds[0] + (hi−lo)·sigmoid(curve)`` of `_raw_curve`."""
     lo, hi = bounds
-    return lo + (hi - lo) * jax.nn.sigmoid(_raw_curve(raw, num))
+    return lo + (hi - lo) * jax.nn.sigmoid(_raw_curve(raw, num, span))
 
 
 def refit(
@@ -86,6 +88,7 @@ def refit(
     atol: float = 1e-10,
     max_steps: int = 200,
     throw: bool = False,
+    mask=None,
 ) -> Refit:
     """Fits ``y = x0 + pᵀ φ(β, t)`` over the whole record by Levenberg–Marquardt.
 
@@ -99,6 +102,9 @@ def refit(
     memory kernels; standard errors come from the Gauss–Newton approximation
     ``σ² (JᵀJ)⁻¹`` with ``σ² = RSS/(N − P)``, and the order's by the delta method.
 
+    `mask` (an ``(N,)`` array of 0 and 1, default all 1): samples with 0 do not enter the fit
+    (their residuals are dropped; the degrees of freedom count the fitted samples only).
+
     **Returns:** a `Refit`.
     """
     bounds = check.interval(order_bounds, "order_bounds")
@@ -109,6 +115,11 @@ def refit(
         u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None
     )
     num, width = u2.shape
+    from ._identify import check_mask
+
+    w = jnp.asarray(
+        np.ones(num) if mask is None else check_mask(mask, num, width), u2.dtype
+    )
     big_y = y - x0  # with an estimated offset, x0 = y[0] + the fitted correction
     mem = make_memory(memory, dt, num, rule=rule, order_range=bounds)
 
@@ -127,32 +138,35 @@ def refit(
     else:
         fixed = check.order(order, num, bounds=bounds, closed=True)
         phi = scan_memory(mem, u2, fixed, False)
-        return _linear(phi, big_y, fixed, x0, width, estimate)
+        return _linear(phi, big_y, fixed, x0, width, estimate, w)
 
     out = _fit(
-        mem, u2, big_y, jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
+        mem, u2, big_y, w, jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
         jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
     )
     offset = out.pop("offset")
     fit = out.pop("fit")
+    span = out.pop("span")
     knots = out["knots"]
     margin = 1e-3 * (bounds[1] - bounds[0])
     places = _knot_places(num_knots) if num_knots > 1 else jnp.zeros(1)
     return Refit(
         **out,
         x0=x0 + offset if estimate else x0,
-        knot_times=places * (num - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
+        knot_times=places * (span - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
         y_hat=fit + x0,
         at_bound=bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin))),
     )
 
 
 @eqx.filter_jit
-def _fit(mem, u2, big_y, order0, num_knots, bounds, estimate, rtol, atol, max_steps, throw):
+def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max_steps, throw):
     """The Levenberg–Marquardt fit and its Gauss–Newton errors, compiled once per shape and
     static setting (numbers are arrays, the model is built inside: no retracing)."""
     TRACES["fit"] += 1  # runs only while tracing
     num, width = u2.shape
+    # up to the last fitted sample (as a float: it scales the knots' grid)
+    span = (jnp.max(jnp.where(w > 0, jnp.arange(num), 0)) + 1).astype(w.dtype)
     lo, hi = bounds
     z0 = (order0 - lo) / (hi - lo)
     raw0 = jnp.full((num_knots,), jnp.log(z0 / (1 - z0)))
@@ -162,15 +176,15 @@ def _fit(mem, u2, big_y, order0, num_knots, bounds, estimate, rtol, atol, max_st
 
     def model(theta):
         raw, p = theta[:num_knots], theta[num_knots:]
-        beta = _order_curve(raw, num, bounds)
+        beta = _order_curve(raw, num, bounds, span)
         return design(scan_memory(mem, u2, beta, False)) @ p
 
     # a start for p: linear least squares at the initial order
-    phi0 = design(scan_memory(mem, u2, _order_curve(raw0, num, bounds), False))
-    p0 = jnp.linalg.lstsq(phi0, big_y)[0]
+    phi0 = design(scan_memory(mem, u2, _order_curve(raw0, num, bounds, span), False))
+    p0 = jnp.linalg.lstsq(phi0 * w[:, None], big_y * w)[0]
     theta0 = jnp.concatenate([raw0, p0])
     sol = optx.least_squares(
-        lambda th, _: model(th) - big_y,
+        lambda th, _: (model(th) - big_y) * w,
         optx.LevenbergMarquardt(rtol=rtol, atol=atol),
         theta0,
         max_steps=max_steps,
@@ -179,18 +193,18 @@ def _fit(mem, u2, big_y, order0, num_knots, bounds, estimate, rtol, atol, max_st
     theta = sol.value
     fit = model(theta)
     residuals = big_y - fit
-    jac = jax.jacfwd(model)(theta)
-    dof = max(num - theta.size, 1)
-    sigma2 = jnp.sum(residuals**2) / dof
+    jac = jax.jacfwd(model)(theta) * w[:, None]
+    dof = jnp.maximum(jnp.sum(w) - theta.size, 1.0)
+    sigma2 = jnp.sum(w * residuals**2) / dof
     cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)
-    raw_of = lambda th: _raw_curve(th[:num_knots], num)  # noqa: E731
+    raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
     graw = jax.jacfwd(raw_of)(theta)
     raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, cov, graw), 0.0))
     raw = raw_of(theta)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
     pc = cov[num_knots : num_knots + width, num_knots : num_knots + width]
     return dict(
-        order=_order_curve(theta[:num_knots], num, bounds),
+        order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
         order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
         order_upper=lo + (hi - lo) * jax.nn.sigmoid(raw + 2 * raw_sd),
@@ -205,19 +219,20 @@ def _fit(mem, u2, big_y, order0, num_knots, bounds, estimate, rtol, atol, max_st
         sigma=jnp.sqrt(sigma2),
         result=sol.result,
         steps=sol.stats["num_steps"],
+        span=span,
     )
 
 
-def _linear(phi, big_y, fixed, x0, width, estimate):
+def _linear(phi, big_y, fixed, x0, width, estimate, w):
     """With the order fixed the model is linear in p (and the offset): ordinary least squares."""
     if estimate:
         phi = jnp.concatenate([phi, jnp.ones((phi.shape[0], 1), phi.dtype)], 1)
-    p, *_ = jnp.linalg.lstsq(phi, big_y)
+    p, *_ = jnp.linalg.lstsq(phi * w[:, None], big_y * w)
     fit = phi @ p
     residuals = big_y - fit
-    dof = max(phi.shape[0] - phi.shape[1], 1)
-    sigma2 = jnp.sum(residuals**2) / dof
-    cov = sigma2 * jnp.linalg.pinv(phi.T @ phi)
+    dof = jnp.maximum(jnp.sum(w) - phi.shape[1], 1.0)
+    sigma2 = jnp.sum(w * residuals**2) / dof
+    cov = sigma2 * jnp.linalg.pinv((phi * w[:, None]).T @ phi)
     zero = jnp.zeros_like(fixed)
     return Refit(
         order=fixed,

@@ -27,6 +27,7 @@ from ._paths import inside, record_folder
 from ._pipeline import (
     adaptive_part,
     check_finite,
+    bucket_length,
     identify_record,
     make_provenance,
     record_header,
@@ -148,6 +149,7 @@ def run_batch(
     progress=True,
     loader=None,
     overwrite=True,
+    buckets=True,
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -159,7 +161,10 @@ def run_batch(
     ``failures.csv`` with its reason and the rest go on. ``summary.csv`` is rebuilt from the
     records' own ``summary.json`` after every record, sorted by record, so a killed run loses
     nothing and a re-run gives exactly one row per record. The folder is locked for the run.
+    ``buckets=False`` runs the tracker and the refit at each record's own length (one
+    compilation per distinct length; for benchmarks).
     """
+    pad = bucket_length if buckets else (lambda n: n)
     from .._tune import tune_gains
 
     out_dir = Path(out_dir)
@@ -214,10 +219,12 @@ def run_batch(
         def fail(r, e):
             failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
 
-        # equal lengths (and steps) run together under vmap
+        # the law: equal lengths (and steps) run together under vmap; the tracker and the refit:
+        # one record at a time, padded to a few bucket lengths so that they compile a few times
         buckets = {}
         for r, state in todo:
-            buckets.setdefault((r.time.size, r.dt), []).append((r, state))
+            size = r.time.size if method in ("adaptive", "both") else pad(r.time.size)
+            buckets.setdefault((size, r.dt), []).append((r, state))
         for (num, dt), group in buckets.items():
             prepared, gains = [], []
             for r, state in group:
@@ -255,14 +262,16 @@ def run_batch(
                         )
                         if method == "both":
                             refit_cols, refit_summary = identify_record(
-                                r, model=model, method="refit", area=area, length=length
+                                r, model=model, method="refit", area=area, length=length,
+                                pad_to=pad(r.time.size),
                             )
                             for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
                                 columns[k] = refit_cols[k]
                             summary["refit"] = refit_summary["refit"]
                     else:  # "refit" or "kalman": one record at a time
                         columns, summary = identify_record(
-                            r, model=model, method=method, area=area, length=length
+                            r, model=model, method=method, area=area, length=length,
+                            pad_to=pad(r.time.size),
                         )
                     check_finite(summary, columns)
                     summary["provenance"] = provenance[r.name]

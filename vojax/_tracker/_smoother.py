@@ -18,6 +18,7 @@ from jaxtyping import Array, Bool, Float, Int
 from ._kalman import kalman_filter, rts_smoother
 from ._model import Hyper, linearise, objective, order_of
 
+TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
 MU_START, MU_MIN, MU_MAX = 1e-2, 1e-9, 1e12  # Levenberg–Marquardt damping (normalised units)
 
@@ -74,6 +75,7 @@ def smoother_batch(
 def _iterate(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
+    TRACES["smoother"] += 1
     """Runs the damped Gauss–Newton (Levenberg–Marquardt) iteration from the trajectory
     `nominal` (N, d): each step is the smoothed mean of the model linearised at the current
     trajectory, with every state also observed at its current value with precision μ; μ falls

@@ -64,7 +64,7 @@ def data_scales(u, y, mask) -> Scales:
     y_scale = _rms(y - y_ref, w)
     if not y_scale > 0 or not np.isfinite(y_scale):
         raise ValueError("`y` is constant over the fitted samples: there is nothing to identify.")
-    u_scale = np.array([_rms(u[:, j]) for j in range(u.shape[1])])
+    u_scale = np.array([_rms(u[:, j], w) for j in range(u.shape[1])])
     if np.any(~(u_scale > 0)) or not np.all(np.isfinite(u_scale)):
         j = int(np.argmax(~(u_scale > 0) | ~np.isfinite(u_scale)))
         raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")
@@ -168,8 +168,8 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     least-squares parameters and offset. Returns (S, d)."""
     lo, hi = bounds
     frac = (alpha_c - lo) / (hi - lo)
-    fracs = [float(np.clip(frac, START_ORDERS[0], START_ORDERS[-1]))]
-    fracs += [f for f in START_ORDERS if min(abs(f - g) for g in fracs) > 0.05]
+    # always the same number of starts: one compiled program for every record of a shape
+    fracs = [float(np.clip(frac, START_ORDERS[0], START_ORDERS[-1])), *START_ORDERS]
     out = []
     for f in fracs:
         alpha = lo + (hi - lo) * f
@@ -315,7 +315,9 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
     m0, p0 = prior(n, u.dtype)
     steps = jnp.full((num,), float(dt), u.dtype)
     # an array, not a Python number: a new record length or step must not recompile
-    horizon = jnp.asarray(max((num - 1) * float(dt), float(dt)), u.dtype)
+    # the record's span up to its last fitted sample (padding after it does not count)
+    last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
+    horizon = jnp.asarray(max(last * float(dt), float(dt)), u.dtype)
     starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
     nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
