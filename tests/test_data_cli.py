@@ -104,6 +104,25 @@ def test_loader_bom_folders_and_exact_names(tmp_path):
     assert names == [" pad ", "pad"]
 
 
+def test_area_and_length_give_eta_in_the_users_units(tmp_path):
+    """Force F and displacement d with σ = F/a, ε = d/l, σ = η D^q ε: `--area a --length l`
+    returns η itself (swapping them, or ignoring either, gives another number)."""
+    a, ell, eta, q = 2.0, 5.0, 4.0, 0.35
+    t = np.arange(150) * DT
+    force = np.minimum(t, 3.0) + 0.1 * np.sin(3 * t)
+    strain = np.asarray(vojax.reference.fractional_integral(force / a, q, DT)) / eta
+    with open(tmp_path / "fd.csv", "w") as f:
+        f.write("time_s,F,d\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in zip(t.tolist(), force.tolist(), (ell * strain).tolist())))
+    proc = _cli(
+        "identify", "fd.csv", "--time", "time_s", "--input", "F", "--output", "d", "--out", "o",
+        "--method", "refit", "--area", str(a), "--length", str(ell), cwd=tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    refit = json.loads((tmp_path / "o" / "summary.json").read_text())["refit"]
+    assert refit["order"] == pytest.approx(q, abs=1e-6)
+    assert refit["parameters"]["eta"] == pytest.approx(eta, rel=1e-5)
+
+
 def test_npz_records(tmp_path):
     t = np.arange(50) * DT
     np.savez(tmp_path / "r.npz", t=t, F=np.sin(t), d=np.cos(t))

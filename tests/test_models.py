@@ -33,7 +33,8 @@ def test_springpot_refit_recovers_eta_and_q():
 def test_kelvin_voigt_refit_recovers_eta_k_q():
     model = vojax.KelvinVoigt()
     eta, k, q = 4.0, 1.5, 0.45
-    p = np.asarray(model.regression(eta=eta, k=k))
+    # σ = kε + η D^q ε  ⇔  D^q ε = σ/η − (k/η) ε: written here, not taken from the model
+    p = np.array([1.0 / eta, -k / eta])
     stress = np.tanh(T) + 0.3 * np.sin(1.3 * T)
     # the strain solves ε = I^q[(σ − kε)/η] (implicit): fixed-point iteration on the same quadrature
     strain = np.zeros_like(T)

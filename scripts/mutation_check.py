@@ -1,0 +1,174 @@
+"""Does the test suite catch small, plausible bugs? Each planted bug below is applied, one at a
+time, to a temporary copy of the repository; the tests that should catch it are run there; the
+table says which bugs survived. Run it before closing an issue that changes the law, the
+refit, the models, the tracker or the batch, and report the count.
+
+    python scripts/mutation_check.py [--only NAME ...] [--list]
+
+A mutation whose text is no longer found in the code is reported as STALE (update it with the
+code). Exit status: the number of survivors (0 = every planted bug was caught).
+"""
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+LAW = "tests/test_law_transcription.py"
+
+# name: (file, [(old, new), ...], tests that should fail)
+MUTATIONS = {
+    "order law uses the a-priori error": (
+        "vojax/_adaptive/_law.py",
+        [("self.order.step(alpha, lam_k, y_k - y_hat)",
+          "self.order.step(alpha, lam_k, y_k - jnp.dot(state.p, phi))")],
+        [LAW],
+    ),
+    "y_pred returns the a-posteriori output": (
+        "vojax/_adaptive/_law.py",
+        [("LawOutput(alpha, p, dp, y_hat, jnp.dot(state.p, phi), lam_k, phi)",
+          "LawOutput(alpha, p, dp, y_hat, y_hat, lam_k, phi)")],
+        [LAW],
+    ),
+    "R0 forgotten (always I)": (
+        "vojax/_adaptive/_lsff.py",
+        [("r0 = jnp.eye(num_inputs, dtype=dtype) if self.r0 is None else self.r0",
+          "r0 = jnp.eye(num_inputs, dtype=dtype)")],
+        [LAW],
+    ),
+    "identify(r0=...) ignored": (
+        "vojax/_identify.py",
+        [("LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, r0)",
+          "LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, None)")],
+        [LAW],
+    ),
+    "sign of the order law flipped": (
+        "vojax/_adaptive/_order.py",
+        [("alpha + self.dt * self.gamma", "alpha - self.dt * self.gamma")],
+        [LAW],
+    ),
+    "h dropped from the order law": (
+        "vojax/_adaptive/_order.py",
+        [("alpha + self.dt * self.gamma * sensitivity", "alpha + self.gamma * sensitivity")],
+        [LAW],
+    ),
+    "refit covariance uses sigma, not sigma squared": (
+        "vojax/_refit.py",
+        [("cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)",
+          "cov = jnp.sqrt(sigma2) * jnp.linalg.pinv(jac.T @ jac)")],
+        ["tests/test_refit.py"],
+    ),
+    "batch writes the first record's law output for every record": (
+        "vojax/_data/_batch.py",
+        [("jax.tree_util.tree_map(lambda a: a[i], batch)",
+          "jax.tree_util.tree_map(lambda a: a[0], batch)")],
+        ["tests/test_batch.py"],
+    ),
+    "Kelvin–Voigt sign flipped in the regression and the parameter map": (
+        "vojax/_models/_viscoelastic.py",
+        [('"k": -p[..., 1] * eta', '"k": p[..., 1] * eta'),
+         ("jnp.array([1.0 / eta, -k / eta])", "jnp.array([1.0 / eta, k / eta])")],
+        ["tests/test_models.py"],
+    ),
+    "--area and --length swapped": (
+        "vojax/_data/_pipeline.py",
+        [("stress = record.inputs[:, 0] / (area or 1.0)", "stress = record.inputs[:, 0] / (length or 1.0)"),
+         ("strain = record.output / (length or 1.0)", "strain = record.output / (area or 1.0)")],
+        ["tests/test_data_cli.py"],
+    ),
+    "tuner's lag dropped": (
+        "vojax/_tune.py",
+        [("out.p[start - d : n - d] * out.phi[start:]", "out.p[start:n] * out.phi[start:]")],
+        ["tests/test_tune.py"],
+    ),
+    "psi dropped from the closed form (14)": (
+        "vojax/reference.py",
+        [("dphi[k] = -digamma(b) * phi[k] + inv_gamma * (lw @ u2[k::-1])",
+          "dphi[k] = inv_gamma * (lw @ u2[k::-1])")],
+        ["tests/test_kernels.py"],
+    ),
+    "history weight off by one lag": (
+        "vojax/_kernels/_weights.py",
+        [("lags = jnp.arange(1, num + 1, dtype=b.dtype)", "lags = jnp.arange(2, num + 2, dtype=b.dtype)")],
+        ["tests/test_kernels.py"],
+    ),
+    "RTS smoother gain transposed": (
+        "vojax/_tracker/_kalman.py",
+        [("g = jnp.linalg.solve(p_pred, p).T", "g = jnp.linalg.solve(p_pred, p)")],
+        ["tests/test_tracker.py"],
+    ),
+    "diagnostics trust an unconverged estimate": (
+        "vojax/_identify.py",
+        [('and bool(converged)\n', '\n')],
+        ["tests/test_tracker.py"],
+    ),
+    "refit mask ignored in the residuals": (
+        "vojax/_refit.py",
+        [("lambda th, _: (model(th) - big_y) * w", "lambda th, _: model(th) - big_y")],
+        ["tests/test_refit.py"],
+    ),
+}
+
+
+def _copy(dst: Path):
+    ignore = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", ".pytest_cache")
+    shutil.copytree(ROOT, dst, ignore=ignore, dirs_exist_ok=True)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", nargs="*")
+    parser.add_argument("--list", action="store_true")
+    parser.add_argument("--timeout", type=int, default=900)
+    args = parser.parse_args()
+    chosen = {k: v for k, v in MUTATIONS.items() if not args.only or k in args.only}
+    if args.list:
+        print("\n".join(chosen))
+        return 0
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp) / "repo"
+        for name, (path, edits, tests) in chosen.items():
+            if work.exists():
+                shutil.rmtree(work)
+            _copy(work)
+            target = work / path
+            text = target.read_text()
+            stale = [old for old, _ in edits if text.count(old) != 1]
+            if stale:
+                rows.append((name, "STALE", 0.0))
+                print(f"STALE     {name}: {stale[0][:60]!r} not found exactly once", flush=True)
+                continue
+            for old, new in edits:
+                text = text.replace(old, new)
+            target.write_text(text)
+            # the copy's package must be the one imported (cwd first on sys.path)
+            env = dict(os.environ, PYTHONPATH=str(work))
+            env.pop("XLA_FLAGS", None)
+            started = time.perf_counter()
+            try:
+                proc = subprocess.run(
+                    [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *tests],
+                    cwd=work, env=env, capture_output=True, text=True, timeout=args.timeout,
+                )
+                status = "caught" if proc.returncode != 0 else "SURVIVED"
+            except subprocess.TimeoutExpired:
+                status = "timeout"
+            took = time.perf_counter() - started
+            rows.append((name, status, took))
+            print(f"{status:9s} {name} ({took:.0f} s)", flush=True)
+    survived = [r for r in rows if r[1] in ("SURVIVED", "STALE")]
+    print(f"\n{len(rows) - len(survived)} of {len(rows)} planted bugs caught")
+    print("| planted bug | result | s |\n|---|---|---|")
+    for name, status, took in rows:
+        print(f"| {name} | {status} | {took:.0f} |")
+    return len(survived)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
