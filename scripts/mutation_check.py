@@ -107,6 +107,16 @@ MUTATIONS = {
         [('and bool(converged)\n', '\n')],
         ["tests/test_tracker.py"],
     ),
+    "tracker's chain rule dα/dβ dropped": (
+        "vojax/_tracker/_model.py",
+        [("h_beta = jnp.sum(p * dphi, axis=-1) * dalpha", "h_beta = jnp.sum(p * dphi, axis=-1)")],
+        ["tests/test_tracker.py"],
+    ),
+    "tracker's order drift doubled": (
+        "vojax/_tracker/_model.py",
+        [("qo = jnp.exp(self.log_q_order) * frac", "qo = jnp.exp(self.log_q_order) * frac * 2")],
+        ["tests/test_tracker.py"],
+    ),
     "refit mask ignored in the residuals": (
         "vojax/_refit.py",
         [("lambda th, _: (model(th) - big_y) * w", "lambda th, _: model(th) - big_y")],

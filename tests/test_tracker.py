@@ -324,3 +324,68 @@ def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
         vojax.identify(u, y, 0.1, method="kalman", mask=np.full(150, 0.5))
     with pytest.raises(ValueError, match="`mask` is for method='kalman'"):
         vojax.identify(u, y, 0.1, mask=np.ones(150))
+
+
+def test_smoother_mode_and_bands_against_a_dense_numpy_posterior():
+    """The iterated smoother's answer checked from outside: with φ and ∂φ/∂β from
+    `vojax.reference` (direct sums by hand) at the returned orders, the gradient of the negative
+    log posterior vanishes at the returned trajectory (a mode), and the returned covariances are
+    the diagonal blocks of the inverse Gauss–Newton Hessian of that posterior, built densely."""
+    from vojax import reference
+    from vojax._integral import make_memory
+    from vojax._tracker._smoother import iterated_smoother
+
+    n, dt, bounds = 40, 0.1, (0.01, 0.99)
+    lo, hi = bounds
+    t = np.arange(n) * dt
+    u = (np.sin(1.1 * t) + 0.6)[:, None]
+    truth = 0.3 + 0.3 * t / t[-1]
+    y = 1.2 * np.asarray(reference.fractional_integral(u[:, 0], truth, dt)) - 0.2
+    y = y + 0.01 * np.random.default_rng(5).standard_normal(n)
+    qo, qp, r = 1.0, 1e-3, 1e-4
+    horizon = (n - 1) * dt
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (qo, qp, r)))
+    m0 = np.array([0.0, 1.0, 0.0])
+    p0 = np.diag([4.0, 100.0, 100.0])
+    nominal = jnp.tile(jnp.asarray(m0), (n, 1))
+    mem = make_memory("direct", dt, n, order_range=bounds)
+    sm = iterated_smoother(
+        mem, jnp.asarray(u), jnp.asarray(y), jnp.ones(n), jnp.full((n,), dt), jnp.asarray(horizon),
+        hyper, jnp.asarray(m0), jnp.asarray(p0), nominal, bounds, 400,
+    )
+    assert bool(sm.converged)
+    theta = np.asarray(sm.theta)
+    beta, p, c = theta[:, 0], theta[:, 1], theta[0, 2]
+    assert np.allclose(theta[:, 2], c, rtol=0, atol=1e-12)  # the offset is one constant
+    s = 1 / (1 + np.exp(-beta))
+    alpha, dadb = lo + (hi - lo) * s, (hi - lo) * s * (1 - s)
+    phi = np.asarray(reference.fractional_integral(u[:, 0], alpha, dt))
+    dphi = np.asarray(reference.order_sensitivity(u[:, 0], alpha, dt))
+    res = y - c - p * phi
+    # unknowns x = [β_0…β_{N−1}, p_0…p_{N−1}, c]; J = ∂(prediction)/∂x, D = increments
+    dim = 2 * n + 1
+    jac = np.zeros((n, dim))
+    jac[np.arange(n), np.arange(n)] = p * dphi * dadb
+    jac[np.arange(n), n + np.arange(n)] = phi
+    jac[:, -1] = 1.0
+    diff = np.zeros((2 * (n - 1), dim))
+    w = np.zeros(2 * (n - 1))
+    for k in range(n - 1):
+        diff[k, k], diff[k, k + 1], w[k] = -1.0, 1.0, 1 / (qo * dt / horizon)
+        j = n - 1 + k
+        diff[j, n + k], diff[j, n + k + 1], w[j] = -1.0, 1.0, 1 / (qp * dt / horizon)
+    sel = np.zeros((3, dim))
+    sel[0, 0], sel[1, n], sel[2, -1] = 1.0, 1.0, 1.0
+    x = np.concatenate([beta, p, [c]])
+    p0_inv = np.linalg.inv(p0)
+    # half the gradient of the objective (data misfit / r + increments / q + prior)
+    grad = -jac.T @ res / r + diff.T @ (w * (diff @ x)) + sel.T @ p0_inv @ (sel @ x - m0)
+    scale = np.abs(jac.T @ res / r).max() + np.abs(diff.T @ (w * (diff @ x))).max()
+    assert np.max(np.abs(grad)) < 1e-6 * scale, np.max(np.abs(grad)) / scale
+    hess = jac.T @ jac / r + diff.T @ (w[:, None] * diff) + sel.T @ p0_inv @ sel
+    cov = np.linalg.inv(hess)
+    got = np.asarray(sm.cov)
+    np.testing.assert_allclose(got[:, 0, 0], np.diag(cov)[:n], rtol=1e-6)
+    np.testing.assert_allclose(got[:, 1, 1], np.diag(cov)[n : 2 * n], rtol=1e-6)
+    np.testing.assert_allclose(got[:, 0, 1], cov[np.arange(n), n + np.arange(n)], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(got[:, 2, 2], cov[-1, -1], rtol=1e-6)
