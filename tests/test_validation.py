@@ -57,3 +57,22 @@ def test_order_outside_design_range_inside_jit_is_an_error():
     # eqx.error_if surfaces as EquinoxRuntimeError or as the XLA runtime error that wraps it
     with pytest.raises((eqx.EquinoxRuntimeError, jax.errors.JaxRuntimeError), match="design range"):
         f(np.full(10, 0.9))
+
+
+def test_float32_is_refused_and_version_printed(tmp_path):
+    """Without jax_enable_x64 the library refuses to run (it never flips the setting itself);
+    `vojax --version` prints the installed version."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np, vojax\n"
+        "try:\n"
+        "    vojax.fractional_integral(np.ones(5), 0.5, 0.1)\n"
+        "except RuntimeError as e:\n"
+        "    print(e)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "vojax needs float64" in proc.stdout, proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "vojax", "--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip() == f"vojax {vojax.__version__}"

@@ -311,7 +311,10 @@ def batch_command(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="vojax", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"vojax {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser(
         "demo", help="simulate and identify the paper's study (34); write Figs. 2–4 and a summary"

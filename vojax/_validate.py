@@ -11,7 +11,18 @@ def _is_concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
 
+def require_x64():
+    """vojax computes in float64; JAX's default is float32, and the library does not change
+    JAX's global settings on import. Refuse to run silently in single precision."""
+    if not jax.config.jax_enable_x64:
+        raise RuntimeError(
+            "vojax needs float64: call jax.config.update('jax_enable_x64', True) before using it "
+            "(vojax does not change JAX's settings itself)."
+        )
+
+
 def float_array(x, name: str):
+    require_x64()
     if isinstance(x, (str, bytes)) or x is None:
         raise TypeError(f"`{name}` must be a real floating-point array, got {type(x).__name__}.")
     dtype = getattr(x, "dtype", None)
