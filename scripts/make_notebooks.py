@@ -11,7 +11,7 @@ CELLS = [
         """# The paper's simulation study, step by step
 
 Variable-order system (34): $D^{\\alpha^*(t)} x^* = p^{*T} u$, identified online with the adaptive law
-of Theorem 1 (eqs. 29–30) in the exact discrete form of `../shared/paper/NOTES.md` §3. Step
+of Theorem 1 (eqs. 29–30) in the exact discrete form of `docs/method.md` §3. Step
 $h = 0.05$ s, noise variance 0.25, $\\lambda = 0.9$, $\\gamma = 0.01$, $\\hat\\alpha(0) = 0.5$.""",
     ),
     (

@@ -88,7 +88,7 @@ def fractional_integral(
     """Variable-order Riemann–Liouville integral ``φ(β, t_k)`` of eq. (18) on ``t_k = k·dt``.
 
     ``φ_k = 1/Γ(b_k) ∫_0^{t_k} (t_k − τ)^{b_k − 1} u(τ) dτ`` with ``b_k = order[k]``: the order
-    is taken at the evaluation time (NOTES §1). The integral is done by product integration with
+    is taken at the evaluation time (docs/method.md §1). The integral is done by product integration with
     exact weights for the interpolant of ``u`` named by ``rule``.
 
     **Arguments:**
@@ -99,7 +99,7 @@ def fractional_integral(
     - `rule`: ``"trapezoid"`` (u linear between samples, error O(h²)) or ``"rectangle"``
       (u constant on ``[t_j, t_{j+1})``, error O(h)).
     - `memory`: ``"direct"`` (whole history re-read, O(k) at sample k) or ``"exponential"``
-      (sum of exponentials, O(M) per sample, NOTES §4).
+      (sum of exponentials, O(M) per sample, docs/method.md §4).
     - `tol`: relative accuracy of the exponential memory's kernel over the record.
     - `order_range`: the orders the exponential memory is designed for; an order outside it is
       an error.

@@ -8,7 +8,7 @@ It applies eq. (14),
 to the same product-integration quadrature as the kernels: the log-weighted integrals of each
 interpolation basis function are taken exactly (they are the b-derivatives of the exact weights,
 written out by hand). For the exponential memory the readout is differentiated with the
-closed-form ``c_j'(b)`` of NOTES §4. `lsff_sensitivity` is the corrected closed form (26).
+closed-form ``c_j'(b)`` of docs/method.md §4. `lsff_sensitivity` is the corrected closed form (26).
 """
 
 import numpy as np
@@ -137,7 +137,7 @@ def _exponential(u, order, dt, rule, tol, order_range):
         dnear = -digamma(b) * inv_gamma * near + inv_gamma * (lw @ u2[[k, k - 1]])
         s_pow = np.exp((1 - b) * log_s)
         c = np.sin(np.pi * b) / np.pi * base * s_pow
-        dc = np.cos(np.pi * b) * base * s_pow - log_s * c  # c_j'(b), NOTES §4
+        dc = np.cos(np.pi * b) * base * s_pow - log_s * c  # c_j'(b), docs/method.md §4
         phi[k] = inv_gamma * near + c @ history
         dphi[k] = dnear + dc @ history
         history = decay[:, None] * history + wp[:, None] * u2[k - 1] + wc[:, None] * u2[k]
@@ -165,7 +165,7 @@ def order_sensitivity(
 
 
 def lsff(phi, y, dt, lam, r0=None):
-    """Batch LSFF estimate of eq. (23), sample by sample: ``p_k = R_k⁻¹ Q_k`` (NOTES §3).
+    """Batch LSFF estimate of eq. (23), sample by sample: ``p_k = R_k⁻¹ Q_k`` (docs/method.md §3).
 
     ``R_k = Σ_{j≤k} h f^{k−j} φ_j φ_jᵀ + f^k R_0`` and ``Q_k = Σ_{j≤k} h f^{k−j} y_j φ_j`` with
     ``f = e^{−λh}``, built as explicit sums (not by recursion). Returns ``p`` (N, n).
@@ -185,7 +185,7 @@ def lsff(phi, y, dt, lam, r0=None):
 
 
 def lsff_sensitivity(phi, dphi, y, dt, lam, r0=None, *, printed=False):
-    """Closed form (26) of ``∂p/∂β`` along a uniform shift of the order history (NOTES §1, §3).
+    """Closed form (26) of ``∂p/∂β`` along a uniform shift of the order history (docs/method.md §1, §3).
 
     Corrected: ``∂P/∂β = −P (∫ e^{−λ(t−τ)} (φ ∂φᵀ/∂β + ∂φ/∂β φᵀ) dτ) P``. With ``printed=True``
     the paper's misprint ``φ ∂pᵀ/∂β`` stands in place of ``φ ∂φᵀ/∂β`` (with ∂p/∂β from the

@@ -1,4 +1,4 @@
-"""The adaptive law of Theorem 1 as components, each an ``init``/``step`` pair (NOTES §3)."""
+"""The adaptive law of Theorem 1 as components, each an ``init``/``step`` pair (docs/method.md §3)."""
 
 from ._law import AdaptiveLaw as AdaptiveLaw
 from ._law import LawOutput as LawOutput

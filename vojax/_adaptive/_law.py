@@ -34,7 +34,7 @@ class AdaptiveLaw(eqx.Module):
 
     ``φ_k`` and ``∂φ_k/∂β`` come from the memory at the current order ``α̂_k``; the LSFF step is
     differentiated with ``jax.jvp`` along the uniform order shift, its tangent ``(dR, dQ)``
-    carried in the state, which yields ``∂p/∂β`` exactly as the corrected (26) of NOTES §3.
+    carried in the state, which yields ``∂p/∂β`` exactly as the corrected (26) of docs/method.md §3.
 
     Streaming use, one sample at a time (``Y = y − x0``, Remark 4)::
 

@@ -1,4 +1,4 @@
-"""Least squares with forgetting factor, eq. (23) in the exact discrete form of NOTES §3."""
+"""Least squares with forgetting factor, eq. (23) in the exact discrete form of docs/method.md §3."""
 
 import equinox as eqx
 import jax.numpy as jnp

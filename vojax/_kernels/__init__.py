@@ -1,4 +1,4 @@
-"""Memory of the variable-order Riemann–Liouville integral (NOTES §3–4).
+"""Memory of the variable-order Riemann–Liouville integral (docs/method.md §3–4).
 
 The order ``b`` enters only through the readout of a memory state: the state update never
 depends on ``b``. That split is what makes the order sensitivity a forward-mode derivative of

@@ -17,7 +17,7 @@ class DirectState(eqx.Module):
 
 
 class DirectMemory(AbstractMemory):
-    """Exact product integration over the whole history (NOTES §3); the reference memory.
+    """Exact product integration over the whole history (docs/method.md §3); the reference memory.
 
     **Arguments:**
 

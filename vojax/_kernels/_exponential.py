@@ -1,4 +1,4 @@
-"""Sum-of-exponentials memory: O(M) state and work per sample (NOTES §4).
+"""Sum-of-exponentials memory: O(M) state and work per sample (docs/method.md §4).
 
     (t−τ)^{b−1}/Γ(b) = sin(πb)/π ∫_0^∞ s^{−b} e^{−s(t−τ)} ds ≈ Σ_j c_j(b) e^{−s_j (t−τ)}
 
@@ -117,7 +117,7 @@ class ExponentialState(eqx.Module):
 
 
 class ExponentialMemory(AbstractMemory):
-    """Sum-of-exponentials memory with the last step exact (NOTES §4).
+    """Sum-of-exponentials memory with the last step exact (docs/method.md §4).
 
     Build it with `ExponentialMemory.design(dt, num_steps, ...)`; the modes are chosen on the
     host for the given step, record length, tolerance and order range.

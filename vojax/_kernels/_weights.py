@@ -1,4 +1,4 @@
-"""Exact product-integration weights of the Riemann–Liouville kernel (NOTES §3).
+"""Exact product-integration weights of the Riemann–Liouville kernel (docs/method.md §3).
 
 With ``t_k = k h`` and the order ``b`` taken at ``t_k``,
 

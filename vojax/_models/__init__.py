@@ -1,4 +1,4 @@
-"""Viscoelastic laws written in the form of eq. (11): D^{q(t)} x = pᵀu (NOTES §6)."""
+"""Viscoelastic laws written in the form of eq. (11): D^{q(t)} x = pᵀu (docs/method.md §6)."""
 
 from ._viscoelastic import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,

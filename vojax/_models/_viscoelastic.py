@@ -64,7 +64,7 @@ class Springpot(AbstractViscoelasticModel):
 
 
 class KelvinVoigt(AbstractViscoelasticModel):
-    """``σ = k ε + η D^{q(t)} ε``: ``u = [σ, ε]``, ``p = [1/η, −k/η]`` (NOTES §6)."""
+    """``σ = k ε + η D^{q(t)} ε``: ``u = [σ, ε]``, ``p = [1/η, −k/η]`` (docs/method.md §6)."""
 
     names = ("eta", "k")
 
