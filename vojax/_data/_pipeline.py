@@ -52,11 +52,6 @@ def diagnostics_dict(d):
     return out
 
 
-def physical_stderr(physical, p, cov):
-    """Standard errors of the physical parameters by the delta method through `physical`."""
-    return delta_stderr(physical, p, cov)
-
-
 ESTIMATES = ("alpha", "alpha_lower", "alpha_upper", "y_hat", "refit_alpha", "refit_y_hat")
 
 
@@ -167,7 +162,7 @@ def adaptive_part(res, y, physical):
         "alpha_final": float(alpha[-1]),
         "alpha_final_std": float(res.alpha_std[-1]),
         "parameters_final": {k: float(v[-1]) for k, v in params.items()},
-        "parameters_final_stderr": physical_stderr(
+        "parameters_final_stderr": delta_stderr(
             physical, p[-1], np.diag(np.asarray(res.p_std)[-1] ** 2)
         ),
         "x0": float(res.x0),
@@ -259,7 +254,7 @@ def identify_record(
             "p": p.tolist(),
             "p_stderr": np.asarray(fit.p_stderr).tolist(),
             "parameters": phys,
-            "parameters_stderr": physical_stderr(physical, p, np.asarray(fit.p_cov)),
+            "parameters_stderr": delta_stderr(physical, p, np.asarray(fit.p_cov)),
             "x0": float(fit.x0),
             "x0_stderr": float(fit.x0_stderr),
             "nrmse": nrmse(y, fit.y_hat),

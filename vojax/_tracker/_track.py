@@ -319,7 +319,6 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
     last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
     horizon = jnp.asarray(max(last * float(dt), float(dt)), u.dtype)
     starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
-    nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
     noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
@@ -336,6 +335,7 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
             jnp.log(jnp.asarray(float(hyper["parameter_drift"]))),
             jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
+        nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
         sm = iterated_smoother(
             memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
         )
