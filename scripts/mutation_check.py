@@ -29,6 +29,17 @@ MUTATIONS = {
           "self.order.step(alpha, lam_k, y_k - jnp.dot(state.p, phi))")],
         [LAW],
     ),
+    "online tracker's y_pred taken after the update": (
+        "vojax/_tracker/_filter.py",
+        [("            if i == 0:\n                y_pred = h0", "            y_pred = h0")],
+        ["tests/test_tracker.py::test_online_filter_against_a_textbook_iterated_ekf"],
+    ),
+    "online tracker relinearises from the iterate, not the prediction": (
+        "vojax/_tracker/_filter.py",
+        [("mean, cov, *_ = update(prior_mean, prior_cov, jac, z, r, mask_k)",
+          "mean, cov, *_ = update(theta, prior_cov, jac, z, r, mask_k)")],
+        ["tests/test_tracker.py::test_online_filter_against_a_textbook_iterated_ekf"],
+    ),
     "y_pred returns the a-posteriori output": (
         "vojax/_adaptive/_law.py",
         [("LawOutput(alpha, p, dp, y_hat, jnp.dot(state.p, phi), lam_k, phi)",

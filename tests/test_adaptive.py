@@ -135,9 +135,19 @@ def test_study_34_accuracy(study):
         study["u"], study["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2)
     )
     errors = study_errors(study["t"], study["alpha"], study["p"], res)
-    assert errors["order_rms_t_gt_50"] <= 0.03
-    assert errors["order_rms_t_200_300"] <= 0.01
-    assert errors["p_rms_t_gt_50"] <= 0.5
+    # bounds at what the correct law reaches on this realisation (0.0202, 0.00458, 0.303),
+    # with about 10 % to spare. (The order law fed the a-priori error scores 0.0199 / 0.00474:
+    # accuracy alone cannot tell it from the right law; test_law_transcription does.)
+    assert errors["order_rms_t_gt_50"] <= 0.022
+    assert errors["order_rms_t_200_300"] <= 0.005
+    assert errors["p_rms_t_gt_50"] <= 0.33
+    # and a tracking law, not a constant: the best constant order after t = 50 scores 0.0307
+    t, alpha = np.asarray(study["t"]), np.asarray(study["alpha"])
+    late = t > 50
+    best_constant = min(
+        np.sqrt(np.mean((alpha[late] - c) ** 2)) for c in np.linspace(0.05, 0.95, 901)
+    )
+    assert errors["order_rms_t_gt_50"] <= 0.7 * best_constant
 
 
 def test_exponential_and_direct_identify_alike():
