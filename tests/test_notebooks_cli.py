@@ -40,23 +40,27 @@ def test_paper_simulation_notebook_executes():
     assert float(line.split(":")[1]) < 1e-9
 
 
-@pytest.mark.skipif(
-    not (ROOT.parent / "shared" / "data" / "beef-indentation-relaxation").is_dir(),
-    reason="../shared/data is not present",
-)
+@pytest.mark.slow
 def test_tissue_notebook_executes():
+    """The walk-through runs on the recordings shipped in vojax/examples (no ../shared)."""
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     nb = nbformat.read(ROOT / "notebooks" / "tissue_identification.ipynb", as_version=4)
     nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                             resources={"metadata": {"path": str(ROOT / "notebooks")}}).execute()
     text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []))
-    # per record: the mean as a baseline, then adaptive and refit; both fits must explain most
+    # per record: the mean as a baseline, then tracker and refit; both fits must explain most
     # of the variation the baseline leaves (NRMSE under half of the baseline's)
     nrmses = [float(line.rsplit("NRMSE", 1)[1]) for line in text.splitlines() if "NRMSE" in line]
     assert len(nrmses) == 6, text
-    for base, adaptive, refit in (nrmses[0:3], nrmses[3:6]):
-        assert adaptive < 0.5 * base and refit < 0.5 * base, text
+    for base, tracker, refit in (nrmses[0:3], nrmses[3:6]):
+        assert tracker < 0.5 * base and refit < 0.5 * base, text
+    # the walk-through's point: on both records the tracker's own diagnostics refuse its band
+    # (a noise-free controlled strain; a single ramp that does not converge), for the reasons
+    # the markdown cells explain
+    flags = [line for line in text.splitlines() if line.startswith("tracker:")]
+    assert "identified: False" in flags[0] and "noise" in flags[0], text
+    assert "identified: False" in flags[1] and "did not converge" in flags[1], text
 
 
 def _run(args, cwd):

@@ -2,7 +2,9 @@
 
 import importlib.metadata
 
+from . import io as io
 from . import reference as reference
+from . import testing as testing
 from ._adaptive import (
     LSFF as LSFF,
 )
@@ -16,6 +18,8 @@ from ._identify import Diagnostics as Diagnostics
 from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
 from ._identify import Identification as Identification
 from ._identify import identify as identify
+from .io import load_records as load_records
+from .io import write_results as write_results
 from ._integral import (
     fractional_integral as fractional_integral,
 )

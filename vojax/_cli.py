@@ -118,18 +118,66 @@ def demo(args) -> int:
     return 0
 
 
-def _data_options(p, *, many: bool):
-    p.add_argument("--time", required=True, help="name of the time column")
+def _column_options(p):
+    """How a file is read and turned into the model's signals (identify, batch, check)."""
+    p.add_argument("--time", required=True, help="name of the time column (its unit is the time unit)")
     p.add_argument(
         "--input",
         action="append",
         required=True,
         dest="inputs",
-        help="input column (stress or force); repeat for several inputs",
+        help="input column (stress or force); repeat for several inputs (--model linear)",
     )
     p.add_argument("--output", required=True, help="output column (strain or displacement)")
-    p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--model", choices=("springpot", "kelvin-voigt", "linear"), default="springpot")
+    p.add_argument(
+        "--model",
+        choices=("springpot", "kelvin-voigt", "linear"),
+        default="springpot",
+        help="springpot (default): σ = η D^q ε, u = σ, p = 1/η; kelvin-voigt: σ = kε + η D^q ε, "
+        "u = [σ, ε], p = [1/η, −k/η]; linear: the input columns as given, x = output",
+    )
+    p.add_argument(
+        "--area",
+        type=float,
+        help="contact area a of eq. (35): σ = F/a, in the units that make σ your stress unit "
+        "(default: none, the input column is the stress)",
+    )
+    p.add_argument(
+        "--length",
+        type=float,
+        help="specimen length l of eq. (35): ε = d/l, in the displacement column's unit "
+        "(default: none, the output column is the strain)",
+    )
+    p.add_argument(
+        "--group-by",
+        help="column naming the record in a long-format file (default: the file is one record)",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="reject non-uniform time steps (default: resample them, with a warning)",
+    )
+    p.add_argument(
+        "--trim-column",
+        help="drop leading samples while |this column| < --trim-below (e.g. force before "
+        "contact); the time restarts at 0 at the first kept sample (default: keep all)",
+    )
+    p.add_argument(
+        "--trim-below",
+        type=float,
+        help="the threshold of --trim-column, in that column's unit",
+    )
+
+
+def _data_options(p, *, many: bool):
+    _column_options(p)
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument(
+        "--format",
+        choices=("png", "svg", "pdf"),
+        default="png",
+        help="format of the per-record figure (default png)",
+    )
     p.add_argument(
         "--method",
         choices=("adaptive", "kalman", "refit", "both"),
@@ -143,21 +191,17 @@ def _data_options(p, *, many: bool):
         "--gamma",
         type=_gain,
         default=None,
-        help="the law's order gain γ or 'auto' (default); for --method adaptive|both only",
+        help="the law's order gain γ (1/time unit) or 'auto' (default); for --method "
+        "adaptive|both only",
     )
     p.add_argument(
         "--lam",
         type=_rate,
         default=None,
-        help="forgetting factor λ in 1/s (default: tuned with γ when --gamma auto, else 0.9); "
-        "a number with --gamma auto tunes γ alone at that λ; for --method adaptive|both only",
+        help="forgetting factor λ in 1/(time unit) (default: tuned with γ when --gamma auto, "
+        "else 0.9); a number with --gamma auto tunes γ alone at that λ; for --method "
+        "adaptive|both only",
     )
-    p.add_argument("--area", type=float, help="contact area a of eq. (35): σ = F/a")
-    p.add_argument("--length", type=float, help="specimen length l of eq. (35): ε = d/l")
-    p.add_argument("--group-by", help="column naming the record in a long-format file")
-    p.add_argument("--strict", action="store_true", help="reject non-uniform time steps")
-    p.add_argument("--trim-column", help="drop leading samples while |column| < --trim-below")
-    p.add_argument("--trim-below", type=float)
 
 
 def _law_options(args):
@@ -227,22 +271,43 @@ def _loader(args) -> dict:
     )
 
 
+def _select(records, args):
+    """`identify` works on one record: with --group-by, --record names it."""
+    names = [r.name for r in records]
+    if args.record is not None:
+        if args.group_by is None:
+            raise CLIError("--record selects a record of a long-format file: give --group-by too.")
+        chosen = [r for r in records if r.name == args.record]
+        if not chosen:
+            shown = ", ".join(repr(n) for n in names[:5]) + (", …" if len(names) > 5 else "")
+            raise CLIError(f"no record {args.record!r} in {args.file} (records: {shown}).")
+        return chosen
+    if len(records) > 1:
+        raise CLIError(
+            f"{args.file} holds {len(records)} records (--group-by {args.group_by}); identify "
+            f"takes one: add --record NAME (e.g. --record {names[0]!r}), or use vojax batch."
+        )
+    return records
+
+
 def identify_command(args) -> int:
     from ._data._paths import inside, record_folder
     from ._data._pipeline import check_finite, identify_record, make_provenance, write_outputs
 
     _law_options(args)
-    records = _load(args.file, args)
+    records = _select(_load(args.file, args), args)
     out = _new_dir(args.out)
     for record in records:
-        target = inside(out, record_folder(record.name)) if len(records) > 1 else out
+        target = out
         columns, summary = identify_record(record, **_settings(args))
         try:
             check_finite(summary, columns)
         except ValueError as e:
             raise CLIError(f"{record.name}: {e}") from None
-        summary["provenance"] = make_provenance(record, {**_settings(args), **_loader(args)})
-        write_outputs(target, columns, summary, record.inputs)
+        summary["provenance"] = make_provenance(
+            record, {**_settings(args), "figure_format": args.format, **_loader(args)}
+        )
+        write_outputs(target, columns, summary, record.inputs, args.format)
         parts = [f"{record.name}: {record.time.size} samples"]
         if "adaptive" in summary:
             a = summary["adaptive"]
@@ -294,6 +359,7 @@ def batch_command(args) -> int:
             progress=not args.quiet,
             loader=_loader(args),
             overwrite=not args.no_overwrite,
+            figure_format=args.format,
         )
     except BatchBusy as e:
         raise CLIError(str(e)) from None
@@ -307,6 +373,70 @@ def batch_command(args) -> int:
             file=sys.stderr,
         )
         return 2
+    return 0
+
+
+def _order_list(text: str):
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not all(0 < v < 1 for v in values):
+        raise argparse.ArgumentTypeError(f"every order must lie in (0, 1), got {text!r}")
+    return values
+
+
+def check_command(args) -> int:
+    from . import testing
+    from ._data import DataError
+    from ._data._pipeline import regressors
+
+    if args.max_samples < 3:
+        raise CLIError(f"--max-samples must be at least 3, got {args.max_samples}.")
+    failed = 0
+    for path in args.files:
+        try:
+            records = _load(path, args)
+        except DataError as e:
+            raise CLIError(str(e)) from None
+        for record in records:
+            u, y, _, _ = regressors(record, args.model, args.area, args.length)
+            num = min(len(y), args.max_samples)
+            note = f" (first {num} of {len(y)} samples)" if num < len(y) else ""
+            print(f"{record.name}: {num} samples, step {record.dt:g}{note}")
+            u, y = u[:num], y[:num]
+            for order in args.order:
+                for report in (
+                    testing.check_gradients(
+                        u, order, record.dt, memory=args.memory, rtol=args.rtol,
+                        fd_rtol=args.fd_rtol, raise_on_failure=False,
+                    ),
+                    testing.check_parameter_sensitivity(
+                        u, y - y[0], order, record.dt, lam=args.lam, memory=args.memory,
+                        rtol=args.rtol, fd_rtol=args.fd_rtol, raise_on_failure=False,
+                    ),
+                ):
+                    print(f"  order {order:g}: " + report.table().replace("\n", "\n    "))
+                    failed += not report.passed
+    if failed:
+        print(f"vojax check: {failed} check(s) beyond tolerance.", file=sys.stderr)
+        return 1
+    print("vojax check: every comparison within tolerance.")
+    return 0
+
+
+def example_command(args) -> int:
+    import shutil
+
+    from .io import example_file
+
+    source = example_file(args.name)
+    target = Path(args.out) if args.out else Path(source.name)
+    if target.exists():
+        raise CLIError(f"{target} exists; remove it or give another --out.")
+    shutil.copyfile(source, target)
+    licence = source.parent / f"LICENSE-{args.name}.txt"
+    print(f"vojax example: wrote {target} (MIT licence: {licence})")
     return 0
 
 
@@ -329,23 +459,89 @@ def build_parser() -> argparse.ArgumentParser:
         "--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9, the paper's)"
     )
     d.add_argument("--alpha0", type=float, default=0.5, help="initial order estimate (default 0.5)")
-    d.add_argument("--memory", choices=("exponential", "direct"), default="exponential")
-    d.add_argument("--rule", choices=("trapezoid", "rectangle"), default="trapezoid")
+    d.add_argument(
+        "--memory",
+        choices=("exponential", "direct"),
+        default="exponential",
+        help="memory kernel: exponential (O(1) per sample, default) or direct (whole history)",
+    )
+    d.add_argument(
+        "--rule",
+        choices=("trapezoid", "rectangle"),
+        default="trapezoid",
+        help="quadrature of the input between samples: trapezoid (O(h²), default) or rectangle",
+    )
     d.set_defaults(run=demo)
     i = sub.add_parser("identify", help="identify q(t) and the parameters of one recorded test")
     i.add_argument("file", help="CSV (header row, '#' comments) or NPZ file")
     _data_options(i, many=False)
+    i.add_argument(
+        "--record",
+        help="with --group-by: the record to identify (identify takes one; batch takes all)",
+    )
     i.set_defaults(run=identify_command)
+    c = sub.add_parser(
+        "check",
+        help="cross-check the order sensitivities on your data: autodiff vs the closed forms "
+        "(14) and (26) vs finite differences; exit 1 beyond tolerance",
+    )
+    c.add_argument("files", nargs="+", help="CSV or NPZ files; each is a record unless --group-by")
+    _column_options(c)
+    c.add_argument(
+        "--order",
+        type=_order_list,
+        default=(0.25, 0.5, 0.75),
+        help="constant orders to check at, comma-separated, each in (0, 1) (default 0.25,0.5,0.75)",
+    )
+    c.add_argument(
+        "--lam",
+        type=_gain,
+        default=0.9,
+        help="forgetting factor λ in 1/(time unit) for ∂p/∂β (default 0.9)",
+    )
+    c.add_argument(
+        "--memory",
+        choices=("direct", "exponential"),
+        default="direct",
+        help="the memory kernel checked (default direct)",
+    )
+    c.add_argument(
+        "--max-samples",
+        type=int,
+        default=2000,
+        help="check the first this many samples of each record: the closed forms are O(N²) "
+        "(default 2000)",
+    )
+    c.add_argument(
+        "--rtol",
+        type=float,
+        default=1e-8,
+        help="tolerance of autodiff vs closed form, relative to the largest value (default 1e-8)",
+    )
+    c.add_argument(
+        "--fd-rtol",
+        type=float,
+        default=1e-6,
+        help="tolerance of central finite differences (order step 1e-5), relative (default 1e-6)",
+    )
+    c.set_defaults(run=check_command)
+    e = sub.add_parser(
+        "example", help="copy a real recording shipped with vojax into the current folder"
+    )
+    e.add_argument("name", choices=("adhesive", "myocardium"), help="which recording")
+    e.add_argument("--out", help="file to write (default: the example's own name, here)")
+    e.set_defaults(run=example_command)
     b = sub.add_parser(
         "batch", help="identify many recorded tests (files, or groups of a long file)"
     )
     b.add_argument("files", nargs="+", help="CSV or NPZ files; each is a record unless --group-by")
     _data_options(b, many=True)
-    b.add_argument("--quiet", action="store_true", help="no progress line")
+    b.add_argument("--quiet", action="store_true", help="no progress line (default: one on stderr)")
     b.add_argument(
         "--no-overwrite",
         action="store_true",
-        help="fail a record whose outputs exist from other settings or inputs instead of redoing it",
+        help="fail a record whose outputs exist from other settings or inputs instead of redoing "
+        "it (default: redo it)",
     )
     b.set_defaults(run=batch_command)
     return parser

@@ -1,5 +1,7 @@
 """Figures in the layout of the paper (matplotlib, imported lazily, Agg backend)."""
 
+from pathlib import Path
+
 from ._io import atomic_path
 
 
@@ -69,12 +71,14 @@ def record_figure(columns, summary, inputs, path) -> None:
     its ±2σ band, parameters; axes labelled with the file's column names (their units)."""
     plt = _pyplot()
     t = columns["time"]
+    kind = (summary.get("adaptive") or {}).get("method", summary.get("method", "identified"))
+    kind = {"gradient": "paper's law", "kalman": "tracker"}.get(kind, kind)
     time_label = f"time ({summary.get('time_column', 't')}, from the first sample)"
     fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), layout="constrained")
     ax = axes[0, 0]
     ax.plot(t, columns["y"], "k", lw=1.2, label="measured")
     if "y_hat" in columns:
-        ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label=summary.get("method", "identified"))
+        ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label=kind)
     if "refit_y_hat" in columns:
         ax.plot(t, columns["refit_y_hat"], "C0:", lw=1.2, label="refit")
     out = summary["output_column"]
@@ -94,7 +98,7 @@ def record_figure(columns, summary, inputs, path) -> None:
                 t, columns["alpha_lower"], columns["alpha_upper"], color="C3", alpha=0.2,
                 lw=0, label="±2σ band",
             )
-        ax.plot(t, columns["alpha"], "C3", label=summary.get("method", "identified"))
+        ax.plot(t, columns["alpha"], "C3", label=kind)
     if "refit_alpha" in columns:
         if "refit_alpha_lower" in columns:
             ax.fill_between(
@@ -106,16 +110,27 @@ def record_figure(columns, summary, inputs, path) -> None:
     ax.legend()
     ax = axes[1, 1]
     shown = [name for name in summary["parameter_names"] if name in columns]
-    for name in shown:
-        ax.plot(t, columns[name], label=name)
-    _robust_limits(ax, [columns[name] for name in shown])
+    series = [columns[name] for name in shown]
+    for i, name in enumerate(shown):
+        ax.plot(t, columns[name], f"C{i}", label=name)
+    refit = summary.get("refit")
+    if refit:
+        # the refit's constant parameters with their ±2 SE (delta method) as shaded bands
+        for i, (name, value) in enumerate(refit["parameters"].items()):
+            se = refit["parameters_stderr"].get(name, float("nan"))
+            ax.axhline(value, color=f"C{i}", ls=":", lw=1.2, label=f"{name} (refit)")
+            if se == se:  # not NaN
+                ax.axhspan(value - 2 * se, value + 2 * se, color=f"C{i}", alpha=0.12, lw=0)
+            series.append([value - 2 * se, value + 2 * se] if se == se else [value])
+    _robust_limits(ax, series)
     ax.set(
-        title="parameters (per sample; limits from the second half)",
+        title="parameters (y-limits from the 2nd half)",
         xlabel=time_label,
         ylabel="value (units of the fitted columns)",
     )
-    ax.legend()
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend()
     fig.suptitle(f"{summary['record']} — {summary['model']}")
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
     plt.close(fig)

@@ -119,7 +119,7 @@ def _remove_orphans(out_dir: Path):
             tmp.unlink()
 
 
-def _state(folder: Path, provenance: dict) -> str:
+def _state(folder: Path, provenance: dict, figure_format: str = "png") -> str:
     """``"missing"``, ``"current"`` (complete, same provenance) or ``"stale"``."""
     summary = folder / "summary.json"
     if not summary.is_file():
@@ -130,7 +130,9 @@ def _state(folder: Path, provenance: dict) -> str:
             lines = sum(1 for _ in csv.reader(f))
     except (OSError, ValueError):
         return "stale"
-    complete = lines == old.get("samples", -1) + 1 and (folder / "identification.png").is_file()
+    complete = lines == old.get("samples", -1) + 1 and (
+        folder / f"identification.{figure_format}"
+    ).is_file()
     same = old.get("provenance", {}).get("hash") == provenance["hash"]
     return "current" if complete and same else "stale"
 
@@ -150,6 +152,7 @@ def run_batch(
     loader=None,
     overwrite=True,
     buckets=True,
+    figure_format="png",
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -162,7 +165,8 @@ def run_batch(
     records' own ``summary.json`` after every record, sorted by record, so a killed run loses
     nothing and a re-run gives exactly one row per record. The folder is locked for the run.
     ``buckets=False`` runs the tracker and the refit at each record's own length (one
-    compilation per distinct length; for benchmarks).
+    compilation per distinct length; for benchmarks). `figure_format`: ``png``, ``svg`` or
+    ``pdf`` for each record's ``identification.<format>``.
     """
     pad = bucket_length if buckets else (lambda n: n)
     from .._tune import tune_gains
@@ -171,7 +175,7 @@ def run_batch(
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = dict(
         model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
-        **(loader or {}),
+        figure_format=figure_format, **(loader or {}),
     )
     with _locked(out_dir):
         _remove_orphans(out_dir)
@@ -183,7 +187,7 @@ def run_batch(
         provenance = {r.name: make_provenance(r, settings, hashes) for r in records}
         todo = []
         for r in records:
-            state = _state(folders[r.name], provenance[r.name])
+            state = _state(folders[r.name], provenance[r.name], figure_format)
             if state == "current":
                 report.skipped += 1
             elif state == "stale" and not overwrite:
@@ -275,7 +279,7 @@ def run_batch(
                         )
                     check_finite(summary, columns)
                     summary["provenance"] = provenance[r.name]
-                    write_outputs(folders[r.name], columns, summary, r.inputs)
+                    write_outputs(folders[r.name], columns, summary, r.inputs, figure_format)
                     finished(r, state, True)
                 except Exception as e:  # noqa: BLE001
                     fail(r, e)

@@ -3,6 +3,7 @@
 import csv
 import dataclasses
 import io
+from pathlib import Path
 
 import numpy as np
 import optimistix as optx
@@ -264,8 +265,12 @@ def identify_record(
     return columns, summary
 
 
-def write_outputs(out_dir, columns, summary, inputs=None):
-    """``identification.csv``, ``summary.json`` and ``identification.png`` in ``out_dir``."""
+def write_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
+    """``identification.csv``, ``summary.json`` and ``identification.<figure_format>`` (when
+    `inputs` are given) in ``out_dir``, each written atomically, the summary last."""
+    if figure_format not in ("png", "svg", "pdf"):
+        raise ValueError(f"`figure_format` must be png, svg or pdf, got {figure_format!r}.")
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     buffer = io.StringIO()
     writer = csv.writer(buffer)
@@ -279,6 +284,6 @@ def write_outputs(out_dir, columns, summary, inputs=None):
     if inputs is not None:
         from .._plotting import record_figure
 
-        record_figure(columns, summary, inputs, out_dir / "identification.png")
+        record_figure(columns, summary, inputs, out_dir / f"identification.{figure_format}")
     # the summary goes last: its presence marks the record's outputs as complete
     write_json(out_dir / "summary.json", summary)

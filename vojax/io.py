@@ -1,0 +1,102 @@
+"""Files in and out: recorded tests, the per-record identification, and the shipped examples.
+
+```python
+import jax
+import vojax.io
+
+jax.config.update("jax_enable_x64", True)
+path = vojax.io.example_file("adhesive")
+record, = vojax.io.load_records(
+    path, time="time_s", inputs=["nominal_shear_stress_kPa"], output="shear_strain"
+)
+columns, summary = vojax.io.identify_record(record, model="springpot", method="refit")
+print(summary["refit"]["order"], summary["refit"]["parameters"])   # q and η (kPa·s^q)
+```
+
+`vojax.io.write_results(folder, columns, summary, record)` then writes what `vojax identify`
+writes: ``identification.csv``, ``summary.json`` and the figure, each atomically.
+"""
+
+from pathlib import Path
+
+from ._data._pipeline import identify_record as _identify_record
+from ._data._pipeline import make_provenance, write_outputs
+from ._data._records import DataError, Record, load_records
+
+__all__ = [
+    "DataError",
+    "Record",
+    "example_file",
+    "identify_record",
+    "load_records",
+    "write_results",
+]
+
+_EXAMPLES = {
+    "adhesive": "adhesive_shear_staircase.csv",
+    "myocardium": "myocardium_ramp_hold_10s.csv",
+}
+
+
+def example_file(name: str) -> Path:
+    """The path of a recording shipped with vojax (MIT-licensed; see ``vojax/examples/README.md``):
+
+    - ``"adhesive"``: an optically clear adhesive in simple shear, a staircase of ramps and
+      holds (columns ``time_s``, ``force_N``, ``displacement_mm``, ``nominal_shear_stress_kPa``,
+      ``shear_strain``);
+    - ``"myocardium"``: passive myocardium stretched in a 10 s ramp and held (columns ``Time``
+      in s, ``L`` = L/L₀, ``F`` tension in kPa, ``SD``).
+    """
+    if name not in _EXAMPLES:
+        raise ValueError(f"no example {name!r}; the examples are {', '.join(map(repr, _EXAMPLES))}.")
+    return Path(__file__).parent / "examples" / _EXAMPLES[name]
+
+
+def identify_record(
+    record: Record,
+    *,
+    model: str = "springpot",
+    method: str = "kalman",
+    gamma="auto",
+    lam=None,
+    area=None,
+    length=None,
+):
+    """Identifies one `Record` as ``vojax identify`` does; returns ``(columns, summary)``.
+
+    - `model`: ``"springpot"`` (σ = η D^q ε: u = σ, p = 1/η), ``"kelvin-voigt"``
+      (σ = kε + η D^q ε: u = [σ, ε], p = [1/η, −k/η]) or ``"linear"`` (the input columns as
+      given).
+    - `method`: ``"kalman"`` (the tracker, default), ``"adaptive"`` (the paper's law, with
+      `gamma` and `lam`), ``"refit"`` (constant-order least squares) or ``"both"`` (adaptive
+      and refit).
+    - `area`, `length`: eq. (35): σ = F/a and ε = d/l.
+
+    `columns` holds the per-sample series (``time``, ``alpha`` and its band, the physical
+    parameters, ``y``, ``y_hat``, the refit's columns), `summary` the estimates with their
+    standard errors and the diagnostics (the contents of ``summary.json``).
+    """
+    if model not in ("springpot", "kelvin-voigt", "linear"):
+        raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
+    if method not in ("kalman", "adaptive", "refit", "both"):
+        raise ValueError(f"`method` must be kalman, adaptive, refit or both, got {method!r}.")
+    for key, value in (("area", area), ("length", length)):
+        if value is not None and not float(value) > 0:
+            raise ValueError(f"`{key}` must be positive, got {value}.")
+    return _identify_record(
+        record, model=model, method=method, gamma=gamma, lam=lam, area=area, length=length
+    )
+
+
+def write_results(folder, columns, summary, record: Record | None = None, *, figure_format="png"):
+    """Writes ``identification.csv``, ``summary.json`` (with a provenance block: versions, the
+    input file's SHA-256, the settings) and, when `record` is given,
+    ``identification.<figure_format>`` (png, svg or pdf) into `folder`, each atomically.
+    Returns the folder as a `Path`."""
+    folder = Path(folder)
+    summary = dict(summary)
+    if record is not None:
+        settings = {k: summary.get(k) for k in ("model", "method", "area", "length")}
+        summary["provenance"] = make_provenance(record, {**settings, "figure_format": figure_format})
+    write_outputs(folder, columns, summary, None if record is None else record.inputs, figure_format)
+    return folder
