@@ -59,6 +59,8 @@ def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
     assert sorted(r["record"] for r in rows) == ["good1", "good2", "good3"]
     orders = {r["record"]: float(r["refit_order"]) for r in rows}
     assert abs(orders["good1"] - 0.3) < 1e-6 and abs(orders["good2"] - 0.5) < 1e-6
+    # the overview figure a lab looks at first: one per batch, beside the tables
+    assert (out / "overview.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # the tables are rebuilt on every run; the records' own outputs are not touched again
     stamps = {
         p: p.stat().st_mtime_ns

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+import vojax
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -81,6 +83,7 @@ def test_demo_writes_figures_and_summary(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["samples"] == 3001 and summary["gamma"] == 0.01 and summary["lam"] == 0.9
     assert 0 < summary["order_rms_t_gt_50"] < 0.05
+    assert summary["versions"]["vojax"] == vojax.__version__
     assert "order RMS error, t > 50 s" in proc.stdout
     assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporaries
 

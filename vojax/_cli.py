@@ -49,6 +49,7 @@ def _gain(text: str):
 def demo(args) -> int:
     import numpy as np
 
+    from ._data._pipeline import versions
     from ._identify import identify
     from ._io import write_json
     from ._plotting import study_figures
@@ -96,6 +97,7 @@ def demo(args) -> int:
         "time_simulate_s": simulated - started,
         "time_identify_s": identified - simulated,
         "figures": figures,
+        "versions": versions(),
     }
     write_json(out / "summary.json", summary)
     rows = [

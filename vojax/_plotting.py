@@ -134,3 +134,55 @@ def record_figure(columns, summary, inputs, path) -> None:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
     plt.close(fig)
+
+
+def overview_figure(rows, path) -> None:
+    """The batch at a glance, from the rows of ``summary.csv``: each record's order with its
+    band (the tracker's or law's final order ±2σ, the refit's interval), and the distributions
+    of the orders and of the fits' NRMSE."""
+    import numpy as np
+
+    plt = _pyplot()
+
+    def column(key):
+        return np.array([float(r[key]) if r.get(key) is not None else np.nan for r in rows])
+
+    names = [r["record"] for r in rows]
+    index = np.arange(len(rows))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), layout="constrained")
+    ax = axes[0]
+    series = []
+    if any("adaptive_alpha_final" in r for r in rows):
+        a, sd = column("adaptive_alpha_final"), column("adaptive_alpha_final_std")
+        ax.errorbar(index - 0.15, a, yerr=2 * sd, fmt="o", ms=3, color="C3", label="final order ±2σ")
+        series.append(("final order", a, "C3"))
+    if any("refit_order" in r for r in rows):
+        q, lo, hi = column("refit_order"), column("refit_order_lower"), column("refit_order_upper")
+        ax.errorbar(index + 0.15, q, yerr=[q - lo, hi - q], fmt="s", ms=3, color="C0", label="refit 95 %")
+        series.append(("refit order", q, "C0"))
+    ax.set(xlabel="record (sorted by name; see summary.csv)", ylabel="order q (dimensionless)",
+           title=f"{len(rows)} records", ylim=(0, 1))
+    if len(rows) <= 12:
+        ax.set_xticks(index, names, rotation=45, ha="right", fontsize=7)
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    for label, values, color in series:
+        ax.hist(values[np.isfinite(values)], bins=20, range=(0, 1), alpha=0.5, color=color, label=label)
+    ax.set(xlabel="order q (dimensionless)", ylabel="records", title="orders")
+    if series:
+        ax.legend(fontsize=8)
+    ax = axes[2]
+    fits = [(column(k), label, c) for k, label, c in (
+        ("adaptive_nrmse", "order tracking", "C3"), ("refit_nrmse", "refit", "C0"),
+    ) if any(k in r for r in rows)]
+    top = max([float(np.nanmax(v)) for v, _, _ in fits if np.any(np.isfinite(v))] or [1.0])
+    for values, label, color in fits:
+        ax.hist(values[np.isfinite(values)], bins=20, range=(0, 1.05 * top or 1.0), alpha=0.5,
+                color=color, label=label)
+    ax.set(xlabel="NRMSE of the fit (RMS error / range of the output)", ylabel="records",
+           title="fit quality")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)

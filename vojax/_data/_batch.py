@@ -286,7 +286,11 @@ def run_batch(
                     finished(r, state, False)
         if progress:
             print(file=sys.stderr)
-        _write_summary_table(out_dir, records, folders, provenance)
+        rows = _write_summary_table(out_dir, records, folders, provenance)
+        if rows:
+            from .._plotting import overview_figure
+
+            overview_figure(rows, out_dir / f"overview.{figure_format}")
         path = out_dir / "failures.csv"
         if failed:
             rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (x[1], x[0]))]
@@ -347,6 +351,7 @@ def _write_summary_table(out_dir, records, folders, provenance):
         if summary.get("provenance", {}).get("hash") == provenance[r.name]["hash"]:
             rows.append(_summary_row(summary))
     _write_table(out_dir / "summary.csv", rows)
+    return rows
 
 
 def _write_table(path, rows):

@@ -96,26 +96,29 @@ def file_sha256(path) -> str:
     return digest.hexdigest()
 
 
+def versions() -> dict:
+    """The versions that produced a result: vojax, JAX and Python."""
+    import platform
+
+    import jax
+
+    from .. import __version__
+
+    return {"vojax": __version__, "jax": jax.__version__, "python": platform.python_version()}
+
+
 def make_provenance(record, settings, cache=None) -> dict:
     """Versions, the input file and its SHA-256, the record and every setting that affects the
     numbers, with the SHA-256 of all of it (`hash`) for deciding whether outputs are current."""
     import hashlib
     import json
-    import platform
-    from pathlib import Path
-
-    import jax
-
-    from .. import __version__
 
     source = str(Path(record.source).resolve())
     cache = {} if cache is None else cache
     if source not in cache:
         cache[source] = file_sha256(source) if Path(source).is_file() else None
     block = {
-        "vojax": __version__,
-        "jax": jax.__version__,
-        "python": platform.python_version(),
+        **versions(),
         "source": source,
         "source_sha256": cache[source],
         "record": record.name,
