@@ -97,6 +97,12 @@ MUTATIONS = {
         [("out.p[start - d : n - d] * out.phi[start:]", "out.p[start:n] * out.phi[start:]")],
         ["tests/test_tune.py"],
     ),
+    "tuner's refinement discarded (grid point kept, reported as refined)": (
+        "vojax/_tune.py",
+        [("best, best_loss, refined = (float(z[0]), float(z[1])), value, True",
+          "refined = True")],
+        ["tests/test_tune.py"],
+    ),
     "psi dropped from the closed form (14)": (
         "vojax/reference.py",
         [("dphi[k] = -digamma(b) * phi[k] + inv_gamma * (lw @ u2[k::-1])",
@@ -174,7 +180,8 @@ def main() -> int:
             started = time.perf_counter()
             try:
                 proc = subprocess.run(
-                    [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *tests],
+                    [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider",
+                     "-m", "slow or not slow", *tests],  # both tiers
                     cwd=work, env=env, capture_output=True, text=True, timeout=args.timeout,
                 )
                 status = "caught" if proc.returncode != 0 else "SURVIVED"

@@ -38,7 +38,7 @@ def short_study():
     return t, u, y, alpha, p
 
 
-@pytest.mark.parametrize("memory", ["direct", "exponential"])
+@pytest.mark.parametrize("memory", [pytest.param("direct", marks=pytest.mark.slow), "exponential"])
 def test_recursion_equals_batch_and_sensitivities(short_study, memory):
     t, u, y, _, _ = short_study
     res = vojax.identify(u, y, H, gamma=0.05, memory=memory, x0=0.0, r0=np.eye(2))
@@ -113,6 +113,7 @@ def test_corrected_riccati_sign_gives_the_inverse():
     assert rel_max(integrate(p_printed, eye), r_inv) > 0.1
 
 
+@pytest.mark.slow
 def test_constant_order_noise_free_converges():
     dt, n = 0.05, 4001
     t = np.arange(n) * dt
@@ -150,6 +151,7 @@ def test_study_34_accuracy(study):
     assert errors["order_rms_t_gt_50"] <= 0.7 * best_constant
 
 
+@pytest.mark.slow
 def test_exponential_and_direct_identify_alike():
     t, u, alpha, p = vojax.study_signals(0.1, 120.0)
     y = np.asarray(vojax.simulate(u, alpha, p, 0.1)) + 0.2 * np.sin(7.0 * t)
@@ -159,6 +161,7 @@ def test_exponential_and_direct_identify_alike():
     assert rel_max(b.p, a.p) < 1e-8
 
 
+@pytest.mark.slow
 def test_remark4_initial_output():
     t, u, alpha, p = vojax.study_signals(0.1, 60.0)
     x = np.asarray(vojax.simulate(u, alpha, p, 0.1))
@@ -168,6 +171,7 @@ def test_remark4_initial_output():
     assert np.max(np.abs(np.asarray(b.y_hat) - np.asarray(a.y_hat) - 7.5)) < 1e-9
 
 
+@pytest.mark.slow
 def test_streaming_by_hand_equals_identify(short_study):
     t, u, y, _, _ = short_study
     n = 200

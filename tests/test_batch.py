@@ -7,6 +7,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pytest
 
 from .test_data_cli import _cli, _springpot_csv
 
@@ -25,6 +26,7 @@ def _folder(tmp_path):
     return data
 
 
+@pytest.mark.slow
 def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
     data = _folder(tmp_path)
     files = sorted(str(p) for p in data.glob("*.csv"))
@@ -75,6 +77,7 @@ def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
         assert [r["record"] for r in csv.DictReader(f)] == ["good1", "good2", "good3"]
 
 
+@pytest.mark.slow
 def test_sharded_batch_equals_single_device():
     script = textwrap.dedent(
         """
@@ -112,6 +115,7 @@ def test_sharded_batch_equals_single_device():
     assert d_band < 1e-9 and d_band_sharded < 1e-9
 
 
+@pytest.mark.slow
 def test_each_batch_record_equals_identify_on_that_record(tmp_path):
     """Records of one length with different true orders run together under vmap: each
     record's identification.csv is `identify` on that record (same gains), not a neighbour's."""

@@ -130,7 +130,11 @@ def test_npz_records(tmp_path):
     assert rec.name == "r" and rec.inputs.shape == (50, 1) and rec.dt == pytest.approx(DT)
 
 
-@pytest.mark.parametrize("method", ["adaptive", "kalman", "refit", "both"])
+@pytest.mark.parametrize(
+    "method",
+    ["adaptive", pytest.param("kalman", marks=pytest.mark.slow), "refit",
+     pytest.param("both", marks=pytest.mark.slow)],
+)
 def test_cli_identify_end_to_end(tmp_path, method):
     _springpot_csv(tmp_path / "test.csv")
     proc = _cli(
@@ -199,6 +203,7 @@ def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(
     not (DATA / "oca-shear-staircase").is_dir(), reason="../shared/data is not present"
 )

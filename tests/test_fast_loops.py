@@ -94,6 +94,7 @@ def _run(mode):
     return json.loads(proc.stdout)
 
 
+@pytest.mark.slow
 def test_fast_loops_take_effect_and_change_nothing_but_speed():
     default, fast = _run("default"), _run("fast")
     # the scan of the law is compiled as one kernel only under the setting

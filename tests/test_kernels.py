@@ -95,7 +95,9 @@ def test_grad_of_sum_is_the_sensitivity(memory):
     assert rel_max(g, closed) < 1e-12
 
 
-@pytest.mark.parametrize("memory", MEMORIES)
+@pytest.mark.parametrize(
+    "memory", [pytest.param("direct", marks=pytest.mark.slow), "exponential"]
+)
 def test_derivatives_finite_at_start_and_extreme_orders(memory):
     dt = 0.1
     u = jnp.linspace(0.0, 1.0, 16)
@@ -116,7 +118,9 @@ def test_derivatives_finite_at_start_and_extreme_orders(memory):
 
 
 @pytest.mark.parametrize("rule", RULES)
-@pytest.mark.parametrize("n, dt", [(500, 0.2), (3000, 0.05), (8000, 0.03)])
+@pytest.mark.parametrize(
+    "n, dt", [(500, 0.2), (3000, 0.05), pytest.param(8000, 0.03, marks=pytest.mark.slow)]
+)
 def test_exponential_matches_direct(rule, n, dt):
     t, u, alpha = paper_inputs(n, dt)
     for order in (alpha, 0.62):

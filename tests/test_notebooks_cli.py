@@ -13,6 +13,7 @@ import vojax
 ROOT = Path(__file__).resolve().parent.parent
 
 
+@pytest.mark.slow
 def test_paper_simulation_notebook_executes():
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
@@ -73,6 +74,7 @@ def _run(args, cwd):
     )
 
 
+@pytest.mark.slow
 def test_demo_writes_figures_and_summary(tmp_path):
     proc = _run(["demo", "--out", str(tmp_path / "out"), "--dt", "0.1"], tmp_path)
     assert proc.returncode == 0, proc.stderr

@@ -62,6 +62,7 @@ def _long_csv(path, names, n=40):
 BASE = ["--time", "time_s", "--input", "stress", "--output", "strain", "--quiet"]
 
 
+@pytest.mark.slow
 def test_hostile_record_names_stay_inside_out(tmp_path):
     names = [n for n in HOSTILE if n.strip() and n != "#hash"]  # CSV cannot hold an empty key
     work = tmp_path / "work"
@@ -100,6 +101,7 @@ def _batch(work, *extra, method="adaptive"):
     )
 
 
+@pytest.mark.slow
 def test_reruns_redo_what_changed_and_only_that(tmp_path):
     work = tmp_path / "w"
     work.mkdir()
@@ -135,6 +137,7 @@ def test_reruns_redo_what_changed_and_only_that(tmp_path):
     assert len(rows) == 3 and all("refit_order" in r for r in rows)
 
 
+@pytest.mark.slow
 def test_killed_batches_lose_no_rows(tmp_path):
     """SIGKILL at five points, then a full run: one row per record, equal to a clean run's."""
     work = tmp_path / "w"
@@ -193,6 +196,7 @@ def test_a_second_batch_on_the_same_out_is_refused(tmp_path):
     assert not (work / "out" / "r").exists()
 
 
+@pytest.mark.slow
 def test_failure_is_never_a_result(tmp_path):
     """A record whose estimates are not finite exits non-zero and writes no result."""
     t = np.arange(400) * 60.0
@@ -224,6 +228,7 @@ def test_failure_is_never_a_result(tmp_path):
     assert not (tmp_path / "b" / "slow" / "summary.json").exists()
 
 
+@pytest.mark.slow
 def test_json_is_strict_and_files_honour_the_umask(tmp_path):
     work = tmp_path / "w"
     work.mkdir()

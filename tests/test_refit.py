@@ -66,6 +66,7 @@ def test_refit_validation(kwargs, match):
         vojax.refit(U, np.zeros(T.size), DT, **kwargs)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", ["constant", 3])
 def test_lbfgsb_second_opinion_agrees(order):
     pytest.importorskip("jaxopt")
@@ -166,7 +167,7 @@ def test_refit_traces_once_per_shape():
     assert TRACES["fit"] == before + 1
 
 
-@pytest.mark.parametrize("order", ["constant", 3])
+@pytest.mark.parametrize("order", ["constant", pytest.param(3, marks=pytest.mark.slow)])
 def test_padding_with_a_mask_changes_nothing(order):
     """Padded after the end and masked: the same fit (knots over the fitted span), to the
     solver's tolerance (rtol = atol = 1e-10 on the parameters)."""

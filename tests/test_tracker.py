@@ -132,6 +132,7 @@ def smoothed(ramp):
     return vojax.identify(u, y, dt, method="kalman")
 
 
+@pytest.mark.slow
 def test_smoother_tracks_a_ramp_with_calibrated_bands(ramp, smoothed):
     t, u, y, alpha, p, dt = ramp
     res = smoothed
@@ -149,6 +150,7 @@ def test_smoother_tracks_a_ramp_with_calibrated_bands(ramp, smoothed):
     assert res.dp is None and res.method == "kalman"
 
 
+@pytest.mark.slow
 def test_smoother_bands_are_calibrated_over_noise_seeds():
     """40 noise realisations of one record whose truth comes from `vojax.reference` (direct
     sums on a grid twice as fine, no JAX kernel): the ±2σ band covers the true order at 80–99 %
@@ -196,6 +198,7 @@ def test_filter_scan_equals_streaming_by_hand(ramp):
     np.testing.assert_allclose(out.cov[-1], o.cov, rtol=1e-12, atol=1e-14)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["gradient", "kalman"])
 def test_automatic_settings_are_unit_free(ramp, smoothed, method):
     t, u, y, *_, dt = ramp
@@ -213,6 +216,7 @@ def test_automatic_settings_are_unit_free(ramp, smoothed, method):
     assert np.max(np.abs(np.asarray(c.alpha) - np.asarray(e.alpha))) > 0  # R0 = auto ≠ I
 
 
+@pytest.mark.slow
 def test_law_band_matches_monte_carlo():
     """The law's alpha_std against the spread of α̂ over 30 noise realisations."""
     t, u, _, alpha, p, dt = _ramp_case()
@@ -249,6 +253,7 @@ def test_no_silent_nan():
         assert np.all(np.isfinite(res.alpha)) and np.all(np.isfinite(res.p))
 
 
+@pytest.mark.slow
 def test_wide_band_warns():
     t, u, y, *_ = _ramp_case(n=60, noise=0.5, seed=1)
     with pytest.warns(vojax.IdentifiabilityWarning, match="do not determine the order"):
@@ -300,6 +305,7 @@ def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
     assert not stuck.identified and "bound" in stuck.message
 
 
+@pytest.mark.slow
 def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
     """A record padded after its end and masked gives the unpadded record's results (to the
     smoother's convergence tolerance, 1e-9 relative in the objective); two records of
