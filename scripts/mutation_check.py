@@ -94,7 +94,7 @@ MUTATIONS = {
     ),
     "tuner's lag dropped": (
         "vojax/_tune.py",
-        [("out.p[start - d : n - d] * out.phi[start:]", "out.p[start:n] * out.phi[start:]")],
+        [("lagged = jnp.roll(out.p, data.lag, axis=0)", "lagged = out.p")],
         ["tests/test_tune.py"],
     ),
     "tuner's refinement discarded (grid point kept, reported as refined)": (

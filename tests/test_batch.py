@@ -141,3 +141,32 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
         np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-12)
         finals.append(alpha[-1])
     assert len(set(np.round(finals, 6))) == 3  # three different records, three answers
+
+
+@pytest.mark.slow
+def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path):
+    """Three lengths (82, 90, 96 samples) pad to one bucket (96): the gains are tuned and the
+    law run on the padded records, yet each record's order equals `identify` on that record
+    alone with automatic gains, and the law and the tuner compile once for the bucket."""
+    import vojax
+    from vojax import _tune
+    from vojax._cli import main
+    from vojax._data import _batch
+
+    data = tmp_path / "data"
+    data.mkdir()
+    series = {}
+    for name, q, n in (("a", 0.3, 82), ("b", 0.5, 90), ("c", 0.7, 96)):
+        series[name] = _springpot_csv(data / f"{name}.csv", n=n, q=q)
+    law, tune = _batch.TRACES["law_batch"], _tune.TRACES["tune"]
+    args = ["batch", *sorted(str(p) for p in data.glob("*.csv")), "--time", "time_s", "--input",
+            "stress", "--output", "strain", "--method", "adaptive", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "out")]) == 0
+    assert _batch.TRACES["law_batch"] - law == 1
+    assert _tune.TRACES["tune"] - tune == 2  # the grid and the refinement, once each
+    for name, (t, stress, strain) in series.items():
+        with open(tmp_path / "out" / name / "identification.csv", newline="") as f:
+            alpha = np.array([float(r["alpha"]) for r in csv.DictReader(f)])
+        ref = vojax.identify(stress, strain, 0.1, warn=False)
+        assert alpha.shape == (t.size,)
+        np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-10)

@@ -113,3 +113,31 @@ def test_refinement_lowers_the_lagged_prediction_loss_and_reports_it_truthfully(
     assert gains.loss < np.min(gains.grid_loss)
     for f in (0.8, 1.25):
         assert lagged_loss(gains.gamma * f, gains.lam) >= gains.loss * (1 - 1e-6)
+
+
+def test_tune_gains_traces_once_per_padded_shape_and_padding_changes_nothing():
+    """A second call traces nothing; a shorter record padded to the same length reuses the
+    program; and the padded tuning equals the unpadded one (the law is causal and the loss
+    weighs only the real samples)."""
+    from vojax import _tune
+
+    dt = 0.1
+    t = np.arange(400) * dt
+    u = np.sin(0.7 * t) + 0.5
+    y = np.asarray(vojax.simulate(u, 0.3 + 0.3 * t / t[-1], np.array([1.5]), dt))
+    y = y + 0.01 * np.random.default_rng(2).standard_normal(t.size)
+    plain = vojax.tune_gains(u, y, dt)
+    padded = vojax.tune_gains(u, y, dt, pad_to=448)
+    before = _tune.TRACES["tune"]
+    again = vojax.tune_gains(u, y, dt, pad_to=448)
+    shorter = vojax.tune_gains(u[:350], y[:350], dt, pad_to=448)
+    assert _tune.TRACES["tune"] == before
+    assert again.gamma == padded.gamma and again.lam == padded.lam
+    assert shorter.gamma != padded.gamma  # a different record, a different answer
+    # the memory is designed for 448 samples instead of 400 (its kernel accurate to 1e-10):
+    # the loss agrees to that accuracy, and the gains far inside BFGS's own tolerance (1e-4)
+    assert padded.loss == pytest.approx(plain.loss, rel=1e-9)
+    for key in ("gamma", "lam"):
+        assert getattr(padded, key) == pytest.approx(getattr(plain, key), rel=1e-6)
+    with pytest.raises(ValueError, match="pad_to"):
+        vojax.tune_gains(u, y, dt, pad_to=300)

@@ -116,9 +116,14 @@ def run_law(law: AdaptiveLaw, u, y):
 def build_law(dt, num_steps, *, lam, gamma, alpha0, alpha_bounds, memory, rule, r0=None, tol=1e-10):
     """The `AdaptiveLaw` of Theorem 1 with its memory designed for the order bounds."""
     mem = make_memory(memory, dt, num_steps, rule=rule, tol=tol, order_range=alpha_bounds)
+    return assemble_law(mem, dt, lam, gamma, alpha0, alpha_bounds, r0)
+
+
+def assemble_law(memory, dt, lam, gamma, alpha0, alpha_bounds, r0=None):
+    """The `AdaptiveLaw` on a designed memory; numbers may be arrays (traced)."""
     dt_arr = jnp.asarray(dt, jnp.result_type(float))
     return AdaptiveLaw(
-        mem,
+        memory,
         LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, r0),
         OrderGradient(
             jnp.asarray(gamma, dt_arr.dtype),

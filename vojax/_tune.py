@@ -6,7 +6,65 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from ._identify import DEFAULT_BOUNDS, build_law, check_options, run_law
+from ._identify import DEFAULT_BOUNDS, assemble_law, check_options, run_law
+from ._integral import make_memory
+
+TRACES = {"tune": 0}
+
+
+class _TuneData(eqx.Module):
+    """One record as the tuner sees it; arrays only, so that one compiled program serves
+    every record of the same (padded) length."""
+
+    memory: eqx.Module
+    u: jax.Array  # (N, n), padded after the end
+    y: jax.Array  # (N,) y − x0, padded
+    weights: jax.Array  # (N,) 1 on the predicted samples, 0 on burn-in and padding
+    lag: jax.Array  # D, samples
+    r0: jax.Array
+    dt: jax.Array
+    alpha0: jax.Array
+    bounds: tuple[float, float] = eqx.field(static=True)
+
+
+def _lagged_loss(log_gamma, log_lam, data: _TuneData):
+    """Mean of ``(y_k − p̂_{k−D}ᵀφ_k)²`` over the weighted samples, over the mean of ``y_k²``."""
+    law = assemble_law(
+        data.memory, data.dt, jnp.exp(log_lam), jnp.exp(log_gamma), data.alpha0, data.bounds,
+        data.r0,
+    )
+    out = run_law(law, data.u, data.y)
+    # p̂ of D samples earlier; the rows rolled round from the end have zero weight (k < D)
+    lagged = jnp.roll(out.p, data.lag, axis=0)
+    pred = jnp.sum(lagged * out.phi, axis=1)
+    w = data.weights
+    return jnp.sum(w * (pred - data.y) ** 2) / jnp.sum(w * data.y**2)
+
+
+@eqx.filter_jit
+def _grid_losses(data: _TuneData, log_gammas, log_lams):
+    TRACES["tune"] += 1
+    return jax.vmap(_lagged_loss, in_axes=(0, 0, None))(log_gammas, log_lams, data)
+
+
+@eqx.filter_jit
+def _refine(data: _TuneData, z0, ref, free, fixed, steps: int):
+    """BFGS from ``z0`` in coordinates relative to ``ref``; returns ``(log γ, log λ)`` and the loss."""
+    TRACES["tune"] += 1
+
+    def absolute(z):  # relative coordinates → (log γ, log λ)
+        return free * (z + ref) + fixed
+
+    solution = optx.minimise(
+        lambda z, d: _lagged_loss(*absolute(z), d),
+        optx.BFGS(rtol=1e-4, atol=1e-6),
+        z0,
+        args=data,
+        max_steps=steps,
+        throw=False,
+    )
+    z = absolute(solution.value)
+    return z, _lagged_loss(z[0], z[1], data)
 
 
 class Gains(eqx.Module):
@@ -41,6 +99,7 @@ def tune_gains(
     num_gamma: int = 11,
     num_lam: int = 8,
     refine_steps: int = 20,
+    pad_to: int | None = None,
 ) -> Gains:
     """Picks ``(γ, λ)`` by minimising the identifier's lagged output prediction error.
 
@@ -57,7 +116,9 @@ def tune_gains(
     of the chattering region, where the loss is large and its gradient meaningless.
 
     **Arguments:** as `identify` (less `gamma` and `lam`), plus the grid sizes and the number of
-    refinement steps (0 to skip).
+    refinement steps (0 to skip). `pad_to`: run on the record padded to this many samples
+    (the loss weighs only the real ones), so that records of different lengths share one
+    compiled program; the result equals the unpadded one to the memory's accuracy.
 
     **Returns:** a `Gains`.
     """
@@ -80,29 +141,31 @@ def tune_gains(
         raise ValueError(f"the record is too short to tune gains: {n} samples.")
     scale = 1.0 / max(float(jnp.mean(big_y**2)), 1e-300)
     horizon = max((n - 1) * float(dt), float(dt))
-
-    def loss(log_gamma, log_lam):
-        law = build_law(
-            dt,
-            n,
-            lam=jnp.exp(log_lam),
-            gamma=jnp.exp(log_gamma),
-            alpha0=alpha0,
-            alpha_bounds=bounds,
-            memory=memory,
-            rule=rule,
-            r0=r0,
-            tol=tol,
-        )
-        out = run_law(law, u2, big_y)
-        pred = jnp.sum(out.p[start - d : n - d] * out.phi[start:], axis=1)
-        return jnp.mean((pred - big_y[start:]) ** 2) / jnp.mean(big_y[start:] ** 2)
+    # padded to `pad_to` samples (after the end: the law is causal, so the real samples'
+    # outputs do not see the padding) with the loss weighted to the real samples: one
+    # compiled program serves every record length of a bucket
+    size = n if pad_to is None else int(pad_to)
+    if size < n:
+        raise ValueError(f"`pad_to` ({size}) is shorter than the record ({n} samples).")
+    weights = np.zeros(size)
+    weights[start:n] = 1.0
+    data = _TuneData(
+        memory=make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds),
+        u=jnp.concatenate([u2, jnp.zeros((size - n, u2.shape[1]), u2.dtype)]),
+        y=jnp.concatenate([big_y, jnp.zeros((size - n,), big_y.dtype)]),
+        weights=jnp.asarray(weights, u2.dtype),
+        lag=jnp.asarray(d),
+        r0=jnp.asarray(r0, u2.dtype),
+        dt=jnp.asarray(dt, u2.dtype),
+        alpha0=jnp.asarray(alpha0, u2.dtype),
+        bounds=bounds,
+    )
 
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples
     lams = np.geomspace(0.3 / horizon, 0.3 / float(dt), num_lam) if lam is None else np.array([float(lam)])
     g, lm = np.meshgrid(np.log(gammas), np.log(lams), indexing="ij")
-    grid = np.asarray(jax.jit(jax.vmap(loss))(jnp.asarray(g.ravel()), jnp.asarray(lm.ravel())))
+    grid = np.asarray(_grid_losses(data, jnp.asarray(g.ravel()), jnp.asarray(lm.ravel())))
     grid = np.where(np.isfinite(grid), grid, np.inf).reshape(g.shape)
     i, j = np.unravel_index(np.argmin(grid), grid.shape)
     best = (float(g[i, j]), float(lm[i, j]))
@@ -114,19 +177,11 @@ def tune_gains(
         ref = np.array([np.log(scale), 0.0])
         free = np.array([1.0, 1.0 if lam is None else 0.0])
         fixed = (1.0 - free) * np.asarray(best)
-
-        def absolute(z):  # relative coordinates → (log γ, log λ)
-            return free * (z + ref) + fixed
-
-        solution = optx.minimise(
-            lambda z, _: loss(*absolute(z)),
-            optx.BFGS(rtol=1e-4, atol=1e-6),
-            jnp.asarray(np.asarray(best) - ref),
-            max_steps=refine_steps,
-            throw=False,
+        z, value = _refine(
+            data, *(jnp.asarray(a) for a in (np.asarray(best) - ref, ref, free, fixed)),
+            int(refine_steps),
         )
-        z = np.asarray(absolute(np.asarray(solution.value)))
-        value = float(loss(*z))
+        z, value = np.asarray(z), float(value)
         # stay within the searched box: the gradient may point out of it in flat regions
         inside = g.min() <= z[0] <= g.max() and lm.min() <= z[1] <= lm.max()
         if np.isfinite(value) and value < best_loss and inside:

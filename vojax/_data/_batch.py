@@ -15,12 +15,14 @@ import sys
 import time
 from pathlib import Path
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .._adaptive._bands import law_covariance
-from .._identify import DEFAULT_BOUNDS, PAPER_LAM, auto_r0, build_law, law_identification, run_law
+from .._identify import DEFAULT_BOUNDS, PAPER_LAM, assemble_law, auto_r0, law_identification, run_law
+from .._integral import make_memory
 from .._io import atomic_path
 from .._stats import noise_variance
 from ._paths import inside, record_folder
@@ -44,37 +46,43 @@ def _sharded(x, mesh):
     return jax.device_put(x, jax.sharding.NamedSharding(mesh, spec))
 
 
-def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None):
-    """The adaptive law on records of equal length at once: ``us`` (B, N, n), ``ys`` (B, N),
-    gains (B,), ``r0s`` (B, n, n) (default: each record's automatic ``R_0``, as `identify`).
-    Returns ``((law outputs, var α̂, var p̂), x0)`` with a leading batch axis; the variances
-    are the law's band, as in `identify`. ``y − y[0]`` is identified
-    (Remark 4), as `identify` does by default."""
-    if r0s is None:
-        r0s = np.stack(
-            [auto_r0(jnp.asarray(u), dt, alpha0, "exponential", "trapezoid", 1e-10, DEFAULT_BOUNDS) for u in us]
-        )
-    num = us.shape[1]
-    x0 = ys[:, :1]
-
-    sigma2 = np.array([noise_variance(y - y[0]) for y in ys])
+@eqx.filter_jit
+def _law_batch(memory, us, ys, dt, gammas, lams, r0s, sigma2, alpha0):
+    """The law and its band on a stack of records (one program per memory and shape)."""
+    TRACES["law_batch"] += 1
 
     def one(u, y, gamma, lam, r0, s2):
-        law = build_law(
-            dt,
-            num,
-            lam=lam,
-            gamma=gamma,
-            alpha0=alpha0,
-            alpha_bounds=DEFAULT_BOUNDS,
-            memory="exponential",
-            rule="trapezoid",
-            r0=r0,
-        )
+        law = assemble_law(memory, dt, lam, gamma, alpha0, DEFAULT_BOUNDS, r0)
         out = run_law(law, u, y)
         var_alpha, var_p = law_covariance(law, u, y, s2)
         return out, var_alpha, var_p
 
+    return jax.vmap(one)(us, ys, gammas, lams, r0s, sigma2)
+
+
+TRACES = {"law_batch": 0}
+
+
+def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None, lengths=None):
+    """The adaptive law on records of equal (padded) length at once: ``us`` (B, N, n), ``ys``
+    (B, N), gains (B,), ``r0s`` (B, n, n) (default: each record's automatic ``R_0``, as
+    `identify`). With `lengths` (B,), record b is its first ``lengths[b]`` samples, padded
+    after its end (the law is causal: the padding does not reach the real samples' results;
+    ``R_0`` and the noise level come from the real samples). Returns ``((law outputs, var α̂,
+    var p̂), x0)`` with a leading batch axis, over all N samples; the variances are the law's
+    band, as in `identify`. ``y − y[0]`` is identified (Remark 4), as `identify` does."""
+    num = us.shape[1]
+    lengths = np.full(us.shape[0], num) if lengths is None else np.asarray(lengths)
+    if r0s is None:
+        r0s = np.stack(
+            [
+                auto_r0(jnp.asarray(u[:k]), dt, alpha0, "exponential", "trapezoid", 1e-10, DEFAULT_BOUNDS)
+                for u, k in zip(us, lengths)
+            ]
+        )
+    x0 = ys[:, :1]
+    sigma2 = np.array([noise_variance(y[:k] - y[0]) for y, k in zip(ys, lengths)])
+    memory = make_memory("exponential", dt, num, rule="trapezoid", order_range=DEFAULT_BOUNDS)
     args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams, r0s, sigma2)]
     if mesh is not None:
         size = mesh.devices.size
@@ -82,7 +90,9 @@ def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None)
         if pad:  # repeat the last record: its results are dropped below
             args = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, axis=0)]) for a in args]
         args = [_sharded(a, mesh) for a in args]
-    out = jax.jit(jax.vmap(one))(*args)
+    dtype = args[0].dtype
+    out = _law_batch(memory, args[0], args[1], jnp.asarray(dt, dtype), *args[2:],
+                     jnp.asarray(alpha0, dtype))
     return jax.tree_util.tree_map(lambda a: np.asarray(a)[: us.shape[0]], out), np.asarray(x0)
 
 
@@ -223,12 +233,13 @@ def run_batch(
         def fail(r, e):
             failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
 
-        # the law: equal lengths (and steps) run together under vmap; the tracker and the refit:
-        # one record at a time, padded to a few bucket lengths so that they compile a few times
+        # records are padded to a few bucket lengths (m·2^k) and masked or cut back, so that a
+        # batch compiles a few programs: the law runs a bucket's records together under vmap;
+        # the gain tuning, the tracker and the refit run one record at a time
         buckets = {}
         for r, state in todo:
-            size = r.time.size if method in ("adaptive", "both") else pad(r.time.size)
-            buckets.setdefault((size, r.dt), []).append((r, state))
+            # steps equal to 12 digits share a bucket (a time column's rounding differs by file)
+            buckets.setdefault((pad(r.time.size), float(f"{r.dt:.12g}")), []).append((r, state))
         for (num, dt), group in buckets.items():
             prepared, gains = [], []
             for r, state in group:
@@ -237,7 +248,7 @@ def run_batch(
                     if method not in ("adaptive", "both"):
                         gains.append((np.nan, np.nan))  # the law is not run
                     elif gamma == "auto":
-                        g = tune_gains(u, y, dt, lam=lam)
+                        g = tune_gains(u, y, dt, lam=lam, pad_to=num)
                         gains.append((g.gamma, g.lam))
                     else:
                         gains.append((float(gamma), PAPER_LAM if lam is None else float(lam)))
@@ -248,11 +259,15 @@ def run_batch(
             if not prepared:
                 continue
             if method in ("adaptive", "both"):
-                us = np.stack([p[2] for p in prepared])
-                ys = np.stack([p[3] for p in prepared])
+                # padded after each record's end (inputs 0, output held): causal, so unseen
+                us = np.stack([_pad_to(p[2], num, 0.0) for p in prepared])
+                ys = np.stack([_pad_to(p[3], num, p[3][-1]) for p in prepared])
+                lengths = [p[3].shape[0] for p in prepared]
                 g = np.array(gains)
                 try:
-                    out, x0 = adaptive_batch(us, ys, dt, g[:, 0], g[:, 1], mesh=mesh)
+                    out, x0 = adaptive_batch(
+                        us, ys, dt, g[:, 0], g[:, 1], mesh=mesh, lengths=lengths
+                    )
                 except Exception as e:  # noqa: BLE001
                     for r, state, *_ in prepared:
                         fail(r, e)
@@ -311,8 +326,16 @@ class BatchReport:
     failed: int = 0
 
 
+def _pad_to(a, num, value):
+    """``a`` (N, …) extended to ``num`` rows with ``value``."""
+    a = np.asarray(a)
+    tail = np.full((num - a.shape[0],) + a.shape[1:], value, dtype=a.dtype)
+    return np.concatenate([a, tail])
+
+
 def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, method, area, length):
-    out, var_alpha, var_p = jax.tree_util.tree_map(lambda a: a[i], batch)
+    num = r.time.size  # the record's own samples, not its bucket's padding
+    out, var_alpha, var_p = jax.tree_util.tree_map(lambda a: a[i][:num], batch)
     res = law_identification(
         out, var_alpha, var_p, float(x0[i, 0]), gains[0], gains[1], 0.5, r.dt, DEFAULT_BOUNDS,
         "exponential",
