@@ -3,6 +3,10 @@
 fresh process, with and without length buckets (records padded to a few lengths and masked).
 
     python scripts/bench_batch.py [--records 10 40] [--methods kalman refit] [--data DIR]
+                                  [--buckets on|off|compare] [--code DIR]
+
+`--code DIR` runs the children on another checkout of vojax (e.g. a `git worktree` of an
+earlier commit), for before/after tables measured in the same session.
 
 Prints, per case, the wall time of `run_batch` (loading excluded, reported apart) and the
 ratios between cases measured in the same run.
@@ -10,6 +14,7 @@ ratios between cases measured in the same run.
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -38,7 +43,7 @@ from pathlib import Path
 report = run_batch(recs, Path(out), model="springpot", method=method, gamma="auto", lam=None,
                    progress=False, buckets=buckets)
 done = time.perf_counter()
-print(json.dumps(dict(records=len(recs), lengths=len({r.time.size for r in recs}),
+print(json.dumps(dict(code=vojax.__file__, records=len(recs), lengths=len({r.time.size for r in recs}),
                       load=loaded - started, batch=done - loaded, failed=report.failed)))
 """
 
@@ -48,20 +53,26 @@ def main():
     parser.add_argument("--records", type=int, nargs="+", default=[10, 40])
     parser.add_argument("--methods", nargs="+", default=["kalman", "refit"])
     parser.add_argument("--data", default=str(DATA))
+    parser.add_argument("--buckets", choices=("on", "off", "compare"), default="compare")
+    parser.add_argument("--code", help="a checkout whose vojax the children import")
     args = parser.parse_args()
-    path = Path(args.data) / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv"
+    path = Path(args.data).resolve() / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv"
     if not path.is_file():
         sys.exit(f"needs {path}")
+    env = dict(os.environ)
+    if args.code:
+        env["PYTHONPATH"] = str(Path(args.code).resolve()) + os.pathsep + env.get("PYTHONPATH", "")
     rows = []
     for method in args.methods:
         for count in args.records:
-            for buckets in (False, True):
+            modes = {"on": (True,), "off": (False,), "compare": (False, True)}[args.buckets]
+            for buckets in modes:
                 with tempfile.TemporaryDirectory() as out:
                     started = time.perf_counter()
                     proc = subprocess.run(
                         [sys.executable, "-c", CHILD, str(path), str(count), method,
                          "1" if buckets else "0", out],
-                        capture_output=True, text=True,
+                        capture_output=True, text=True, env=env, cwd=args.code or None,
                     )
                     wall = time.perf_counter() - started
                 if proc.returncode != 0:

@@ -144,7 +144,7 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
 
 
 @pytest.mark.slow
-def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path):
+def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path, capsys):
     """Three lengths (82, 90, 96 samples) pad to one bucket (96): the gains are tuned and the
     law run on the padded records, yet each record's order equals `identify` on that record
     alone with automatic gains, and the law and the tuner compile once for the bucket."""
@@ -170,3 +170,9 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
         ref = vojax.identify(stress, strain, 0.1, warn=False)
         assert alpha.shape == (t.size,)
         np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-10)
+    # the progress line announces the bucket's compilation, then counts records and failures
+    capsys.readouterr()
+    assert main([*args[:-1], "--out", str(tmp_path / "again")]) == 0
+    err = capsys.readouterr().err
+    assert "length bucket 1/1 (3 record(s) padded to 96 samples): compiling" in err
+    assert "3/3 done, 0 failed, 0 up to date" in err

@@ -160,7 +160,10 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
         raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
     check.choice(memory, check.MEMORIES, "memory")
     check.choice(rule, RULES, "rule")
-    x0 = y[0] if x0 is None else _scalar(x0, "x0")
+    if x0 is None:  # (NumPy on concrete data: an eager slice would compile per length)
+        x0 = y[0] if isinstance(y, jax.core.Tracer) else jnp.asarray(np.asarray(y)[0])
+    else:
+        x0 = _scalar(x0, "x0")
     if isinstance(r0, str):
         if r0 != "auto":
             raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
@@ -177,16 +180,21 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
     return u2, y, bounds, x0, r0
 
 
-def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds):
+def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds, *, num=None, mem=None):
     """``R_0`` worth one sample of information at the initial order: ``h·diag(mean φ²)`` with
-    ``φ = Φ(α̂(0), t)``. It scales with the inputs, so the law does not depend on their units."""
-    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds)
-    phi = scan_memory(mem, u2, jnp.full((u2.shape[0],), float(alpha0)), False)
-    power = jnp.mean(phi * phi, axis=0)
-    if not bool(jnp.all(power > 0)):
-        j = int(jnp.argmin(power))
+    ``φ = Φ(α̂(0), t)``. It scales with the inputs, so the law does not depend on their units.
+    With `num`, ``u2`` is a record of `num` samples padded after its end (the mean covers the
+    real samples; the memory is causal); `mem` is a memory already designed for ``u2``."""
+    size = u2.shape[0]
+    num = size if num is None else int(num)
+    if mem is None:
+        mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds)
+    phi = np.asarray(scan_memory(mem, jnp.asarray(u2), jnp.full((size,), float(alpha0)), False))
+    power = np.mean(phi[:num] ** 2, axis=0)
+    if not np.all(power > 0):
+        j = int(np.argmin(power))
         raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")
-    return float(dt) * jnp.diag(power)
+    return jnp.asarray(float(dt) * np.diag(power))
 
 
 def check_mask(mask, num, num_inputs):
@@ -384,21 +392,24 @@ def law_identification(
 ) -> Identification:
     """An `Identification` from the law's outputs (of ``y − x0``) and the variances of its
     estimates (`vojax._adaptive._bands.law_covariance`); shared by `identify` and the batch."""
-    alpha_std = jnp.sqrt(jnp.maximum(jnp.asarray(var_alpha), 0.0))
+    # on the host, in NumPy: eager JAX operations would compile once per record length
+    alpha = np.asarray(out.alpha)
+    alpha_std = np.sqrt(np.maximum(np.asarray(var_alpha), 0.0))
     lo, hi = bounds
-    lower = jnp.clip(out.alpha - 2 * alpha_std, lo, hi)
-    upper = jnp.clip(out.alpha + 2 * alpha_std, lo, hi)
-    diagnostics = diagnose(out.alpha, lower, upper, bounds, True, at_edge)
-    dtype = jnp.asarray(out.alpha).dtype
+    lower = np.clip(alpha - 2 * alpha_std, lo, hi)
+    upper = np.clip(alpha + 2 * alpha_std, lo, hi)
+    diagnostics = diagnose(alpha, lower, upper, bounds, True, at_edge)
+    dtype = alpha.dtype
+    x0 = np.asarray(x0, dtype)
     return Identification(
-        alpha=jnp.asarray(out.alpha),
-        alpha_std=alpha_std,
-        alpha_lower=lower,
-        alpha_upper=upper,
+        alpha=jnp.asarray(alpha),
+        alpha_std=jnp.asarray(alpha_std),
+        alpha_lower=jnp.asarray(lower),
+        alpha_upper=jnp.asarray(upper),
         p=jnp.asarray(out.p),
-        p_std=jnp.sqrt(jnp.maximum(jnp.asarray(var_p), 0.0)),
-        y_hat=out.y_hat + x0,
-        y_pred=out.y_pred + x0,
+        p_std=jnp.asarray(np.sqrt(np.maximum(np.asarray(var_p), 0.0))),
+        y_hat=jnp.asarray(np.asarray(out.y_hat) + x0),
+        y_pred=jnp.asarray(np.asarray(out.y_pred) + x0),
         x0=jnp.asarray(x0, dtype),
         x0_std=jnp.zeros((), dtype),
         dp=jnp.asarray(out.dp),

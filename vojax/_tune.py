@@ -125,21 +125,18 @@ def tune_gains(
     u2, y, bounds, x0, r0 = check_options(
         u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0
     )
-    if isinstance(r0, str):
-        from ._identify import auto_r0
-
-        r0 = auto_r0(u2, dt, alpha0, memory, rule, tol, bounds)
     if not 0 <= burn_in < 1:
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
         raise ValueError(f"`lag` must be in [0, 0.5), got {lag}.")
+    u2, y, x0 = np.asarray(u2), np.asarray(y), float(x0)  # host side, in NumPy
     n = u2.shape[0]
     big_y = y - x0
     d = max(1, int(round(lag * n)))
     start = max(int(burn_in * n), d)
     if n - start < 2:
         raise ValueError(f"the record is too short to tune gains: {n} samples.")
-    scale = 1.0 / max(float(jnp.mean(big_y**2)), 1e-300)
+    scale = 1.0 / max(float(np.mean(big_y**2)), 1e-300)
     horizon = max((n - 1) * float(dt), float(dt))
     # padded to `pad_to` samples (after the end: the law is causal, so the real samples'
     # outputs do not see the padding) with the loss weighted to the real samples: one
@@ -149,10 +146,16 @@ def tune_gains(
         raise ValueError(f"`pad_to` ({size}) is shorter than the record ({n} samples).")
     weights = np.zeros(size)
     weights[start:n] = 1.0
+    mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds)
+    u_padded = np.concatenate([u2, np.zeros((size - n, u2.shape[1]))])
+    if isinstance(r0, str):
+        from ._identify import auto_r0
+
+        r0 = auto_r0(u_padded, dt, alpha0, memory, rule, tol, bounds, num=n, mem=mem)
     data = _TuneData(
-        memory=make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds),
-        u=jnp.concatenate([u2, jnp.zeros((size - n, u2.shape[1]), u2.dtype)]),
-        y=jnp.concatenate([big_y, jnp.zeros((size - n,), big_y.dtype)]),
+        memory=mem,
+        u=jnp.asarray(u_padded),
+        y=jnp.asarray(np.concatenate([big_y, np.zeros(size - n)])),
         weights=jnp.asarray(weights, u2.dtype),
         lag=jnp.asarray(d),
         r0=jnp.asarray(r0, u2.dtype),

@@ -73,22 +73,27 @@ def adaptive_batch(us, ys, dt, gammas, lams, r0s=None, *, alpha0=0.5, mesh=None,
     band, as in `identify`. ``y − y[0]`` is identified (Remark 4), as `identify` does."""
     num = us.shape[1]
     lengths = np.full(us.shape[0], num) if lengths is None else np.asarray(lengths)
+    memory = make_memory("exponential", dt, num, rule="trapezoid", order_range=DEFAULT_BOUNDS)
     if r0s is None:
         r0s = np.stack(
             [
-                auto_r0(jnp.asarray(u[:k]), dt, alpha0, "exponential", "trapezoid", 1e-10, DEFAULT_BOUNDS)
+                auto_r0(u, dt, alpha0, "exponential", "trapezoid", 1e-10, DEFAULT_BOUNDS, num=k,
+                        mem=memory)
                 for u, k in zip(us, lengths)
             ]
         )
     x0 = ys[:, :1]
     sigma2 = np.array([noise_variance(y[:k] - y[0]) for y, k in zip(ys, lengths)])
-    memory = make_memory("exponential", dt, num, rule="trapezoid", order_range=DEFAULT_BOUNDS)
-    args = [jnp.asarray(a) for a in (us, ys - x0, gammas, lams, r0s, sigma2)]
+    args = [np.asarray(a) for a in (us, ys - x0, gammas, lams, r0s, sigma2)]
+    # the stack grows to a power of two (and a multiple of the devices) by repeating its last
+    # record, whose copies are dropped below: a few stack sizes, so a few compilations
+    devices = 1 if mesh is None else mesh.devices.size
+    size = 1 << max(len(us) - 1, 0).bit_length()
+    size += (-size) % devices
+    if size > len(us):
+        args = [np.concatenate([a, np.repeat(a[-1:], size - len(us), axis=0)]) for a in args]
+    args = [jnp.asarray(a) for a in args]
     if mesh is not None:
-        size = mesh.devices.size
-        pad = (-args[0].shape[0]) % size
-        if pad:  # repeat the last record: its results are dropped below
-            args = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, axis=0)]) for a in args]
         args = [_sharded(a, mesh) for a in args]
     dtype = args[0].dtype
     out = _law_batch(memory, args[0], args[1], jnp.asarray(dt, dtype), *args[2:],
@@ -223,8 +228,8 @@ def run_batch(
                 n = report.computed + report.redone + report.failed - len(failures)
                 eta = (time.perf_counter() - started) / max(n, 1) * (total - n)
                 print(
-                    f"\rvojax batch: {n}/{total} to do, {report.skipped} up to date; "
-                    f"about {eta:.0f} s left   ",
+                    f"\rvojax batch: {n}/{total} done, {report.failed} failed, "
+                    f"{report.skipped} up to date; about {eta:.0f} s left   ",
                     end="",
                     file=sys.stderr,
                     flush=True,
@@ -240,7 +245,15 @@ def run_batch(
         for r, state in todo:
             # steps equal to 12 digits share a bucket (a time column's rounding differs by file)
             buckets.setdefault((pad(r.time.size), float(f"{r.dt:.12g}")), []).append((r, state))
-        for (num, dt), group in buckets.items():
+        for b, ((num, dt), group) in enumerate(buckets.items()):
+            if progress:  # the first record of a bucket compiles its programs: say so
+                print(
+                    f"\rvojax batch: length bucket {b + 1}/{len(buckets)} ({len(group)} "
+                    f"record(s) padded to {num} samples): compiling…   ",
+                    end="",
+                    file=sys.stderr,
+                    flush=True,
+                )
             prepared, gains = [], []
             for r, state in group:
                 try:

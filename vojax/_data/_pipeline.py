@@ -212,7 +212,8 @@ def _padded(fn, u, y, pad_to, **kwargs):
     mask = np.r_[np.ones(num), np.zeros(extra)]
     res = fn(up, yp, mask=mask, **kwargs)
     return jax.tree_util.tree_map(
-        lambda a: a[:num] if getattr(a, "ndim", 0) >= 1 and a.shape[0] == pad_to else a, res
+        lambda a: np.asarray(a)[:num] if getattr(a, "ndim", 0) >= 1 and a.shape[0] == pad_to else a,
+        res,
     )
 
 

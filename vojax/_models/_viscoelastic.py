@@ -3,6 +3,7 @@
 import abc
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -20,6 +21,14 @@ def stress_strain(force, displacement, area, length):
     area = float(np.asarray(check.positive(area, "area")))
     length = float(np.asarray(check.positive(length, "length")))
     return force / area, displacement / length
+
+
+def _array(p):
+    """``p`` as an array of its own kind: NumPy on the host (eager JAX operations would compile
+    once per record length), JAX under tracing (`parameters_stderr` differentiates it)."""
+    if isinstance(p, jax.Array):
+        return p
+    return np.asarray(p, dtype=float)
 
 
 class AbstractViscoelasticModel(eqx.Module):
@@ -53,11 +62,12 @@ class Springpot(AbstractViscoelasticModel):
     names = ("eta",)
 
     def inputs(self, stress, strain=None):
-        return check.samples(stress, "stress").reshape(-1, 1)
+        return np.asarray(check.samples(stress, "stress")).reshape(-1, 1)  # host side
 
     def parameters(self, p):
-        p = jnp.asarray(p)
-        return {"eta": 1.0 / p[..., 0]}
+        p = _array(p)
+        with np.errstate(divide="ignore", invalid="ignore"):  # p̂ = 0 at the first sample
+            return {"eta": 1.0 / p[..., 0]}
 
     def regression(self, *, eta):
         return jnp.array([1.0 / eta])
@@ -75,12 +85,13 @@ class KelvinVoigt(AbstractViscoelasticModel):
             raise ValueError(
                 f"`stress` and `strain` must both have shape (N,), got {stress.shape} and {strain.shape}."
             )
-        return jnp.stack([stress, strain], axis=1)
+        return np.stack([np.asarray(stress), np.asarray(strain)], axis=1)  # host side
 
     def parameters(self, p):
-        p = jnp.asarray(p)
-        eta = 1.0 / p[..., 0]
-        return {"eta": eta, "k": -p[..., 1] * eta}
+        p = _array(p)
+        with np.errstate(divide="ignore", invalid="ignore"):  # p̂ = 0 at the first sample
+            eta = 1.0 / p[..., 0]
+            return {"eta": eta, "k": -p[..., 1] * eta}
 
     def regression(self, *, eta, k):
         return jnp.array([1.0 / eta, -k / eta])
