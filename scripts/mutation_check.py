@@ -76,8 +76,8 @@ MUTATIONS = {
     ),
     "batch writes the first record's law output for every record": (
         "vojax/_data/_batch.py",
-        [("jax.tree_util.tree_map(lambda a: a[i], batch)",
-          "jax.tree_util.tree_map(lambda a: a[0], batch)")],
+        [("jax.tree_util.tree_map(lambda a: a[i][:num], batch)",
+          "jax.tree_util.tree_map(lambda a: a[0][:num], batch)")],
         ["tests/test_batch.py"],
     ),
     "Kelvin–Voigt sign flipped in the regression and the parameter map": (
