@@ -12,7 +12,7 @@ import pytest
 import vojax
 import vojax.testing as vt
 from vojax import reference
-from vojax._cli import main
+from vojax._cli import build_parser, main
 
 T = np.arange(200) * 0.02
 U = np.stack([np.sin(3 * T) + 0.2, np.exp(-T)], axis=1)
@@ -148,8 +148,8 @@ def test_identify_takes_one_record_of_a_long_file(tmp_path, capsys):
     assert summary["refit"]["order"] == pytest.approx(0.4, abs=1e-4)
 
 
-def test_every_cli_option_says_its_default(capsys):
-    parser = __import__("vojax._cli", fromlist=["build_parser"]).build_parser()
+def test_every_cli_option_says_its_default():
+    parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
     for name, command in sub.choices.items():
         for action in command._actions:
