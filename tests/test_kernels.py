@@ -175,6 +175,31 @@ def test_streaming_equals_batch():
         assert rel_max(np.stack(dphis), vojax.order_sensitivity(u, alpha, dt, memory=kind)) < 1e-14
 
 
+@pytest.mark.parametrize("rule", RULES)
+def test_order_free_history_equals_the_scan(rule, monkeypatch):
+    """The exponential memory's history computed once for the record (an associative
+    recurrence) and read out at any orders equals the sample-by-sample scan, Φ and ∂Φ/∂b; a
+    record beyond the history limit falls back to the scan."""
+    from vojax._integral import order_map
+    from vojax._kernels import _exponential
+
+    n, dt = 700, 0.04
+    _, u, alpha = paper_inputs(n, dt)
+    mem = vojax.ExponentialMemory.design(dt, n, rule=rule)
+    u, alpha = jnp.asarray(u), jnp.asarray(alpha)
+    scan_phi, scan_dphi = mem.run(u, alpha, True)
+    evaluate = order_map(mem, u)
+    for order in (alpha, jnp.full((n,), 0.83)):
+        assert rel_max(evaluate(order), mem.run(u, order, False)) < 1e-13
+    phi, dphi = evaluate(alpha, True)
+    assert rel_max(phi, scan_phi) < 1e-13 and rel_max(dphi, scan_dphi) < 1e-13
+    h, previous = mem.histories(u)
+    assert h.shape == (n, mem.num_modes, 2) and float(jnp.max(jnp.abs(h[:2]))) == 0.0
+    monkeypatch.setattr(_exponential, "HISTORY_LIMIT", n * mem.num_modes * 2 - 1)
+    assert not mem.history_fits(n, 2)
+    assert rel_max(order_map(mem, u)(alpha), scan_phi) == 0.0
+
+
 def test_lemma3_integrals_and_the_misprint():
     """Lemma 3's integrals of H = (t−τ)^{β−1}/Γ(β) by quadrature; the third has 2, not 1."""
     import math

@@ -133,6 +133,40 @@ def test_standard_errors_are_the_gauss_newton_covariance():
     np.testing.assert_allclose(fit.p_cov, cov[1:, 1:], rtol=1e-6)
 
 
+def test_knot_standard_errors_from_an_autodiff_jacobian(monkeypatch):
+    """With three knots, the order's standard errors equal the delta method on σ̂² (JᵀJ)⁻¹ with J
+    the autodiff Jacobian of the model written afresh (direct memory, `jax.jacfwd`); and the
+    fit is the same whether the order-free history is stored or the record is scanned at every
+    evaluation."""
+    import jax
+
+    from vojax._kernels import _exponential
+
+    lo, hi = 0.01, 0.99
+    y = _data(0.55, seed=4)[:600]
+    u = U[:600]
+    fit = vojax.refit(u, y, DT, order=3, x0=0.0)
+    raw = np.log((np.asarray(fit.knots) - lo) / (hi - fit.knots))
+
+    def model(theta):
+        beta = _order_curve(theta[:3], 600, (lo, hi))
+        return vojax.fractional_integral(u, beta, DT) @ theta[3:]
+
+    theta = jnp.concatenate([jnp.asarray(raw), fit.p])
+    jac = np.asarray(jax.jacfwd(model)(theta))
+    res = y - np.asarray(model(theta))
+    cov = res @ res / (y.size - 5) * np.linalg.inv(jac.T @ jac)
+    grad = np.asarray(jax.jacfwd(lambda r: _order_curve(r, 600, (lo, hi)))(theta[:3]))
+    np.testing.assert_allclose(
+        fit.order_stderr, np.sqrt(np.einsum("ni,ij,nj->n", grad, cov[:3, :3], grad)), rtol=1e-5
+    )
+    np.testing.assert_allclose(fit.p_stderr, np.sqrt(np.diag(cov)[3:]), rtol=1e-5)
+    monkeypatch.setattr(_exponential, "HISTORY_LIMIT", 0)
+    scanned = vojax.refit(u, y, DT, order=3, x0=0.0, max_steps=201)  # a new program
+    for name in ("order", "order_stderr", "p", "p_stderr"):
+        np.testing.assert_allclose(getattr(scanned, name), getattr(fit, name), rtol=1e-7)
+
+
 def test_standard_errors_are_calibrated_over_40_seeds():
     """The spread of the order and of p over 40 noise realisations, divided by the mean
     reported standard error, lies in [0.7, 1.4] (too small or too large errors both fail)."""

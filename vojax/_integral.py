@@ -65,6 +65,31 @@ def scan_memory(memory: AbstractMemory, u, order, sensitivity: bool):
     return memory.run(u, order, sensitivity)
 
 
+def order_map(memory: AbstractMemory, u):
+    """The function ``(order, sensitivity=False) ↦ Φ`` (or ``(Φ, ∂Φ/∂b)``) of a fixed record
+    ``u`` (N, n), for evaluating at many order trajectories (an optimisation loop).
+
+    With the exponential memory, the order-free modal history is computed here, once, and each
+    evaluation is a vectorised readout (`ExponentialMemory.histories`); records whose history
+    would exceed `HISTORY_LIMIT` numbers, and the direct memory, scan the record per evaluation
+    (bounded memory). Call it inside the traced function that loops, so that the history is a
+    constant of the loop.
+    """
+    if isinstance(memory, ExponentialMemory) and memory.history_fits(*u.shape):
+        h, previous = memory.histories(u)
+
+        def phi(order):
+            return memory.readout_histories(h, previous, u, order)
+
+        def evaluate(order, sensitivity: bool = False):
+            if not sensitivity:
+                return phi(order)
+            return jax.jvp(phi, (order,), (jax.numpy.ones_like(order),))
+
+        return evaluate
+    return lambda order, sensitivity=False: memory.run(u, order, sensitivity)
+
+
 def _prepare(u, order, dt, rule, memory, tol, order_range):
     u = check.samples(u)
     squeeze = u.ndim == 1

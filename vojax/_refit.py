@@ -9,7 +9,7 @@ from jaxtyping import Array, Float
 
 from . import _validate as check
 from ._identify import check_options
-from ._integral import make_memory, scan_memory
+from ._integral import make_memory, order_map, scan_memory
 
 
 class Refit(eqx.Module):
@@ -174,13 +174,15 @@ def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max
     def design(phi):  # regressors of the linear part: Φ and, for an estimated offset, 1
         return jnp.concatenate([phi, jnp.ones((num, 1), phi.dtype)], 1) if estimate else phi
 
+    phi_of = order_map(mem, u2)  # the order-free history, once, outside the solver's loop
+
     def model(theta):
         raw, p = theta[:num_knots], theta[num_knots:]
         beta = _order_curve(raw, num, bounds, span)
-        return design(scan_memory(mem, u2, beta, False)) @ p
+        return design(phi_of(beta)) @ p
 
     # a start for p: linear least squares at the initial order
-    phi0 = design(scan_memory(mem, u2, _order_curve(raw0, num, bounds, span), False))
+    phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
     p0 = jnp.linalg.lstsq(phi0 * w[:, None], big_y * w)[0]
     theta0 = jnp.concatenate([raw0, p0])
     sol = optx.least_squares(
@@ -193,7 +195,14 @@ def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max
     theta = sol.value
     fit = model(theta)
     residuals = big_y - fit
-    jac = jax.jacfwd(model)(theta) * w[:, None]
+    # the Jacobian by the chain rule: ∂ŷ/∂p = the design, ∂ŷ_k/∂raw_i = (∂Φ_k/∂b · p) ∂β_k/∂raw_i
+    # (one readout with its order sensitivity, no Jacobian traced through the memory)
+    raw_t, p_t = theta[:num_knots], theta[num_knots:]
+    phi_t, dphi_t = phi_of(_order_curve(raw_t, num, bounds, span), True)
+    dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw_t)
+    jac = jnp.concatenate(
+        [(dphi_t @ p_t[:width])[:, None] * dbeta, design(phi_t)], axis=1
+    ) * w[:, None]
     dof = jnp.maximum(jnp.sum(w) - theta.size, 1.0)
     sigma2 = jnp.sum(w * residuals**2) / dof
     cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)

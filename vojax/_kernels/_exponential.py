@@ -23,6 +23,9 @@ from ._weights import TRAPEZOID, end_weights, log_norm
 
 DEFAULT_TOL = 1e-10
 DEFAULT_ORDER_RANGE = (0.01, 0.99)
+# largest order-free history (samples × modes × inputs) stored whole for repeated readouts:
+# 2^23 numbers, 64 MB; longer records are scanned sample by sample at every evaluation instead
+HISTORY_LIMIT = 2**23
 
 
 def _solve_x(target: float) -> float:
@@ -193,3 +196,47 @@ class ExponentialMemory(AbstractMemory):
         )
         history = self.decay[:, None] * state.history + started * increment
         return ExponentialState(history, u_k, state.k + 1)
+
+    # -- the whole record at once: the modal history is order-free ------------------------
+
+    def histories(self, u):
+        """The modal history ``H(k−1)`` that sample ``k`` reads, for every sample of ``u`` (N, n).
+
+        ``H(k) = e^{−s h} H(k−1) + w_prev u_{k−1} + w_cur u_k`` (no interval ends at sample 0)
+        does not depend on the order, so it is computed once per record, as an associative
+        linear recurrence (`lax.associative_scan`: log₂N vectorised sweeps, no loop over
+        samples), and read out at any orders by `readout_histories`.
+
+        **Returns:** ``(H, previous)``: ``H`` (N, M, n), and ``previous`` (N, n) the sample
+        before each (0 before sample 0).
+        """
+        num, width = u.shape
+        previous = jnp.concatenate([jnp.zeros((1, width), u.dtype), u[:-1]])
+        increment = (
+            self.weight_previous[None, :, None] * previous[:, None, :]
+            + self.weight_current[None, :, None] * u[:, None, :]
+        ).at[0].set(0.0)  # sample 0 ends no interval
+        decay = jnp.broadcast_to(self.decay[None, :, None], (num, self.num_modes, 1))
+        # (a, b) is the affine map H ↦ a H + b; `combine` applies the earlier map first
+        combine = lambda x, y: (x[0] * y[0], y[0] * x[1] + y[1])  # noqa: E731
+        _, after = lax.associative_scan(combine, (decay, increment), axis=0)
+        return jnp.concatenate([jnp.zeros_like(after[:1]), after[:-1]]), previous
+
+    def readout_histories(self, h, previous, u, order):
+        """``Φ(order[k], t_k)`` for every sample at once from `histories`' ``(H, previous)``: a
+        contraction over the modes with no sequential dependency; equal to `run` to rounding."""
+        b = order
+        a0, a1 = end_weights(b, self.rule)
+        last = jnp.exp(log_norm(b, self.dt, self.rule))[:, None] * (
+            a0[:, None] * u + a1[:, None] * previous
+        )
+        c = (jnp.sin(jnp.pi * b) / jnp.pi)[:, None] * jnp.exp(
+            self.log_readout[None, :] + (1.0 - b)[:, None] * self.log_s[None, :]
+        )
+        older = jnp.einsum("km,kmn->kn", c, h, precision=lax.Precision.HIGHEST)
+        return (last + older).at[0].set(0.0)
+
+    def history_fits(self, num: int, width: int) -> bool:
+        """Whether the whole order-free history of a record of this shape is stored (see
+        `HISTORY_LIMIT`)."""
+        return num * self.num_modes * width <= HISTORY_LIMIT
