@@ -176,3 +176,42 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
     err = capsys.readouterr().err
     assert "length bucket 1/1 (3 record(s) padded to 96 samples): compiling" in err
     assert "3/3 done, 0 failed, 0 up to date" in err
+
+
+@pytest.mark.slow
+def test_record_figures_in_worker_processes_or_none(tmp_path):
+    """Five records: their figures are drawn by a worker process, each record complete (figure
+    and summary) and counted once; without record figures only the overview is drawn, and a
+    later run that wants them redoes exactly the records that lack one."""
+    from vojax._data import load_records
+    from vojax._data._batch import run_batch
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for i in range(5):
+        _springpot_csv(data / f"r{i}.csv", n=40 + i, q=0.3 + 0.1 * i)
+    records = [
+        r for p in sorted(data.glob("*.csv"))
+        for r in load_records(p, time="time_s", inputs=["stress"], output="strain")
+    ]
+    settings = dict(model="springpot", method="refit", gamma=None, lam=None, progress=False)
+    with_figures = run_batch(records, tmp_path / "a", figure_workers=1, **settings)
+    assert (with_figures.computed, with_figures.failed) == (5, 0)
+    for i in range(5):
+        folder = tmp_path / "a" / f"r{i}"
+        assert (folder / "identification.png").read_bytes()[:4] == b"\x89PNG"
+        assert (folder / "summary.json").is_file()
+    without = run_batch(records, tmp_path / "b", record_figures=False, **settings)
+    assert without.computed == 5
+    assert not list((tmp_path / "b").rglob("identification.png"))
+    assert (tmp_path / "b" / "overview.png").is_file()
+    # outputs computed with figures are current for a run without them …
+    assert run_batch(records, tmp_path / "a", record_figures=False, **settings).skipped == 5
+    # … and a run with figures redoes only the record that lacks one
+    (tmp_path / "a" / "r2" / "identification.png").unlink()
+    again = run_batch(records, tmp_path / "a", figure_workers=1, **settings)
+    assert (again.skipped, again.redone, again.failed) == (4, 1, 0)
+    assert (tmp_path / "a" / "r2" / "identification.png").is_file()
+    for i in range(5):
+        a = (tmp_path / "a" / f"r{i}" / "identification.csv").read_text()
+        assert a == (tmp_path / "b" / f"r{i}" / "identification.csv").read_text()

@@ -185,6 +185,34 @@ def test_cli_identify_end_to_end(tmp_path, method):
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_cli_compilation_cache_is_used_and_changes_nothing(tmp_path):
+    """With VOJAX_COMPILATION_CACHE a folder, the command keeps its compiled programs there and
+    a second run, loading them, writes the same numbers; with it off, nothing is kept."""
+    _springpot_csv(tmp_path / "test.csv", n=60)
+    base = ["identify", "test.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
+            "--method", "refit"]
+    runs = {}
+    for name, cache in (("first", tmp_path / "cache"), ("second", tmp_path / "cache"),
+                        ("off", "off")):
+        env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+        env["VOJAX_COMPILATION_CACHE"] = str(cache)
+        env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")  # where the default cache would go
+        proc = subprocess.run(
+            [sys.executable, "-m", "vojax", *base, "--out", name], cwd=tmp_path,
+            capture_output=True, text=True, env=env,
+        )
+        assert proc.returncode == 0, proc.stderr
+        runs[name] = (tmp_path / name / "identification.csv").read_text()
+        kept = sorted(p.name for p in (tmp_path / "cache").iterdir())
+        if name == "first":
+            assert any(k.startswith("jit__fit") for k in kept), kept
+            first = kept
+        else:  # the second run found everything; off kept nothing anywhere
+            assert kept == first
+    assert runs["second"] == runs["first"] == runs["off"]
+    assert not (tmp_path / "xdg" / "vojax").exists()
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

@@ -325,7 +325,7 @@ def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
     t2, u2, y2, *_ = _ramp_case(n=170, dt=0.1, noise=0.02, seed=4)
     _padded(vojax.identify, u2, y2, 192, dt=0.1, method="kalman", warn=False)
     assert TRACES["smoother"] == before
-    assert [bucket_length(n) for n in (3, 28, 29, 150, 160, 161, 1000)] == [4, 28, 32, 160, 160, 192, 1024]
+    assert [bucket_length(n) for n in (3, 28, 29, 150, 160, 161, 1000)] == [4, 32, 32, 192, 192, 192, 1024]
     with pytest.raises(ValueError, match="`mask` must hold only 0"):
         vojax.identify(u, y, 0.1, method="kalman", mask=np.full(150, 0.5))
     with pytest.raises(ValueError, match="`mask` is for method='kalman'"):

@@ -55,6 +55,7 @@ from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals
 from ._tune import Gains as Gains
 from ._tune import tune_gains as tune_gains
+from ._xla import use_compilation_cache as use_compilation_cache
 from ._xla import use_fast_cpu_loops as use_fast_cpu_loops
 
 try:

@@ -388,10 +388,12 @@ def identify(
 
 
 def law_identification(
-    out, var_alpha, var_p, x0, gamma, lam, alpha0, dt, bounds, memory, at_edge=()
+    out, var_alpha, var_p, x0, gamma, lam, alpha0, dt, bounds, memory, at_edge=(), host=False
 ) -> Identification:
     """An `Identification` from the law's outputs (of ``y − x0``) and the variances of its
-    estimates (`vojax._adaptive._bands.law_covariance`); shared by `identify` and the batch."""
+    estimates (`vojax._adaptive._bands.law_covariance`); shared by `identify` and the batch.
+    ``host=True`` keeps its arrays in NumPy (the batch: each new record length would compile
+    the conversions to device arrays)."""
     # on the host, in NumPy: eager JAX operations would compile once per record length
     alpha = np.asarray(out.alpha)
     alpha_std = np.sqrt(np.maximum(np.asarray(var_alpha), 0.0))
@@ -401,23 +403,24 @@ def law_identification(
     diagnostics = diagnose(alpha, lower, upper, bounds, True, at_edge)
     dtype = alpha.dtype
     x0 = np.asarray(x0, dtype)
+    put = (lambda a, dtype=None: np.asarray(a, dtype)) if host else jnp.asarray
     return Identification(
-        alpha=jnp.asarray(alpha),
-        alpha_std=jnp.asarray(alpha_std),
-        alpha_lower=jnp.asarray(lower),
-        alpha_upper=jnp.asarray(upper),
-        p=jnp.asarray(out.p),
-        p_std=jnp.asarray(np.sqrt(np.maximum(np.asarray(var_p), 0.0))),
-        y_hat=jnp.asarray(np.asarray(out.y_hat) + x0),
-        y_pred=jnp.asarray(np.asarray(out.y_pred) + x0),
-        x0=jnp.asarray(x0, dtype),
-        x0_std=jnp.zeros((), dtype),
-        dp=jnp.asarray(out.dp),
-        Lambda=jnp.asarray(out.Lambda),
-        gamma=jnp.asarray(gamma, dtype),
-        lam=jnp.asarray(lam, dtype),
-        alpha0=jnp.asarray(alpha0, dtype),
-        dt=jnp.asarray(dt, dtype),
+        alpha=put(alpha),
+        alpha_std=put(alpha_std),
+        alpha_lower=put(lower),
+        alpha_upper=put(upper),
+        p=put(out.p),
+        p_std=put(np.sqrt(np.maximum(np.asarray(var_p), 0.0))),
+        y_hat=put(np.asarray(out.y_hat) + x0),
+        y_pred=put(np.asarray(out.y_pred) + x0),
+        x0=put(x0, dtype),
+        x0_std=put(0.0, dtype),
+        dp=put(out.dp),
+        Lambda=put(out.Lambda),
+        gamma=put(gamma, dtype),
+        lam=put(lam, dtype),
+        alpha0=put(alpha0, dtype),
+        dt=put(dt, dtype),
         alpha_bounds=bounds,
         memory=memory,
         method="gradient",

@@ -15,15 +15,39 @@ def noise_variance(y) -> float:
 def delta_stderr(fn, p, cov) -> dict:
     """Standard errors of the named quantities ``fn(p)`` (a dict of scalars) by the delta
     method: ``sqrt(diag(J C Jᵀ))`` with ``J = ∂fn/∂p`` from forward-mode autodiff and ``C`` the
-    covariance of ``p``."""
-    import jax
+    covariance of ``p``. The Jacobian is compiled once per `fn` and shape of ``p`` when `fn` is
+    hashable (a model's bound method is), and traced afresh otherwise."""
     import jax.numpy as jnp
 
     p = jnp.asarray(p, jnp.result_type(float))
     cov = np.asarray(cov, dtype=float)
     if cov.shape != (p.shape[-1], p.shape[-1]):
         raise ValueError(f"`cov` must have shape {(p.shape[-1],) * 2}, got {cov.shape}.")
-    names = list(fn(p))
-    jac = np.asarray(jax.jacfwd(lambda q: jnp.stack([jnp.asarray(fn(q)[k]) for k in names]))(p))
-    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+    try:
+        hash(fn)
+        jac = _jacobian_compiled(fn, p)
+    except TypeError:  # unhashable: no compiled program to reuse
+        jac = _jacobian(fn, p)
+    names = list(fn(np.asarray(p)))
+    var = np.einsum("ij,jk,ik->i", np.asarray(jac), cov, np.asarray(jac))
     return {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, var)}
+
+
+def _jacobian(fn, p):
+    """``∂fn/∂p``, one row per key of ``fn(p)`` in its order."""
+    import jax
+    import jax.numpy as jnp
+
+    return jax.jacfwd(lambda q: jnp.stack([jnp.asarray(v) for v in fn(q).values()]))(p)
+
+
+def _jacobian_compiled(fn, p):
+    import jax
+
+    global _COMPILED
+    if _COMPILED is None:
+        _COMPILED = jax.jit(_jacobian, static_argnums=0)
+    return _COMPILED(fn, p)
+
+
+_COMPILED = None

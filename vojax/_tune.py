@@ -122,6 +122,80 @@ def tune_gains(
 
     **Returns:** a `Gains`.
     """
+    search = _prepare(
+        u, y, dt, alpha0=alpha0, alpha_bounds=alpha_bounds, memory=memory, rule=rule, x0=x0,
+        r0=r0, lam=lam, tol=tol, burn_in=burn_in, lag=lag, num_gamma=num_gamma,
+        num_lam=num_lam, pad_to=pad_to,
+    )
+    grid = _grid_losses(search.data, *search.grid_arrays())
+    z0, ref, free, fixed = search.start(np.asarray(grid))
+    refined = _refine(search.data, z0, ref, free, fixed, int(refine_steps)) if refine_steps > 0 else None
+    return search.choose(np.asarray(grid), refined)
+
+
+class _Search(eqx.Module):
+    """A record prepared for the search: its data, its grid, and what the choice needs."""
+
+    data: _TuneData
+    log_gammas: np.ndarray  # (num_gamma, num_lam) grid of ln γ
+    log_lams: np.ndarray
+    gammas: np.ndarray  # the grid's axes
+    lams: np.ndarray
+    scale: float
+    lam_given: bool = eqx.field(static=True)
+
+    def grid_arrays(self):
+        return jnp.asarray(self.log_gammas.ravel()), jnp.asarray(self.log_lams.ravel())
+
+    def start(self, grid):
+        """BFGS's start (the best grid point), in coordinates relative to the data's scale (so
+        the search does not depend on the units of u and y); λ is tuned only when not given."""
+        grid = np.where(np.isfinite(grid), grid, np.inf).reshape(self.log_gammas.shape)
+        i, j = np.unravel_index(np.argmin(grid), grid.shape)
+        best = np.array([self.log_gammas[i, j], self.log_lams[i, j]])
+        ref = np.array([np.log(self.scale), 0.0])
+        free = np.array([1.0, 0.0 if self.lam_given else 1.0])
+        fixed = (1.0 - free) * best
+        return tuple(jnp.asarray(a) for a in (best - ref, ref, free, fixed))
+
+    def choose(self, grid, refined) -> Gains:
+        """The best grid point, or the refinement when it lowers the loss inside the box."""
+        g, lm = self.log_gammas, self.log_lams
+        grid = np.where(np.isfinite(grid), grid, np.inf).reshape(g.shape)
+        i, j = np.unravel_index(np.argmin(grid), grid.shape)
+        best = (float(g[i, j]), float(lm[i, j]))
+        best_loss = float(grid[i, j])
+        done = False
+        if refined is not None:
+            z, value = np.asarray(refined[0]), float(refined[1])
+            # stay within the searched box: the gradient may point out of it in flat regions
+            inside = g.min() <= z[0] <= g.max() and lm.min() <= z[1] <= lm.max()
+            if np.isfinite(value) and value < best_loss and inside:
+                best, best_loss, done = (float(z[0]), float(z[1])), value, True
+        edge = 0.05 * np.log(10.0)  # within 5 % of a decade of the box's edge
+        at_edge = tuple(
+            name
+            for name, v, axis in (("gamma", best[0], g), ("lam", best[1], lm))
+            if axis.max() > axis.min() and min(v - axis.min(), axis.max() - v) < edge
+        )
+        return Gains(
+            gamma=float(np.exp(best[0])),
+            lam=float(np.exp(best[1])),
+            loss=best_loss,
+            grid_gamma=self.gammas,
+            grid_lam=self.lams,
+            grid_loss=grid,
+            refined=done,
+            at_edge=at_edge,
+        )
+
+
+def _prepare(
+    u, y, dt, *, alpha0=0.5, alpha_bounds=DEFAULT_BOUNDS, memory="exponential",
+    rule="trapezoid", x0=None, r0="auto", lam=None, tol=1e-10, burn_in=0.1, lag=0.1,
+    num_gamma=11, num_lam=8, pad_to=None,
+) -> _Search:
+    """Validates a record and lays out its search (host side, in NumPy)."""
     u2, y, bounds, x0, r0 = check_options(
         u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0
     )
@@ -129,7 +203,7 @@ def tune_gains(
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
         raise ValueError(f"`lag` must be in [0, 0.5), got {lag}.")
-    u2, y, x0 = np.asarray(u2), np.asarray(y), float(x0)  # host side, in NumPy
+    u2, y, x0 = np.asarray(u2), np.asarray(y), float(x0)
     n = u2.shape[0]
     big_y = y - x0
     d = max(1, int(round(lag * n)))
@@ -163,45 +237,8 @@ def tune_gains(
         alpha0=jnp.asarray(alpha0, u2.dtype),
         bounds=bounds,
     )
-
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples
     lams = np.geomspace(0.3 / horizon, 0.3 / float(dt), num_lam) if lam is None else np.array([float(lam)])
     g, lm = np.meshgrid(np.log(gammas), np.log(lams), indexing="ij")
-    grid = np.asarray(_grid_losses(data, jnp.asarray(g.ravel()), jnp.asarray(lm.ravel())))
-    grid = np.where(np.isfinite(grid), grid, np.inf).reshape(g.shape)
-    i, j = np.unravel_index(np.argmin(grid), grid.shape)
-    best = (float(g[i, j]), float(lm[i, j]))
-    best_loss = float(grid[i, j])
-    refined = False
-    if refine_steps > 0:
-        # in coordinates relative to the data's scale, so that the search does not depend on
-        # the units of u and y; λ is tuned only when it was not given
-        ref = np.array([np.log(scale), 0.0])
-        free = np.array([1.0, 1.0 if lam is None else 0.0])
-        fixed = (1.0 - free) * np.asarray(best)
-        z, value = _refine(
-            data, *(jnp.asarray(a) for a in (np.asarray(best) - ref, ref, free, fixed)),
-            int(refine_steps),
-        )
-        z, value = np.asarray(z), float(value)
-        # stay within the searched box: the gradient may point out of it in flat regions
-        inside = g.min() <= z[0] <= g.max() and lm.min() <= z[1] <= lm.max()
-        if np.isfinite(value) and value < best_loss and inside:
-            best, best_loss, refined = (float(z[0]), float(z[1])), value, True
-    edge = 0.05 * np.log(10.0)  # within 5 % of a decade of the box's edge
-    at_edge = tuple(
-        name
-        for name, v, axis in (("gamma", best[0], g), ("lam", best[1], lm))
-        if axis.max() > axis.min() and min(v - axis.min(), axis.max() - v) < edge
-    )
-    return Gains(
-        gamma=float(np.exp(best[0])),
-        lam=float(np.exp(best[1])),
-        loss=best_loss,
-        grid_gamma=gammas,
-        grid_lam=lams,
-        grid_loss=grid,
-        refined=refined,
-        at_edge=at_edge,
-    )
+    return _Search(data, g, lm, gammas, lams, scale, lam is not None)

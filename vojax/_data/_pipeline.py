@@ -15,16 +15,28 @@ from .._models import KelvinVoigt, Springpot
 MODELS = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt()}
 
 
+class _Columns:
+    """``p ↦ {name: p[..., i]}``: the linear model's parameters, named by their columns;
+    hashable, so that derived standard errors compile once per batch."""
+
+    def __init__(self, names):
+        self.names = names
+
+    def __call__(self, p):
+        return {n: p[..., i] for i, n in enumerate(self.names)}
+
+    def __eq__(self, other):
+        return isinstance(other, _Columns) and other.names == self.names
+
+    def __hash__(self):
+        return hash(self.names)
+
+
 def regressors(record, model: str, area=None, length=None):
     """``(u, y, parameter names, to_physical)`` for `model` (``linear`` keeps the columns)."""
     if model == "linear":
         names = [f"p_{c}" for c in record.input_names]
-        return (
-            record.inputs,
-            record.output,
-            names,
-            lambda p: {n: p[..., i] for i, n in enumerate(names)},
-        )
+        return record.inputs, record.output, names, _Columns(tuple(names))
     if record.inputs.shape[1] != 1:
         raise ValueError(
             f"--model {model} takes one --input (the stress or force), got {record.inputs.shape[1]}; "
@@ -43,7 +55,7 @@ def regressors(record, model: str, area=None, length=None):
             )
     law = MODELS[model]
     u = law.inputs(stress) if model == "springpot" else law.inputs(stress, strain)
-    return np.asarray(u), strain, list(law.names), lambda p: law.parameters(p)
+    return np.asarray(u), strain, list(law.names), law.parameters
 
 
 def diagnostics_dict(d):
@@ -190,11 +202,12 @@ def nrmse(y, y_hat):
 
 def bucket_length(num: int) -> int:
     """The padded length of a record of `num` samples: the smallest ``m·2^k ≥ num`` with
-    m ∈ {4, 5, 6, 7} (at most 25 % padding; a handful of lengths serve a whole batch)."""
+    m ∈ {4, 6}. At most 50 % padding, and two lengths per octave, so that a batch compiles a
+    few programs (each costs seconds; a padded sample costs a microsecond)."""
     k = 0
-    while 7 * 2**k < num:
+    while 6 * 2**k < num:
         k += 1
-    return min(m * 2**k for m in (4, 5, 6, 7) if m * 2**k >= num)
+    return min(m * 2**k for m in (4, 6) if m * 2**k >= num)
 
 
 def _padded(fn, u, y, pad_to, **kwargs):
@@ -272,6 +285,12 @@ def identify_record(
 def write_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
     """``identification.csv``, ``summary.json`` and ``identification.<figure_format>`` (when
     `inputs` are given) in ``out_dir``, each written atomically, the summary last."""
+    write_table(out_dir, columns, figure_format)
+    finish_outputs(out_dir, columns, summary, inputs, figure_format)
+
+
+def write_table(out_dir, columns, figure_format="png"):
+    """``identification.csv`` in ``out_dir``, atomically: the per-sample columns."""
     if figure_format not in ("png", "svg", "pdf"):
         raise ValueError(f"`figure_format` must be png, svg or pdf, got {figure_format!r}.")
     out_dir = Path(out_dir)
@@ -285,9 +304,14 @@ def write_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
         writer.writerow([repr(float(v)) if np.isfinite(v) else "" for v in row])
     with atomic_path(out_dir / "identification.csv") as tmp, open(tmp, "w") as f:
         f.write(buffer.getvalue())
+
+
+def finish_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
+    """The figure (when `inputs` are given), then ``summary.json``, whose presence marks the
+    record's outputs as complete. Runs in a worker process in a batch."""
+    out_dir = Path(out_dir)
     if inputs is not None:
         from .._plotting import record_figure
 
         record_figure(columns, summary, inputs, out_dir / f"identification.{figure_format}")
-    # the summary goes last: its presence marks the record's outputs as complete
     write_json(out_dir / "summary.json", summary)

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int
 
+from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
 from ._model import Hyper, linearise, objective, order_of
 
@@ -38,9 +39,9 @@ class Smoothed(eqx.Module):
     iterations: Int[Array, ""]
 
 
-def _regressors(memory, u, theta, bounds):
+def _regressors(evaluate, theta, bounds):
     alpha, _ = order_of(theta[:, 0], bounds)
-    return memory.run(u, alpha, True)
+    return evaluate(alpha, True)
 
 
 def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, damping=None):
@@ -88,7 +89,8 @@ def _iterate(
     def cost(theta, phi):
         return objective(theta, phi, y, mask, r, q, m0, p0_inv)
 
-    phi, dphi = _regressors(memory, u, nominal, bounds)
+    evaluate = order_map(memory, u)  # the order-free history, once for all the iterations
+    phi, dphi = _regressors(evaluate, nominal, bounds)
     mu0 = jnp.asarray(MU_START, y.dtype)
     start = (nominal, phi, dphi, cost(nominal, phi), mu0, jnp.asarray(jnp.inf, y.dtype), 0)
 
@@ -99,7 +101,7 @@ def _iterate(
     def body(carry):
         theta, phi, dphi, value, mu, rel, i = carry
         _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, mu)
-        phic, dphic = _regressors(memory, u, ms, bounds)
+        phic, dphic = _regressors(evaluate, ms, bounds)
         valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
         pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
