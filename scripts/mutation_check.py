@@ -94,13 +94,15 @@ MUTATIONS = {
     ),
     "tuner's lag dropped": (
         "vojax/_tune.py",
-        [("lagged = jnp.roll(out.p, data.lag, axis=0)", "lagged = out.p")],
+        [("pred = jnp.sum(jnp.roll(p, data.lag, axis=0) * phi, axis=1)",
+          "pred = jnp.sum(p * phi, axis=1)"),
+         ("lagged = ring[(k - data.lag) % data.ring]", "lagged = out.p")],
         ["tests/test_tune.py"],
     ),
     "tuner's refinement discarded (grid point kept, reported as refined)": (
         "vojax/_tune.py",
-        [("best, best_loss, refined = (float(z[0]), float(z[1])), value, True",
-          "refined = True")],
+        [("best, best_loss, done = (float(z[0]), float(z[1])), value, True",
+          "done = True")],
         ["tests/test_tune.py"],
     ),
     "psi dropped from the closed form (14)": (
@@ -139,6 +141,31 @@ MUTATIONS = {
         [("lambda th, _: (model(th) - big_y) * w", "lambda th, _: model(th) - big_y")],
         ["tests/test_refit.py"],
     ),
+    "refit's tolerance passed as a Python number (a retrace per value)": (
+        "vojax/_refit.py",
+        [("jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,",
+          "float(rtol), float(atol), max_steps, throw,")],
+        ["tests/test_retracing.py::test_refit_traces_once"],
+    ),
+    "order-free history read one sample late": (
+        "vojax/_kernels/_exponential.py",
+        [("return jnp.concatenate([jnp.zeros_like(after[:1]), after[:-1]]), previous",
+          "return jnp.concatenate([jnp.zeros_like(after[:2]), after[:-2]]), previous")],
+        ["tests/test_kernels.py::test_order_free_history_equals_the_scan"],
+    ),
+    "refit Jacobian's order column without the chain rule dβ/draw": (
+        "vojax/_refit.py",
+        [("[(dphi_t @ p_t[:width])[:, None] * dbeta, design(phi_t)], axis=1",
+          "[(dphi_t @ p_t[:width])[:, None] * jnp.ones_like(dbeta), design(phi_t)], axis=1")],
+        ["tests/test_refit.py::test_standard_errors_are_the_gauss_newton_covariance",
+         "tests/test_refit.py::test_knot_standard_errors_from_an_autodiff_jacobian"],
+    ),
+    "tuner's streamed grid loss reads p̂ one sample late": (
+        "vojax/_tune.py",
+        [("lagged = ring[(k - data.lag) % data.ring]", "lagged = ring[(k - data.lag - 1) % data.ring]")],
+        ["tests/test_tune.py"],
+    ),
+
 }
 
 

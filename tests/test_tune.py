@@ -109,6 +109,11 @@ def test_refinement_lowers_the_lagged_prediction_loss_and_reports_it_truthfully(
         return float(np.mean((pred - e) ** 2) / np.mean(e**2))
 
     assert lagged_loss(gains.gamma, gains.lam) == pytest.approx(gains.loss, rel=1e-6)
+    # the grid's losses, accumulated inside the scan with a ring of the last D estimates, are
+    # the same definition (at grid points off the chattering corner of large γ and λ)
+    for i, j in ((0, 0), (3, 2), (5, 5), (7, 1)):
+        g, lm = gains.grid_gamma[i], gains.grid_lam[j]
+        assert gains.grid_loss[i, j] == pytest.approx(lagged_loss(g, lm), rel=1e-9)
     assert gains.refined
     assert gains.loss < np.min(gains.grid_loss)
     for f in (0.8, 1.25):

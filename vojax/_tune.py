@@ -6,10 +6,15 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from ._identify import DEFAULT_BOUNDS, assemble_law, check_options, run_law
+from jax import lax
+
+from ._identify import DEFAULT_BOUNDS, assemble_law, check_options
 from ._integral import make_memory
 
 TRACES = {"tune": 0}
+# the refinement differentiates through the law in blocks of samples, each block checkpointed:
+# reverse mode keeps one law state per block and the states of one block, not one per sample
+BLOCK = 1024
 
 
 class _TuneData(eqx.Module):
@@ -25,26 +30,74 @@ class _TuneData(eqx.Module):
     dt: jax.Array
     alpha0: jax.Array
     bounds: tuple[float, float] = eqx.field(static=True)
+    ring: int = eqx.field(static=True)  # ≥ D + 1: the p̂'s the streaming loss keeps
 
 
-def _lagged_loss(log_gamma, log_lam, data: _TuneData):
-    """Mean of ``(y_k − p̂_{k−D}ᵀφ_k)²`` over the weighted samples, over the mean of ``y_k²``."""
-    law = assemble_law(
+def _law(log_gamma, log_lam, data: _TuneData):
+    return assemble_law(
         data.memory, data.dt, jnp.exp(log_lam), jnp.exp(log_gamma), data.alpha0, data.bounds,
         data.r0,
     )
-    out = run_law(law, data.u, data.y)
+
+
+def _lagged_loss(log_gamma, log_lam, data: _TuneData):
+    """Mean of ``(y_k − p̂_{k−D}ᵀφ_k)²`` over the weighted samples, over the mean of ``y_k²``.
+
+    For differentiation: the law runs in checkpointed blocks of `BLOCK` samples, so reverse mode
+    stores a law state per block (and one block's states at a time), and only ``p̂`` and ``φ``
+    per sample."""
+    law = _law(log_gamma, log_lam, data)
+    num, width = data.u.shape
+    blocks = -(-num // BLOCK)
+    extra = blocks * BLOCK - num  # zero inputs after the end: the law is causal
+    u = jnp.concatenate([data.u, jnp.zeros((extra, width), data.u.dtype)])
+    y = jnp.concatenate([data.y, jnp.zeros((extra,), data.y.dtype)])
+
+    def step(state, sample):
+        state, out = law.step(state, *sample)
+        return state, (out.p, out.phi)
+
+    @jax.checkpoint
+    def block(state, samples):
+        return lax.scan(jax.checkpoint(step), state, samples)
+
+    shape = lambda a: a.reshape(blocks, BLOCK, *a.shape[1:])  # noqa: E731
+    _, (p, phi) = lax.scan(block, law.init(width), (shape(u), shape(y)))
+    p, phi = p.reshape(-1, width)[:num], phi.reshape(-1, width)[:num]
     # p̂ of D samples earlier; the rows rolled round from the end have zero weight (k < D)
-    lagged = jnp.roll(out.p, data.lag, axis=0)
-    pred = jnp.sum(lagged * out.phi, axis=1)
+    pred = jnp.sum(jnp.roll(p, data.lag, axis=0) * phi, axis=1)
     w = data.weights
     return jnp.sum(w * (pred - data.y) ** 2) / jnp.sum(w * data.y**2)
+
+
+def _streamed_loss(log_gamma, log_lam, data: _TuneData):
+    """`_lagged_loss` accumulated inside the scan, for the grid (no derivative): the last
+    `ring` values of p̂ are all it keeps, so its memory does not grow with the record."""
+    law = _law(log_gamma, log_lam, data)
+    width = data.u.shape[1]
+
+    def step(carry, sample):
+        state, ring, total = carry
+        u_k, y_k, w_k, k = sample
+        state, out = law.step(state, u_k, y_k)
+        lagged = ring[(k - data.lag) % data.ring]  # p̂_{k−D} (zeros while k < D: no weight)
+        total = total + w_k * (jnp.dot(lagged, out.phi) - y_k) ** 2
+        return (state, ring.at[k % data.ring].set(out.p), total), None
+
+    ring = jnp.zeros((data.ring, width), data.u.dtype)
+    index = jnp.arange(data.y.shape[0])
+    zero = jnp.zeros((), data.y.dtype)
+    (_, _, total), _ = lax.scan(
+        step, (law.init(width), ring, zero), (data.u, data.y, data.weights, index)
+    )
+    w = data.weights
+    return total / jnp.sum(w * data.y**2)
 
 
 @eqx.filter_jit
 def _grid_losses(data: _TuneData, log_gammas, log_lams):
     TRACES["tune"] += 1
-    return jax.vmap(_lagged_loss, in_axes=(0, 0, None))(log_gammas, log_lams, data)
+    return jax.vmap(_streamed_loss, in_axes=(0, 0, None))(log_gammas, log_lams, data)
 
 
 @eqx.filter_jit
@@ -236,6 +289,7 @@ def _prepare(
         dt=jnp.asarray(dt, u2.dtype),
         alpha0=jnp.asarray(alpha0, u2.dtype),
         bounds=bounds,
+        ring=max(int(np.ceil(lag * size)), 1) + 1,
     )
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples

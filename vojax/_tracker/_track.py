@@ -138,8 +138,9 @@ def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, limits, max_steps=60)
     """Maximises the linearised innovation likelihood over the three log-intensities."""
     lo = jnp.asarray([v[0] for v in limits.values()], smoothed.pseudo.dtype)
     hi = jnp.asarray([v[1] for v in limits.values()], smoothed.pseudo.dtype)
+    # a strongly typed start: a weakly typed one (from Python numbers) would compile anew
     return _refine_compiled(
-        hyper.as_array(), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
+        jnp.asarray(hyper.as_array(), lo.dtype), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
         hi, max_steps,
     )
 

@@ -1,0 +1,78 @@
+"""Every public entry point traces its compiled programs once per shape and static setting:
+new data, new numbers (gains, steps, tolerances, start orders) reuse them. Each program is
+replaced by a fresh `eqx.debug.assert_max_traces(max_traces=1)` wrapper, so a second trace
+raises; `get_num_traces` checks that the wrapper was really used."""
+
+import equinox as eqx
+import numpy as np
+import pytest
+
+import vojax
+from vojax import _identify, _integral, _refit, _tune
+from vojax._adaptive import _bands
+from vojax._tracker import _track
+
+from .helpers import paper_inputs
+
+
+def _once(monkeypatch, module, name):
+    """Replaces the compiled function ``module.name`` by one that may trace only once."""
+    limited = eqx.debug.assert_max_traces(getattr(module, name).__wrapped__, max_traces=1)
+    monkeypatch.setattr(module, name, eqx.filter_jit(limited))
+    return limited
+
+
+def _record(n, order, seed, dt=0.1):
+    _, u, _ = paper_inputs(n, dt)
+    x = np.asarray(vojax.simulate(u, order, np.array([1.5, -0.7]), dt))
+    return u, x + 0.01 * np.random.default_rng(seed).standard_normal(n)
+
+
+def test_refit_traces_once(monkeypatch):
+    fit = _once(monkeypatch, _refit, "_fit")
+    u, y = _record(150, 0.4, 0)
+    vojax.refit(u, y, 0.1)
+    u2, y2 = _record(150, 0.6, 1)
+    vojax.refit(u2, y2, 0.1 * 1.01, order0=0.3, rtol=1e-9, atol=1e-9)
+    vojax.refit(u2, y2, 0.1, mask=np.r_[np.ones(140), np.zeros(10)])
+    assert eqx.debug.get_num_traces(fit) == 1
+
+
+def test_tune_gains_traces_once(monkeypatch):
+    grid = _once(monkeypatch, _tune, "_grid_losses")
+    refine = _once(monkeypatch, _tune, "_refine")
+    u, y = _record(120, 0.4, 2)
+    vojax.tune_gains(u, y, 0.1)
+    u2, y2 = _record(110, 0.6, 3)
+    vojax.tune_gains(u2, y2, 0.1 * 1.01, alpha0=0.4, pad_to=120)
+    assert eqx.debug.get_num_traces(grid) == 1 and eqx.debug.get_num_traces(refine) == 1
+
+
+def test_identify_with_given_gains_traces_once(monkeypatch):
+    law = _once(monkeypatch, _identify, "run_law")
+    band = _once(monkeypatch, _bands, "law_covariance")
+    scan = _once(monkeypatch, _identify, "scan_memory")  # the automatic R₀
+    u, y = _record(130, 0.4, 4)
+    vojax.identify(u, y, 0.1, gamma=0.5, warn=False)
+    u2, y2 = _record(130, 0.6, 5)
+    vojax.identify(u2, y2, 0.1 * 1.01, gamma=2.0, lam=0.3, alpha0=0.4, warn=False)
+    assert [eqx.debug.get_num_traces(f) for f in (law, band, scan)] == [1, 1, 1]
+
+
+def test_fractional_integral_traces_once(monkeypatch):
+    scan = _once(monkeypatch, _integral, "scan_memory")
+    _, u, alpha = paper_inputs(200, 0.05)
+    vojax.fractional_integral(u, alpha, 0.05)
+    vojax.fractional_integral(2 * u, 0.3, 0.07)
+    assert eqx.debug.get_num_traces(scan) == 1
+
+
+@pytest.mark.slow
+def test_tracker_traces_once(monkeypatch):
+    names = ("smoother_batch", "iterated_smoother", "_refine_compiled", "_constant_profile")
+    limited = [_once(monkeypatch, _track, name) for name in names]
+    u, y = _record(120, 0.4, 6)
+    vojax.identify(u, y, 0.1, method="kalman", warn=False)
+    u2, y2 = _record(120, 0.6, 7)
+    vojax.identify(u2, y2, 0.1 * 1.01, method="kalman", warn=False)
+    assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1, 1]
