@@ -56,11 +56,14 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
     parser.add_argument("--code", help="a checkout whose vojax the children import")
+    parser.add_argument("--cases", nargs="+", default=["identify", "tune_gains", "tracker"])
     args = parser.parse_args()
     cwd = Path(args.code).resolve() if args.code else None
     rows = []
     for n in (int(s) for s in args.sizes):
-        for case in ("identify", "tune_gains") + (("tracker",) if n <= 10_000 else ()):
+        for case in args.cases:
+            if case == "tracker" and n > 10_000:
+                continue
             proc = subprocess.run([sys.executable, "-c", CHILD, case, str(n)], cwd=cwd,
                                   capture_output=True, text=True)
             if proc.returncode != 0:

@@ -96,7 +96,7 @@ MUTATIONS = {
         "vojax/_tune.py",
         [("pred = jnp.sum(jnp.roll(p, data.lag, axis=0) * phi, axis=1)",
           "pred = jnp.sum(p * phi, axis=1)"),
-         ("lagged = ring[(k - data.lag) % data.ring]", "lagged = out.p")],
+         ("back = k - data.lag  # the sample", "back = k  # the sample")],
         ["tests/test_tune.py"],
     ),
     "tuner's refinement discarded (grid point kept, reported as refined)": (
@@ -162,7 +162,7 @@ MUTATIONS = {
     ),
     "tuner's streamed grid loss reads p̂ one sample late": (
         "vojax/_tune.py",
-        [("lagged = ring[(k - data.lag) % data.ring]", "lagged = ring[(k - data.lag - 1) % data.ring]")],
+        [("back = k - data.lag  # the sample", "back = k - data.lag - 1  # the sample")],
         ["tests/test_tune.py"],
     ),
 

@@ -30,7 +30,7 @@ class _TuneData(eqx.Module):
     dt: jax.Array
     alpha0: jax.Array
     bounds: tuple[float, float] = eqx.field(static=True)
-    ring: int = eqx.field(static=True)  # ≥ D + 1: the p̂'s the streaming loss keeps
+    ring: int = eqx.field(static=True)  # ≥ max(D, BLOCK): the p̂'s the grid's loss keeps
 
 
 def _law(log_gamma, log_lam, data: _TuneData):
@@ -71,24 +71,42 @@ def _lagged_loss(log_gamma, log_lam, data: _TuneData):
 
 
 def _streamed_loss(log_gamma, log_lam, data: _TuneData):
-    """`_lagged_loss` accumulated inside the scan, for the grid (no derivative): the last
-    `ring` values of p̂ are all it keeps, so its memory does not grow with the record."""
+    """`_lagged_loss` accumulated block by block, for the grid (no derivative): the law runs in
+    blocks of `BLOCK` samples, and between blocks only the last `ring` estimates p̂ are kept, so
+    memory does not grow with the record (and the per-sample loop carries the law's state only)."""
     law = _law(log_gamma, log_lam, data)
-    width = data.u.shape[1]
+    num, width = data.u.shape
+    blocks = -(-num // BLOCK)
+    extra = blocks * BLOCK - num  # zero weight after the end
+    pad = lambda a: jnp.concatenate([a, jnp.zeros((extra, *a.shape[1:]), a.dtype)])  # noqa: E731
+    shape = lambda a: pad(a).reshape(blocks, BLOCK, *a.shape[1:])  # noqa: E731
+    size = data.ring
 
-    def step(carry, sample):
-        state, ring, total = carry
-        u_k, y_k, w_k, k = sample
-        state, out = law.step(state, u_k, y_k)
-        lagged = ring[(k - data.lag) % data.ring]  # p̂_{k−D} (zeros while k < D: no weight)
-        total = total + w_k * (jnp.dot(lagged, out.phi) - y_k) ** 2
-        return (state, ring.at[k % data.ring].set(out.p), total), None
+    def step(state, sample):
+        state, out = law.step(state, *sample)
+        return state, (out.p, out.phi)
 
-    ring = jnp.zeros((data.ring, width), data.u.dtype)
-    index = jnp.arange(data.y.shape[0])
+    def block(carry, samples):
+        state, ring, total, start = carry
+        u_b, y_b, w_b = samples
+        state, (p, phi) = lax.scan(step, state, (u_b, y_b))
+        k = start + jnp.arange(BLOCK, dtype=start.dtype)
+        back = k - data.lag  # the sample whose p̂ predicts sample k
+        own = jnp.clip(back - start, 0, BLOCK - 1)
+        lagged = jnp.where(
+            (back >= start)[:, None], p[own], ring[jnp.mod(back, size)]
+        )
+        lagged = jnp.where((back >= 0)[:, None], lagged, 0.0)
+        total = total + jnp.sum(w_b * (jnp.sum(lagged * phi, axis=1) - y_b) ** 2)
+        ring = ring.at[jnp.mod(k, size)].set(p)  # size ≥ BLOCK: no index repeats
+        return (state, ring, total, start + BLOCK), None
+
+    ring = jnp.zeros((size, width), data.u.dtype)
     zero = jnp.zeros((), data.y.dtype)
-    (_, _, total), _ = lax.scan(
-        step, (law.init(width), ring, zero), (data.u, data.y, data.weights, index)
+    start = jnp.zeros((), data.lag.dtype)
+    (_, _, total, _), _ = lax.scan(
+        block, (law.init(width), ring, zero, start),
+        (shape(data.u), shape(data.y), shape(data.weights)),
     )
     w = data.weights
     return total / jnp.sum(w * data.y**2)
@@ -289,7 +307,7 @@ def _prepare(
         dt=jnp.asarray(dt, u2.dtype),
         alpha0=jnp.asarray(alpha0, u2.dtype),
         bounds=bounds,
-        ring=max(int(np.ceil(lag * size)), 1) + 1,
+        ring=max(int(np.ceil(lag * size)), BLOCK),
     )
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples

@@ -65,12 +65,15 @@ def smoother_batch(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B) and
-    starting trajectories `nominal` (B, N, d), in one vmapped program."""
+    starting trajectories `nominal` (B, N, d), in one compiled program."""
 
     def one(h, nom):
         return _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nom, bounds, max_iter)
 
-    return eqx.filter_vmap(one)(hyper, nominal)
+    # one after the other (`lax.map`), not vmapped: each run stops at its own convergence,
+    # where a vmapped loop runs every member until the slowest is done (18 runs of 7 to 400
+    # iterations: 1,179 iterations instead of 7,200; 72 → 39 s on 3,000 samples)
+    return lax.map(lambda a: one(*a), (hyper, nominal))
 
 
 def _iterate(

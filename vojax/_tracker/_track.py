@@ -202,7 +202,7 @@ def tune(
 ):
     """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
     noise intensities and over starting trajectories, since the posterior of a variable order
-    can have several modes. One vmapped smoothing of every start × order-drift on `GRID_ORDER`
+    can have several modes. One compiled smoothing of every start × order-drift on `GRID_ORDER`
     (parameter drift `PARAM_DRIFT0`, noise `noise0`); then, for the `keep` best, alternate a
     BFGS refinement of the likelihood of the linearised model and re-smoothing. Returns
     ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
