@@ -1,6 +1,6 @@
 """Offline refit against a closed-form fit and against one identification, on real records.
 
-    python scripts/bench_refit.py [--data DIR] [--repeats 5]
+    python scripts/bench_refit.py [--data DIR] [--repeats 5] [--cases …] [--code DIR]
 
 Cases, each in a fresh process (compilation counted apart from the warm time):
 
@@ -88,16 +88,22 @@ print(json.dumps(result))
 """
 
 
+CASES = ("creep-curve_fit", "creep-refit", "creep-identify", "myocardium-refit",
+         "myocardium60k-refit")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--data", default=str(DATA))
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--code", help="a checkout whose vojax the children import (before/after)")
+    parser.add_argument("--cases", nargs="+", default=list(CASES))
     args = parser.parse_args()
     rows = {}
-    for case in ("creep-curve_fit", "creep-refit", "creep-identify", "myocardium-refit",
-                 "myocardium60k-refit"):
+    for case in args.cases:
         proc = subprocess.run([sys.executable, "-c", CHILD, case, str(Path(args.data).resolve()),
-                               str(args.repeats)], capture_output=True, text=True)
+                               str(args.repeats)], capture_output=True, text=True,
+                              cwd=Path(args.code).resolve() if args.code else None)
         if proc.returncode != 0:
             print(case, "failed:", proc.stderr[-2000:])
             continue

@@ -17,6 +17,11 @@ TRACES = {"tune": 0}
 BLOCK = 1024
 
 
+def _block(num: int) -> int:
+    """The block length for a record of `num` samples: `BLOCK`, or the record when shorter."""
+    return min(BLOCK, num)
+
+
 class _TuneData(eqx.Module):
     """One record as the tuner sees it; arrays only, so that one compiled program serves
     every record of the same (padded) length."""
@@ -30,7 +35,7 @@ class _TuneData(eqx.Module):
     dt: jax.Array
     alpha0: jax.Array
     bounds: tuple[float, float] = eqx.field(static=True)
-    ring: int = eqx.field(static=True)  # ≥ max(D, BLOCK): the p̂'s the grid's loss keeps
+    ring: int = eqx.field(static=True)  # ≥ max(D, block): the p̂'s the grid's loss keeps
 
 
 def _law(log_gamma, log_lam, data: _TuneData):
@@ -48,8 +53,9 @@ def _lagged_loss(log_gamma, log_lam, data: _TuneData):
     per sample."""
     law = _law(log_gamma, log_lam, data)
     num, width = data.u.shape
-    blocks = -(-num // BLOCK)
-    extra = blocks * BLOCK - num  # zero inputs after the end: the law is causal
+    size = _block(num)
+    blocks = -(-num // size)
+    extra = blocks * size - num  # zero inputs after the end: the law is causal
     u = jnp.concatenate([data.u, jnp.zeros((extra, width), data.u.dtype)])
     y = jnp.concatenate([data.y, jnp.zeros((extra,), data.y.dtype)])
 
@@ -61,7 +67,7 @@ def _lagged_loss(log_gamma, log_lam, data: _TuneData):
     def block(state, samples):
         return lax.scan(jax.checkpoint(step), state, samples)
 
-    shape = lambda a: a.reshape(blocks, BLOCK, *a.shape[1:])  # noqa: E731
+    shape = lambda a: a.reshape(blocks, size, *a.shape[1:])  # noqa: E731
     _, (p, phi) = lax.scan(block, law.init(width), (shape(u), shape(y)))
     p, phi = p.reshape(-1, width)[:num], phi.reshape(-1, width)[:num]
     # p̂ of D samples earlier; the rows rolled round from the end have zero weight (k < D)
@@ -76,10 +82,11 @@ def _streamed_loss(log_gamma, log_lam, data: _TuneData):
     memory does not grow with the record (and the per-sample loop carries the law's state only)."""
     law = _law(log_gamma, log_lam, data)
     num, width = data.u.shape
-    blocks = -(-num // BLOCK)
-    extra = blocks * BLOCK - num  # zero weight after the end
+    length = _block(num)
+    blocks = -(-num // length)
+    extra = blocks * length - num  # zero weight after the end
     pad = lambda a: jnp.concatenate([a, jnp.zeros((extra, *a.shape[1:]), a.dtype)])  # noqa: E731
-    shape = lambda a: pad(a).reshape(blocks, BLOCK, *a.shape[1:])  # noqa: E731
+    shape = lambda a: pad(a).reshape(blocks, length, *a.shape[1:])  # noqa: E731
     size = data.ring
 
     def step(state, sample):
@@ -90,16 +97,16 @@ def _streamed_loss(log_gamma, log_lam, data: _TuneData):
         state, ring, total, start = carry
         u_b, y_b, w_b = samples
         state, (p, phi) = lax.scan(step, state, (u_b, y_b))
-        k = start + jnp.arange(BLOCK, dtype=start.dtype)
+        k = start + jnp.arange(length, dtype=start.dtype)
         back = k - data.lag  # the sample whose p̂ predicts sample k
-        own = jnp.clip(back - start, 0, BLOCK - 1)
+        own = jnp.clip(back - start, 0, length - 1)
         lagged = jnp.where(
             (back >= start)[:, None], p[own], ring[jnp.mod(back, size)]
         )
         lagged = jnp.where((back >= 0)[:, None], lagged, 0.0)
         total = total + jnp.sum(w_b * (jnp.sum(lagged * phi, axis=1) - y_b) ** 2)
-        ring = ring.at[jnp.mod(k, size)].set(p)  # size ≥ BLOCK: no index repeats
-        return (state, ring, total, start + BLOCK), None
+        ring = ring.at[jnp.mod(k, size)].set(p)  # size ≥ the block: no index repeats
+        return (state, ring, total, start + length), None
 
     ring = jnp.zeros((size, width), data.u.dtype)
     zero = jnp.zeros((), data.y.dtype)
@@ -307,7 +314,7 @@ def _prepare(
         dt=jnp.asarray(dt, u2.dtype),
         alpha0=jnp.asarray(alpha0, u2.dtype),
         bounds=bounds,
-        ring=max(int(np.ceil(lag * size)), BLOCK),
+        ring=max(int(np.ceil(lag * size)), _block(size)),
     )
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples
