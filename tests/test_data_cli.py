@@ -185,6 +185,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow
 def test_cli_compilation_cache_is_used_and_changes_nothing(tmp_path):
     """With VOJAX_COMPILATION_CACHE a folder, the command keeps its compiled programs there and
     a second run, loading them, writes the same numbers; with it off, nothing is kept."""

@@ -38,6 +38,7 @@ def test_refit_traces_once(monkeypatch):
     assert eqx.debug.get_num_traces(fit) == 1
 
 
+@pytest.mark.slow
 def test_tune_gains_traces_once(monkeypatch):
     grid = _once(monkeypatch, _tune, "_grid_losses")
     refine = _once(monkeypatch, _tune, "_refine")
@@ -48,6 +49,7 @@ def test_tune_gains_traces_once(monkeypatch):
     assert eqx.debug.get_num_traces(grid) == 1 and eqx.debug.get_num_traces(refine) == 1
 
 
+@pytest.mark.slow
 def test_identify_with_given_gains_traces_once(monkeypatch):
     law = _once(monkeypatch, _identify, "run_law")
     band = _once(monkeypatch, _bands, "law_covariance")
