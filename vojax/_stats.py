@@ -1,5 +1,7 @@
 """Statistics from the data alone, shared by the law's bands and the tracker."""
 
+import functools
+
 import numpy as np
 
 
@@ -25,11 +27,12 @@ def delta_stderr(fn, p, cov) -> dict:
         raise ValueError(f"`cov` must have shape {(p.shape[-1],) * 2}, got {cov.shape}.")
     try:
         hash(fn)
-        jac = _jacobian_compiled(fn, p)
+        jacobian = _compiled_jacobian()
     except TypeError:  # unhashable: no compiled program to reuse
-        jac = _jacobian(fn, p)
+        jacobian = _jacobian
+    jac = np.asarray(jacobian(fn, p))
     names = list(fn(np.asarray(p)))
-    var = np.einsum("ij,jk,ik->i", np.asarray(jac), cov, np.asarray(jac))
+    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
     return {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, var)}
 
 
@@ -41,13 +44,10 @@ def _jacobian(fn, p):
     return jax.jacfwd(lambda q: jnp.stack([jnp.asarray(v) for v in fn(q).values()]))(p)
 
 
-def _jacobian_compiled(fn, p):
+@functools.cache
+def _compiled_jacobian():
+    """`_jacobian` compiled with `fn` static (made on first use: importing this module does
+    not import JAX)."""
     import jax
 
-    global _COMPILED
-    if _COMPILED is None:
-        _COMPILED = jax.jit(_jacobian, static_argnums=0)
-    return _COMPILED(fn, p)
-
-
-_COMPILED = None
+    return jax.jit(_jacobian, static_argnums=0)

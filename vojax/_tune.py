@@ -225,11 +225,15 @@ class _Search(eqx.Module):
     def grid_arrays(self):
         return jnp.asarray(self.log_gammas.ravel()), jnp.asarray(self.log_lams.ravel())
 
+    def _best(self, grid):
+        """The grid shaped (γ, λ) with non-finite losses as +∞, and its best point's index."""
+        grid = np.where(np.isfinite(grid), grid, np.inf).reshape(self.log_gammas.shape)
+        return grid, np.unravel_index(np.argmin(grid), grid.shape)
+
     def start(self, grid):
         """BFGS's start (the best grid point), in coordinates relative to the data's scale (so
         the search does not depend on the units of u and y); λ is tuned only when not given."""
-        grid = np.where(np.isfinite(grid), grid, np.inf).reshape(self.log_gammas.shape)
-        i, j = np.unravel_index(np.argmin(grid), grid.shape)
+        _, (i, j) = self._best(grid)
         best = np.array([self.log_gammas[i, j], self.log_lams[i, j]])
         ref = np.array([np.log(self.scale), 0.0])
         free = np.array([1.0, 0.0 if self.lam_given else 1.0])
@@ -239,8 +243,7 @@ class _Search(eqx.Module):
     def choose(self, grid, refined) -> Gains:
         """The best grid point, or the refinement when it lowers the loss inside the box."""
         g, lm = self.log_gammas, self.log_lams
-        grid = np.where(np.isfinite(grid), grid, np.inf).reshape(g.shape)
-        i, j = np.unravel_index(np.argmin(grid), grid.shape)
+        grid, (i, j) = self._best(grid)
         best = (float(g[i, j]), float(lm[i, j]))
         best_loss = float(grid[i, j])
         done = False
