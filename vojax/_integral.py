@@ -6,7 +6,7 @@ import numpy as np
 
 from . import _validate as check
 from ._custom_types import Array, OrderLike, Samples
-from ._kernels import RULES, AbstractMemory, DirectMemory, ExponentialMemory
+from ._kernels import RULES, AbstractMemory, DirectMemory, ExponentialMemory, GridDirectMemory
 from ._kernels._exponential import DEFAULT_ORDER_RANGE, DEFAULT_TOL
 
 # number of traces of each entry point, for the tests (a Python side effect at trace time)
@@ -21,10 +21,14 @@ def make_memory(
     rule: str = "trapezoid",
     tol: float = DEFAULT_TOL,
     order_range=DEFAULT_ORDER_RANGE,
+    times=None,
 ) -> AbstractMemory:
-    """Builds the memory named by ``memory`` (``"direct"`` or ``"exponential"``)."""
+    """Builds the memory named by ``memory`` (``"direct"`` or ``"exponential"``) for a uniform
+    step ``dt``, or for the sample times ``times`` (then ``dt`` is ``None``)."""
     check.choice(rule, RULES, "rule")
     check.choice(memory, check.MEMORIES, "memory")
+    if times is not None:
+        return _grid_memory(memory, times, num_steps, rule, tol, order_range)
     if memory == "direct":
         return DirectMemory(dt=check.step(dt), capacity=int(num_steps), rule=rule)
     if isinstance(dt, jax.core.Tracer):
@@ -39,6 +43,22 @@ def make_memory(
     order_range = check.interval(order_range, "order_range")
     return ExponentialMemory.design(
         float(dt), num_steps, rule=rule, tol=tol, order_range=order_range
+    )
+
+
+def _grid_memory(memory, times, num_steps, rule, tol, order_range):
+    times = check.times(times, int(num_steps))
+    if memory == "direct":
+        return GridDirectMemory(times=times, rule=rule)
+    if isinstance(times, jax.core.Tracer):
+        raise TypeError(
+            "`t` must be concrete for memory='exponential' (its modes are designed on the "
+            "host from the steps); pass it as a static value."
+        )
+    check.positive(tol, "tol", upper=1e-2)
+    return ExponentialMemory.design_grid(
+        np.asarray(times), rule=rule, tol=float(np.asarray(tol)),
+        order_range=check.interval(order_range, "order_range"),
     )
 
 
@@ -90,12 +110,15 @@ def order_map(memory: AbstractMemory, u):
     return lambda order, sensitivity=False: memory.run(u, order, sensitivity)
 
 
-def _prepare(u, order, dt, rule, memory, tol, order_range):
+def _prepare(u, order, dt, t, rule, memory, tol, order_range):
     u = check.samples(u)
     squeeze = u.ndim == 1
     u2 = u[:, None] if squeeze else u
     order = check.order(order, u2.shape[0])
-    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=order_range)
+    dt, t = check.grid(dt, t, u2.shape[0])
+    mem = make_memory(
+        memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=order_range, times=t
+    )
     order = _order_in_design(mem, order)
     return u2, order, mem, squeeze
 
@@ -103,24 +126,29 @@ def _prepare(u, order, dt, rule, memory, tol, order_range):
 def fractional_integral(
     u: Samples,
     order: OrderLike,
-    dt,
+    dt=None,
     *,
+    t=None,
     rule: str = "trapezoid",
     memory: str = "direct",
     tol: float = DEFAULT_TOL,
     order_range=DEFAULT_ORDER_RANGE,
 ) -> Array:
-    """Variable-order Riemann–Liouville integral ``φ(β, t_k)`` of eq. (18) on ``t_k = k·dt``.
+    """Variable-order Riemann–Liouville integral ``φ(β, t_k)`` of eq. (18) at the sample times:
+    ``t_k = k·dt``, or any strictly increasing ``t``.
 
-    ``φ_k = 1/Γ(b_k) ∫_0^{t_k} (t_k − τ)^{b_k − 1} u(τ) dτ`` with ``b_k = order[k]``: the order
-    is taken at the evaluation time (docs/method.md §1). The integral is done by product integration with
-    exact weights for the interpolant of ``u`` named by ``rule``.
+    ``φ_k = 1/Γ(b_k) ∫_{t_0}^{t_k} (t_k − τ)^{b_k − 1} u(τ) dτ`` with ``b_k = order[k]``: the
+    order is taken at the evaluation time (docs/method.md §1) and the integral starts at the
+    first sample. It is done by product integration with exact weights for the interpolant of
+    ``u`` named by ``rule``, on uniform and non-uniform grids alike (docs/method.md §3).
 
     **Arguments:**
 
     - `u`: samples, shape ``(N,)`` or ``(N, n)``.
     - `order`: scalar or ``(N,)``, every value in ``(0, 1)``.
-    - `dt`: the sampling step, > 0.
+    - `dt`: the sampling step, > 0; or
+    - `t`: the sample times ``(N,)``, strictly increasing (log-spaced, irregular, …), N ≥ 2.
+      Give exactly one of `dt` and `t`.
     - `rule`: ``"trapezoid"`` (u linear between samples, error O(h²)) or ``"rectangle"``
       (u constant on ``[t_j, t_{j+1})``, error O(h)).
     - `memory`: ``"direct"`` (whole history re-read, O(k) at sample k) or ``"exponential"``
@@ -131,7 +159,7 @@ def fractional_integral(
 
     **Returns:** an array shaped like `u`; sample 0 is 0.
     """
-    u2, order, mem, squeeze = _prepare(u, order, dt, rule, memory, tol, order_range)
+    u2, order, mem, squeeze = _prepare(u, order, dt, t, rule, memory, tol, order_range)
     phi = scan_memory(mem, u2, order, False)
     return phi[:, 0] if squeeze else phi
 
@@ -139,8 +167,9 @@ def fractional_integral(
 def order_sensitivity(
     u: Samples,
     order: OrderLike,
-    dt,
+    dt=None,
     *,
+    t=None,
     rule: str = "trapezoid",
     memory: str = "direct",
     tol: float = DEFAULT_TOL,
@@ -154,6 +183,6 @@ def order_sensitivity(
 
     **Returns:** an array shaped like `u`.
     """
-    u2, order, mem, squeeze = _prepare(u, order, dt, rule, memory, tol, order_range)
+    u2, order, mem, squeeze = _prepare(u, order, dt, t, rule, memory, tol, order_range)
     _, dphi = scan_memory(mem, u2, order, True)
     return dphi[:, 0] if squeeze else dphi

@@ -7,7 +7,7 @@ from ._integral import fractional_integral
 
 
 def simulate(
-    u, order, p, dt, *, x0=0.0, rule: str = "trapezoid", memory: str = "direct", **memory_options
+    u, order, p, dt=None, *, t=None, x0=0.0, rule: str = "trapezoid", memory: str = "direct", **memory_options
 ):
     """Output of ``x(t) − x(0) = 1/Γ(α(t)) ∫_0^t (t−τ)^{α(t)−1} p(τ)ᵀ u(τ) dτ`` (eq. 12).
 
@@ -16,7 +16,8 @@ def simulate(
     ``y = x + 0.5 * jax.random.normal(jax.random.key(0), x.shape)``.
 
     **Arguments:** `u` ``(N,)`` or ``(N, n)``; `order` scalar or ``(N,)`` in (0, 1); `p` ``(n,)``
-    or ``(N, n)``; `dt` > 0; `x0` the initial output; `rule`, `memory` as in
+    or ``(N, n)``; `dt` > 0 or `t` the sample times (exactly one, as in
+    `fractional_integral`); `x0` the initial output; `rule`, `memory` as in
     `fractional_integral`.
 
     **Returns:** ``x`` of shape ``(N,)``.
@@ -32,4 +33,4 @@ def simulate(
     check.check_finite(p, "p")
     x0 = check.samples(jnp.reshape(jnp.asarray(x0, jnp.result_type(float)), (1,)), "x0")[0]
     drive = jnp.sum(u2 * p, axis=-1) if p.ndim else u2[:, 0] * p
-    return x0 + fractional_integral(drive, order, dt, rule=rule, memory=memory, **memory_options)
+    return x0 + fractional_integral(drive, order, dt, t=t, rule=rule, memory=memory, **memory_options)

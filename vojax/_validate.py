@@ -120,3 +120,37 @@ def positive(value, name: str, upper=None):
     if upper is not None and _is_concrete(arr) and float(arr) >= upper:
         raise ValueError(f"`{name}` must be below {upper}, got {float(arr)}.")
     return arr
+
+
+def times(t, num_samples: int, name: str = "t"):
+    """Sample times: a finite, strictly increasing ``(N,)`` float array matching the samples."""
+    arr = float_array(t, name)
+    if arr.ndim != 1 or arr.shape[0] != num_samples:
+        raise ValueError(
+            f"`{name}` must have shape ({num_samples},) to match the samples, got shape {arr.shape}."
+        )
+    if num_samples < 2:
+        raise ValueError(f"`{name}` must hold at least 2 sample times, got {num_samples}.")
+    check_finite(arr, name)
+    if _is_concrete(arr):
+        steps = np.diff(np.asarray(arr))
+        if np.any(steps <= 0):
+            i = int(np.argmax(steps <= 0))
+            raise ValueError(
+                f"`{name}` must be strictly increasing, but t[{i + 1}] = {float(arr[i + 1])!r} "
+                f"follows t[{i}] = {float(arr[i])!r}."
+            )
+    return arr
+
+
+def grid(dt, t, num_samples: int):
+    """Exactly one of the step ``dt`` and the sample times ``t``: returns ``(dt, t)`` checked,
+    the other ``None``."""
+    if (dt is None) == (t is None):
+        raise TypeError(
+            "give exactly one of `dt` (a uniform step) and `t` (the sample times), "
+            + ("got neither." if dt is None else "got both.")
+        )
+    if t is None:
+        return step(dt), None
+    return None, times(t, num_samples)

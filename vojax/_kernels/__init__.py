@@ -8,6 +8,7 @@ the readout alone (eq. 14), and what lets the exponential memory keep order-inde
 from ._base import RULES as RULES
 from ._base import AbstractMemory as AbstractMemory
 from ._direct import DirectMemory as DirectMemory
+from ._direct import GridDirectMemory as GridDirectMemory
 from ._exponential import ExponentialMemory as ExponentialMemory
 from ._exponential import design_modes as design_modes
 from ._weights import (

@@ -6,7 +6,7 @@ from jax import lax
 from jaxtyping import Array, Float, Int
 
 from ._base import AbstractMemory
-from ._weights import end_weights, history_weights, log_norm
+from ._weights import end_weights, grid_weights, history_weights, log_norm
 
 
 class DirectState(eqx.Module):
@@ -49,3 +49,42 @@ class DirectMemory(AbstractMemory):
         row = self.capacity - 1 - state.k
         buffer = lax.dynamic_update_slice_in_dim(state.buffer, u_k[None, :], row, axis=0)
         return DirectState(buffer, state.k + 1)
+
+
+class GridState(eqx.Module):
+    buffer: Float[Array, "capacity n"]  # row j holds u_j once sample j has been seen
+    k: Int[Array, ""]
+
+
+class GridDirectMemory(AbstractMemory):
+    """Exact product integration over the whole history on arbitrary increasing sample times
+    (docs/method.md §3): the weights of every interval are computed from the times at each
+    sample, O(k) work at sample k like `DirectMemory`, which it equals on a uniform grid.
+
+    **Arguments:**
+
+    - `times`: the sample times ``t_0 < t_1 < …`` (C,); the integral starts at ``t_0``.
+    - `rule`: ``"trapezoid"`` or ``"rectangle"``.
+    """
+
+    times: Float[Array, " capacity"]
+    rule: str = eqx.field(static=True, default="trapezoid")
+
+    @property
+    def capacity(self) -> int:
+        return self.times.shape[0]
+
+    def init(self, num_inputs: int) -> GridState:
+        return GridState(
+            jnp.zeros((self.capacity, num_inputs), self.times.dtype), jnp.asarray(0, jnp.int32)
+        )
+
+    def readout(self, state: GridState, u_k, b):
+        w = grid_weights(self.times, state.k, b, self.rule)
+        # rows from k on are still zero in the buffer: sample k enters through u_k
+        history = jnp.matmul(w, state.buffer, precision=lax.Precision.HIGHEST)
+        return history + w[state.k] * u_k
+
+    def update(self, state: GridState, u_k) -> GridState:
+        buffer = lax.dynamic_update_slice_in_dim(state.buffer, u_k[None, :], state.k, axis=0)
+        return GridState(buffer, state.k + 1)

@@ -40,23 +40,35 @@ def _solve_x(target: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def _phi1(x):
-    """``(1 − e^{−x})/x``, accurate for small ``x``."""
-    return np.where(x > 1e-8, -np.expm1(-x) / np.where(x > 1e-8, x, 1.0), 1.0 - x / 2)
+def _phi1(x, xp=np):
+    """``(1 − e^{−x})/x``, accurate for small ``x`` (``xp``: NumPy on the host, or jax.numpy)."""
+    small = x <= 1e-8
+    return xp.where(small, 1.0 - x / 2, -xp.expm1(-x) / xp.where(small, 1.0, x))
 
 
-def _phi2(x):
+def _phi2(x, xp=np):
     """``(1 − e^{−x}(1+x))/x² = ∫_0^1 v e^{−xv} dv``, by its series below 0.5."""
     big = x >= 0.5
-    xb = np.where(big, x, 1.0)
-    direct = (-np.expm1(-xb) - xb * np.exp(-xb)) / xb**2
-    xs = np.where(big, 0.0, x)
-    series = np.zeros_like(x)
-    term = np.ones_like(x)
+    xb = xp.where(big, x, 1.0)
+    direct = (-xp.expm1(-xb) - xb * xp.exp(-xb)) / xb**2
+    xs = xp.where(big, 0.0, x)
+    series = xp.zeros_like(x)
+    term = xp.ones_like(x)
     for n in range(20):
         series = series + term / (n + 2)
         term = term * (-xs) / (n + 1)
-    return np.where(big, direct, series)
+    return xp.where(big, direct, series)
+
+
+def modal_weights(s, h, rule: str, xp=np):
+    """Exact weights ``(w_prev, w_cur)`` of ``u_{k−1}`` and ``u_k`` in the modal history over one
+    step ``[t_{k−1}, t_k]`` of length ``h``: ``∫ e^{−s(t_k−τ)} u(τ) dτ`` with ``u`` linear
+    (trapezoid) or held at ``u_{k−1}`` (rectangle)."""
+    x = s * h
+    if rule == TRAPEZOID:
+        w_prev = h * _phi2(x, xp)
+        return w_prev, h * _phi1(x, xp) - w_prev
+    return h * _phi1(x, xp), xp.zeros_like(x)
 
 
 def _kernel_error(log_s, log_q, orders, lags):
@@ -82,15 +94,26 @@ def design_modes(
     tol: float = DEFAULT_TOL,
     order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
 ):
-    """Chooses the exponential modes for lags ``h … (N−1)h`` and orders in ``order_range``.
+    """Chooses the exponential modes for lags ``h … (N−1)h`` (``h = dt``) and orders in
+    ``order_range``.
 
     **Returns:** a dict of NumPy arrays ``log_s`` (ln s_j), ``log_q`` (ln of Δx(1+e^{−x_j}))
     and the measured worst relative kernel error ``error`` and b-derivative error
     ``derivative_error`` over a grid of lags and orders.
     """
+    return design_span(float(dt), max(num_steps - 1, 2) * float(dt), tol, order_range)
+
+
+@functools.lru_cache(maxsize=64)
+def design_span(
+    h: float,
+    horizon: float,
+    tol: float = DEFAULT_TOL,
+    order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
+):
+    """`design_modes` for lags from ``h`` (the smallest step) to ``horizon`` (the record's
+    length): the design of a non-uniform grid."""
     b_lo, b_hi = order_range
-    h = float(dt)
-    horizon = max(num_steps - 1, 2) * h
     dx = 1.3 * math.pi**2 / math.log(40.0 / tol)
     margin = 0.0
     for _ in range(12):
@@ -122,18 +145,41 @@ class ExponentialState(eqx.Module):
 class ExponentialMemory(AbstractMemory):
     """Sum-of-exponentials memory with the last step exact (docs/method.md §4).
 
-    Build it with `ExponentialMemory.design(dt, num_steps, ...)`; the modes are chosen on the
-    host for the given step, record length, tolerance and order range.
+    Build it with `ExponentialMemory.design(dt, num_steps, ...)` for a uniform step, or
+    `ExponentialMemory.design_grid(times, ...)` for arbitrary increasing sample times; the modes
+    are chosen on the host for the smallest step, the record's length, the tolerance and the
+    order range. On a grid each step ``h_k = t_k − t_{k−1}`` decays the modes by
+    ``e^{−s_j h_k}`` and weights the new samples exactly (`modal_weights`), in the scan.
     """
 
-    dt: Float[Array, ""]
+    dt: Float[Array, ""]  # the step (uniform), or the smallest step (grid)
     log_s: Float[Array, " M"]
-    log_readout: Float[Array, " M"]  # ln(Δx (1+e^{−x_j})) − s_j h: weight base, one step decayed
-    decay: Float[Array, " M"]  # e^{−s_j h}
+    log_q: Float[Array, " M"]  # ln(Δx (1+e^{−x_j})): the quadrature weights of the modes
+    log_readout: Float[Array, " M"]  # log_q − s_j h: weight base, one step decayed (uniform)
+    decay: Float[Array, " M"]  # e^{−s_j h} (uniform)
     weight_previous: Float[Array, " M"]  # exact modal weight of u_{k−1} over [t_{k−1}, t_k]
     weight_current: Float[Array, " M"]  # … and of u_k
+    steps: Float[Array, " N"] | None  # h_k = t_k − t_{k−1} of a grid (h_0 unused); None: uniform
     order_range: tuple[float, float] = eqx.field(static=True)
     rule: str = eqx.field(static=True, default="trapezoid")
+
+    @classmethod
+    def _build(cls, modes, h, steps, rule, order_range) -> "ExponentialMemory":
+        log_s = modes["log_s"]
+        s = np.exp(log_s)
+        w_prev, w_cur = modal_weights(s, h, rule)
+        return cls(
+            dt=jnp.asarray(h, jnp.float64),
+            log_s=jnp.asarray(log_s),
+            log_q=jnp.asarray(modes["log_q"]),
+            log_readout=jnp.asarray(modes["log_q"] - s * h),
+            decay=jnp.asarray(np.exp(-s * h)),
+            weight_previous=jnp.asarray(w_prev),
+            weight_current=jnp.asarray(w_cur),
+            steps=steps,
+            order_range=tuple(map(float, order_range)),
+            rule=rule,
+        )
 
     @classmethod
     def design(
@@ -145,27 +191,37 @@ class ExponentialMemory(AbstractMemory):
         tol: float = DEFAULT_TOL,
         order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
     ) -> "ExponentialMemory":
-        """Designs the modes (see `design_modes`) and returns the memory."""
+        """Designs the modes for a uniform step (see `design_modes`) and returns the memory."""
         modes = design_modes(float(dt), int(num_steps), float(tol), tuple(map(float, order_range)))
-        log_s = modes["log_s"]
-        s = np.exp(log_s)
-        x = s * dt
-        if rule == TRAPEZOID:
-            w_prev = dt * _phi2(x)
-            w_cur = dt * _phi1(x) - w_prev
-        else:
-            w_prev = dt * _phi1(x)
-            w_cur = np.zeros_like(x)
-        return cls(
-            dt=jnp.asarray(dt, jnp.float64),
-            log_s=jnp.asarray(log_s),
-            log_readout=jnp.asarray(modes["log_q"] - x),
-            decay=jnp.asarray(np.exp(-x)),
-            weight_previous=jnp.asarray(w_prev),
-            weight_current=jnp.asarray(w_cur),
-            order_range=tuple(map(float, order_range)),
-            rule=rule,
-        )
+        return cls._build(modes, float(dt), None, rule, order_range)
+
+    @classmethod
+    def design_grid(
+        cls,
+        times,
+        *,
+        rule: str = "trapezoid",
+        tol: float = DEFAULT_TOL,
+        order_range: tuple[float, float] = DEFAULT_ORDER_RANGE,
+    ) -> "ExponentialMemory":
+        """Designs the modes for the increasing sample times ``times`` (N,), N ≥ 2, on the host:
+        lags from the smallest step to ``t_{N−1} − t_0`` (see `design_span`)."""
+        t = np.asarray(times, dtype=float)
+        steps = np.diff(t)
+        h_min = float(steps.min())
+        horizon = max(float(t[-1] - t[0]), 2.0 * h_min)
+        modes = design_span(h_min, horizon, float(tol), tuple(map(float, order_range)))
+        grid_steps = jnp.asarray(np.concatenate([steps[:1], steps]))  # h_0: a placeholder
+        return cls._build(modes, h_min, grid_steps, rule, order_range)
+
+    def _step_terms(self, k):
+        """``(h, log_readout, decay, w_prev, w_cur)`` of the step ending at sample ``k``."""
+        if self.steps is None:
+            return self.dt, self.log_readout, self.decay, self.weight_previous, self.weight_current
+        h = self.steps[k]
+        s = jnp.exp(self.log_s)
+        w_prev, w_cur = modal_weights(s, h, self.rule, jnp)
+        return h, self.log_q - s * h, jnp.exp(-s * h), w_prev, w_cur
 
     @property
     def num_modes(self) -> int:
@@ -180,9 +236,10 @@ class ExponentialMemory(AbstractMemory):
         )
 
     def readout(self, state: ExponentialState, u_k, b):
+        h, log_readout, *_ = self._step_terms(state.k)
         a0, a1 = end_weights(b, self.rule)
-        last = jnp.exp(log_norm(b, self.dt, self.rule)) * (a0 * u_k + a1 * state.previous)
-        c = jnp.sin(jnp.pi * b) / jnp.pi * jnp.exp(self.log_readout + (1.0 - b) * self.log_s)
+        last = jnp.exp(log_norm(b, h, self.rule)) * (a0 * u_k + a1 * state.previous)
+        c = jnp.sin(jnp.pi * b) / jnp.pi * jnp.exp(log_readout + (1.0 - b) * self.log_s)
         older = jnp.matmul(c, state.history, precision=lax.Precision.HIGHEST)
         return jnp.where(state.k > 0, last + older, 0.0)
 
@@ -190,11 +247,9 @@ class ExponentialMemory(AbstractMemory):
         # no interval ends at sample 0: its contribution is gated off by a factor, not a
         # select (a select over the whole state costs XLA:CPU a copy per step)
         started = (state.k > 0).astype(state.history.dtype)
-        increment = (
-            self.weight_previous[:, None] * state.previous[None, :]
-            + self.weight_current[:, None] * u_k[None, :]
-        )
-        history = self.decay[:, None] * state.history + started * increment
+        _, _, decay, w_prev, w_cur = self._step_terms(state.k)
+        increment = w_prev[:, None] * state.previous[None, :] + w_cur[:, None] * u_k[None, :]
+        history = decay[:, None] * state.history + started * increment
         return ExponentialState(history, u_k, state.k + 1)
 
     # -- the whole record at once: the modal history is order-free ------------------------
@@ -212,11 +267,11 @@ class ExponentialMemory(AbstractMemory):
         """
         num, width = u.shape
         previous = jnp.concatenate([jnp.zeros((1, width), u.dtype), u[:-1]])
+        _, _, decay, w_prev, w_cur = self._record_terms(num)
         increment = (
-            self.weight_previous[None, :, None] * previous[:, None, :]
-            + self.weight_current[None, :, None] * u[:, None, :]
+            w_prev[:, :, None] * previous[:, None, :] + w_cur[:, :, None] * u[:, None, :]
         ).at[0].set(0.0)  # sample 0 ends no interval
-        decay = jnp.broadcast_to(self.decay[None, :, None], (num, self.num_modes, 1))
+        decay = jnp.broadcast_to(decay[:, :, None], (num, self.num_modes, 1))
         # (a, b) is the affine map H ↦ a H + b; `combine` applies the earlier map first
         combine = lambda x, y: (x[0] * y[0], y[0] * x[1] + y[1])  # noqa: E731
         _, after = lax.associative_scan(combine, (decay, increment), axis=0)
@@ -226,15 +281,27 @@ class ExponentialMemory(AbstractMemory):
         """``Φ(order[k], t_k)`` for every sample at once from `histories`' ``(H, previous)``: a
         contraction over the modes with no sequential dependency; equal to `run` to rounding."""
         b = order
+        h_k, log_readout, *_ = self._record_terms(b.shape[0])
         a0, a1 = end_weights(b, self.rule)
-        last = jnp.exp(log_norm(b, self.dt, self.rule))[:, None] * (
+        last = jnp.exp(log_norm(b, h_k, self.rule))[:, None] * (
             a0[:, None] * u + a1[:, None] * previous
         )
         c = (jnp.sin(jnp.pi * b) / jnp.pi)[:, None] * jnp.exp(
-            self.log_readout[None, :] + (1.0 - b)[:, None] * self.log_s[None, :]
+            log_readout + (1.0 - b)[:, None] * self.log_s[None, :]
         )
         older = jnp.einsum("km,kmn->kn", c, h, precision=lax.Precision.HIGHEST)
         return (last + older).at[0].set(0.0)
+
+    def _record_terms(self, num: int):
+        """`_step_terms` of every sample: ``h`` (N,) and the modal terms (N, M)."""
+        if self.steps is None:
+            terms = (self.log_readout, self.decay, self.weight_previous, self.weight_current)
+            h = jnp.broadcast_to(self.dt, (num,))
+            return h, *(jnp.broadcast_to(a[None, :], (num, self.num_modes)) for a in terms)
+        h = self.steps[:num]
+        s = jnp.exp(self.log_s)[None, :]
+        w_prev, w_cur = modal_weights(s, h[:, None], self.rule, jnp)
+        return h, self.log_q[None, :] - s * h[:, None], jnp.exp(-s * h[:, None]), w_prev, w_cur
 
     def history_fits(self, num: int, width: int) -> bool:
         """Whether the whole order-free history of a record of this shape is stored (see

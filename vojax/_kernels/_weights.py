@@ -118,3 +118,71 @@ def history_weights(num: int, k, b, rule: str):
     else:
         a = _first_difference(lags, b)
     return jnp.where(lags <= kf, a, 0.0)
+
+
+# -- arbitrary nodes t_0 < t_1 < … (docs/method.md §3) --------------------------------------
+# below this ratio x = h/A of an interval to its distance the weights are binomial series
+GRID_SERIES_BELOW = 0.25
+GRID_SERIES_TERMS = 28  # 0.25^28 < 1e-16
+
+
+def _guarded_log(y):
+    """``ln y`` for ``y > 0`` and ``−1`` where ``y = 0`` (the value is then unused), with a finite
+    derivative in both branches."""
+    positive = y > 0
+    return jnp.where(positive, jnp.log(jnp.where(positive, y, 1.0)), -1.0)
+
+
+def interval_weights(a, h, b, rule: str):
+    """Exact weights of one interval ``[t_i, t_{i+1}]`` (``h = t_{i+1} − t_i``) in
+    ``Φ(b, t_k) = 1/Γ(b) ∫ (t_k − τ)^{b−1} u(τ) dτ``, with ``a = t_k − t_i ≥ h``.
+
+    **Returns:** ``(w_i, w_{i+1})``, the weights of ``u_i`` and ``u_{i+1}``: for ``"trapezoid"``
+    ``u`` is linear on the interval, for ``"rectangle"`` it is ``u_i`` (then ``w_{i+1} = 0``).
+
+    With ``x = h/a`` and ``y = 1 − x = (t_k − t_{i+1})/a``, the closed forms are
+
+        total = a^b (1 − y^b)/Γ(b+1),
+        w_{i+1} = a^b [1 − y^b (1 + b x)] / (x Γ(b+2)),   w_i = a^b [b x − y (1 − y^b)] / (x Γ(b+2)),
+
+    written with ``expm1(b ln y)`` so that small orders keep their digits. For ``x`` below 1/4
+    (long lags) they cancel like ``x²``, and the weights are the binomial series
+    ``a^b x b/Γ(b+1) Σ_j C(b−1, j) (−x)^j c_j`` with ``c_j = 1/((j+1)(j+2))`` (for ``w_i``) and
+    ``1/(j+2)`` (for ``w_{i+1}``), from ``∫_0^1 (1−v or v)(1 − x v)^{b−1} dv``.
+    """
+    x = h / a
+    y = jnp.maximum(1.0 - x, 0.0)
+    scale = jnp.exp(b * jnp.log(a) - lgamma1p(b))  # a^b / Γ(b+1)
+    em = jnp.where(y > 0, jnp.expm1(b * _guarded_log(y)), -1.0)  # y^b − 1
+    small = x < GRID_SERIES_BELOW
+    xs = jnp.where(small, x, 0.0)
+    binom = [cj * (-1.0) ** j for j, cj in enumerate(_binomials(b - 1.0, GRID_SERIES_TERMS))]
+    if rule == TRAPEZOID:
+        xc = jnp.where(small, 1.0, x)
+        w_next = -(em + b * xc * (em + 1.0)) / (xc * (b + 1.0))
+        w_this = (b * xc + y * em) / (xc * (b + 1.0))
+        s_this = _poly([c / ((j + 1) * (j + 2)) for j, c in enumerate(binom)], xs)
+        s_next = _poly([c / (j + 2) for j, c in enumerate(binom)], xs)
+        w_this = jnp.where(small, xs * b * s_this, w_this)
+        w_next = jnp.where(small, xs * b * s_next, w_next)
+        return scale * w_this, scale * w_next
+    s_total = _poly([c / (j + 1) for j, c in enumerate(binom)], xs)
+    total = jnp.where(small, xs * b * s_total, -em)
+    return scale * total, jnp.zeros_like(total)
+
+
+def grid_weights(times, k, b, rule: str):
+    """Weights of ``u_0 … u_{C−1}`` in ``Φ(b, t_k)`` on the nodes ``times`` (C,): exact
+    product integration over ``[t_0, t_k]`` (`interval_weights`); zero from node ``k + 1`` on."""
+    count = times.shape[0]
+    t_k = times[k]
+    left = times[:-1]
+    h = times[1:] - left
+    a = jnp.maximum(t_k - left, h)  # intervals beyond t_k are masked below
+    w_this, w_next = interval_weights(a, h, b, rule)
+    k = jnp.asarray(k)
+    inside = jnp.arange(count - 1, dtype=k.dtype) < k
+    w_this = jnp.where(inside, w_this, 0.0)
+    w_next = jnp.where(inside, w_next, 0.0)
+    zero = jnp.zeros((1,), w_this.dtype)
+    return jnp.concatenate([w_this, zero]) + jnp.concatenate([zero, w_next])
