@@ -63,3 +63,58 @@ def test_parameters_stderr_is_the_delta_method_closed_form():
     np.testing.assert_allclose(se["eta"], 0.02 / 0.25, rtol=1e-12)
     with pytest.raises(ValueError, match="`cov` must have shape"):
         vojax.Springpot().parameters_stderr(p[:1], cov)
+
+
+def test_fractional_maxwell_creep_closed_form_on_a_log_grid():
+    """A step load at t = 0 sampled on a log-spaced clock: ε = σ0/E + σ0 t^q/(η Γ(1+q)), the
+    closed form, refitted with the true origin (x0 = 0: strain before loading) gives E, η and q
+    back; the spring is the order-0 regressor."""
+    import math
+
+    model = vojax.FractionalMaxwell()
+    eta, e, q, s0 = 40.0, 2.5, 0.3, 1.7
+    t = np.geomspace(1e-2, 1e4, 200)
+    stress = np.full(t.size, s0)
+    strain = s0 / e + s0 * t**q / (eta * math.gamma(1 + q))
+    fit = vojax.refit(
+        model.inputs(stress), strain, t=t, origin=0.0, x0=0.0, direct=model.direct(stress),
+        p_signs=model.p_signs,
+    )
+    phys = model.parameters(fit.p)
+    assert abs(float(fit.order[0]) - q) < 1e-7
+    assert abs(float(phys["eta"]) - eta) < 1e-6 * eta
+    assert abs(float(phys["E"]) - e) < 1e-7 * e
+    back = model.parameters(model.regression(eta=eta, E=e))
+    assert back["E"] == pytest.approx(e, rel=1e-15) and back["eta"] == pytest.approx(eta, rel=1e-15)
+
+
+def test_fractional_zener_refit_recovers_its_three_moduli():
+    """σ + (η/E1) D^q σ = E0 ε + η(E0+E1)/E1 D^q ε, written here as its integral equation and
+    solved for ε by fixed-point iteration; the fit with the model's regressors and signs
+    returns η, E0, E1 and q."""
+    model = vojax.FractionalZener()
+    eta, e0, e1, q = 3.0, 2.0, 5.0, 0.4
+    total = e0 + e1
+    stress = np.tanh(T) + 0.3 * np.sin(1.3 * T)
+    strain = np.zeros_like(T)
+    for _ in range(300):
+        drive = np.stack([stress, strain], 1)
+        integral = np.asarray(vojax.simulate(drive, q, np.array([e1, -e0 * e1]) / (eta * total), DT))
+        new = integral + stress / total
+        if np.max(np.abs(new - strain)) < 1e-15:
+            break
+        strain = new
+    fit = vojax.refit(
+        model.inputs(stress, strain), strain, DT, x0=0.0, direct=model.direct(stress),
+        p_signs=model.p_signs,
+    )
+    assert fit.p_at_bound == (False, False, False)
+    phys = model.parameters(fit.p)
+    assert abs(float(fit.order[0]) - q) < 1e-6
+    for name, value in (("eta", eta), ("E0", e0), ("E1", e1)):
+        assert abs(float(phys[name]) - value) < 1e-5 * value, name
+    back = model.parameters(model.regression(eta=eta, E0=e0, E1=e1))
+    for name, value in (("eta", eta), ("E0", e0), ("E1", e1)):
+        assert back[name] == pytest.approx(value, rel=1e-14)
+    se = model.parameters_stderr(fit.p, fit.p_cov)
+    assert set(se) == {"eta", "E0", "E1"} and all(np.isfinite(v) for v in se.values())

@@ -39,6 +39,12 @@ from ._models import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,
 )
 from ._models import (
+    FractionalMaxwell as FractionalMaxwell,
+)
+from ._models import (
+    FractionalZener as FractionalZener,
+)
+from ._models import (
     KelvinVoigt as KelvinVoigt,
 )
 from ._models import (

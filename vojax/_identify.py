@@ -134,8 +134,9 @@ def assemble_law(memory, dt, lam, gamma, alpha0, alpha_bounds, r0=None):
     )
 
 
-def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
-    """Validates the arguments shared by `identify` and `tune_gains`; returns prepared arrays."""
+def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, t=None):
+    """Validates the arguments shared by `identify`, `tune_gains` and `refit` (the grid: the
+    step `dt`, or the sample times `t` where given); returns prepared arrays."""
     u = check.samples(u, "u")
     u2 = u[:, None] if u.ndim == 1 else u
     y = check.samples(y, "y")
@@ -147,7 +148,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0):
         )
     if u2.shape[0] < 3:
         raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
-    check.step(dt)
+    check.grid(dt, t, u2.shape[0])
     if lam is not None and not isinstance(lam, str):
         check.positive(lam, "lam")
     bounds = check.interval(alpha_bounds, "alpha_bounds")

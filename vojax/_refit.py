@@ -20,10 +20,13 @@ class Refit(eqx.Module):
       (logistic) scale and mapped back, so it stays inside the bounds and keeps its meaning
       near them; `at_bound`: a knot lies within 0.1 % of the range of a bound (then the interval
       is one-sided in effect and the standard error small by construction: do not trust it).
-    - `p` (n,), `p_stderr` (n,), `p_cov` (n, n): the fitted parameters, their standard errors
-      and covariance.
-    - `x0`, `x0_stderr`: the output offset, estimated unless given (then its error is 0).
-    - `knots` (K,), `knot_times` (K,): the fitted orders at the knots (K = 1: constant).
+    - `p` (n + m,), `p_stderr`, `p_cov` (n + m, n + m): the fitted coefficients of the
+      integrated inputs and then of the `direct` regressors, their standard errors and
+      covariance; `p_at_bound`: which coefficients were held at 0 by `p_signs` (error 0).
+    - `x0`, `x0_stderr`: the output offset (at `origin` when given), estimated unless given
+      (then its error is 0).
+    - `knots` (K,), `knot_times` (K,): the fitted orders at the knots (K = 1: constant), and
+      their times.
     - `y_hat` (N,), `residuals` (N,) = y − y_hat, `sigma`: residual standard deviation.
     - `result`: optimistix's result code (`optx.RESULTS.successful` when it converged),
       `steps`: the solver's steps.
@@ -45,6 +48,7 @@ class Refit(eqx.Module):
     sigma: Float[Array, ""]
     result: optx.RESULTS
     steps: Array
+    p_at_bound: tuple[bool, ...] = eqx.field(static=True, default=())
     at_bound: bool = eqx.field(static=True, default=False)
 
 
@@ -73,15 +77,69 @@ def _order_curve(raw, num, bounds, span=None):
     return lo + (hi - lo) * jax.nn.sigmoid(_raw_curve(raw, num, span))
 
 
+def _weights(num, mask, weights, window, relative, times, y):
+    """The weight of each sample's squared residual (NumPy): the product of the mask, the
+    user's weights, the fit window and, for relative residuals, ``1/y²``."""
+    from ._identify import check_mask
+
+    w = np.ones(num)
+    if mask is not None:
+        w = w * check_mask(mask, num, 0)
+    if weights is not None:
+        arr = np.asarray(check.float_array(weights, "weights"))
+        if arr.shape != (num,):
+            raise ValueError(f"`weights` must have shape ({num},), got shape {arr.shape}.")
+        if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+            raise ValueError("`weights` must be finite and non-negative.")
+        w = w * arr
+    if window is not None:
+        try:
+            lo, hi = (float(v) for v in window)
+        except (TypeError, ValueError):
+            raise TypeError(f"`window` must be a pair of times (from, to), got {window!r}.") from None
+        if not lo < hi:
+            raise ValueError(f"`window` must satisfy from < to, got ({lo}, {hi}).")
+        w = w * ((times >= lo) & (times <= hi))
+    if relative:
+        y = np.asarray(y)
+        zero = (w > 0) & (y == 0)
+        if np.any(zero):
+            raise ValueError(
+                f"relative residuals divide by y, which is 0 at fitted sample {int(np.argmax(zero))}; "
+                "leave that sample out (`window`, `mask`) or use absolute residuals."
+            )
+        w = w / np.where(w > 0, y, 1.0) ** 2
+    return w
+
+
+def _signs(p_signs, count):
+    if p_signs is None:
+        return np.zeros(count)
+    arr = np.asarray(p_signs, dtype=float)
+    if arr.shape != (count,) or not np.all(np.isin(arr, (-1.0, 0.0, 1.0))):
+        raise ValueError(
+            f"`p_signs` must hold {count} values of +1 (≥ 0), −1 (≤ 0) or 0 (free), one per "
+            f"coefficient, got {p_signs!r}."
+        )
+    return arr
+
+
 def refit(
     u,
     y,
-    dt,
+    dt=None,
     *,
+    t=None,
     order="constant",
     order_bounds=(0.01, 0.99),
     order0=0.5,
     x0="estimate",
+    direct=None,
+    weights=None,
+    window=None,
+    relative: bool = False,
+    origin=None,
+    p_signs=None,
     memory: str = "exponential",
     rule: str = "trapezoid",
     rtol: float = 1e-10,
@@ -90,38 +148,85 @@ def refit(
     throw: bool = False,
     mask=None,
 ) -> Refit:
-    """Fits ``y = x0 + pᵀ φ(β, t)`` over the whole record by Levenberg–Marquardt.
+    """Fits ``y = x0 + pᵀ φ(β, t) + cᵀ v`` over a record by Levenberg–Marquardt.
 
-    The offset ``x0 = x(0)`` is estimated with the rest (``x0="estimate"``, the default), taken
-    as ``y[0]`` (``None``) or fixed (a number).
+    The samples lie at ``t_k = k·dt`` or at the strictly increasing times `t` (log-spaced,
+    irregular; exactly one of the two). ``φ`` integrates the inputs `u` (N, n) from the start of
+    the test; the optional `direct` regressors ``v`` (N, m) enter as they are (order 0: the
+    spring of a fractional Maxwell model, `vojax.FractionalMaxwell`).
+
+    The offset ``x0`` (the output at the start) is estimated with the rest (``x0="estimate"``,
+    the default), taken as ``y[0]`` (``None``) or fixed (a number).
 
     The order is a constant (``order="constant"``), a smooth curve through ``K`` knots spread
-    evenly over the record (``order=K``, K ≥ 2; linear in a logit variable, so it stays inside
-    `order_bounds`), or fixed (``order`` an ``(N,)`` array: then only ``p`` is fitted, which is
-    linear least squares). ``p`` is constant. The residuals are differentiated through the
-    memory kernels; standard errors come from the Gauss–Newton approximation
-    ``σ² (JᵀJ)⁻¹`` with ``σ² = RSS/(N − P)``, and the order's by the delta method.
+    evenly over the samples (``order=K``, K ≥ 2; on a log-spaced grid, evenly in log time;
+    linear in a logit variable, so it stays inside `order_bounds`), or fixed (``order`` an
+    ``(N,)`` array: then the fit is linear least squares). The coefficients are constant.
+    Standard errors come from the Gauss–Newton approximation ``σ² (JᵀWJ)⁻¹``,
+    ``σ² = Σ w r²/(N_fit − P)``, and the order's by the delta method (docs/method.md §7).
 
-    `mask` (an ``(N,)`` array of 0 and 1, default all 1): samples with 0 do not enter the fit
-    (their residuals are dropped; the degrees of freedom count the fitted samples only).
+    **What is fitted** (the whole input history drives the model either way):
 
-    **Returns:** a `Refit`.
+    - `window` ``(from, to)``: only samples with ``from ≤ t_k ≤ to`` enter the objective and the
+      statistics, e.g. the hold phase of a ramp–hold test;
+    - `weights` (N,), ≥ 0: each squared residual is multiplied by its weight;
+    - `relative`: residuals relative to the data, ``(y − ŷ)/y`` (weights ``1/y²``), for data
+      spanning decades (to first order the residuals of ``ln y``); `y` must not be 0 where fitted;
+    - `mask` (N,) of 0 and 1: samples with 0 are left out (the batch's padding).
+
+    **Start of the test:** `origin` ``T0`` before the first sample (``T0 < t_0``, or ``< 0`` with
+    `dt`) says the test started there with the inputs held at their first values (a step load
+    at ``T0``): the integral starts at ``T0`` and ``x0`` is the output at ``T0`` (estimated or
+    given). For another loading history before the first sample, give those samples in `u`,
+    `t` and leave them out of the fit with `window`.
+
+    **Signs:** `p_signs` (n + m,) of +1 (the coefficient is ≥ 0), −1 (≤ 0) or 0 (free) keeps
+    physical parameters physical (`vojax.KelvinVoigt().p_signs`: η > 0, k ≥ 0). A coefficient
+    whose free fit breaks its sign is fixed at 0, the bound, and the rest refitted (an active
+    set, one coefficient at a time); `Refit.p_at_bound` says which, with standard error 0.
+
+    **Returns:** a `Refit`; ``p`` holds the coefficients of `u` then of `direct`.
     """
     bounds = check.interval(order_bounds, "order_bounds")
     estimate = isinstance(x0, str)
     if estimate and x0 != "estimate":
         raise ValueError(f"`x0` must be 'estimate', None (y[0]) or a number, got {x0!r}.")
+    if origin is not None and x0 is None:
+        raise ValueError("with `origin`, `x0` is the output at the origin: 'estimate' it or give it.")
     u2, y, _, x0, _ = check_options(
-        u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None
+        u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None, t=t
     )
     num, width = u2.shape
-    from ._identify import check_mask
-
-    w = jnp.asarray(
-        np.ones(num) if mask is None else check_mask(mask, num, width), u2.dtype
+    times = np.asarray(t) if t is not None else float(dt) * np.arange(num)
+    v = _direct_regressors(direct, num)
+    w = _weights(num, mask, weights, window, relative, times, y)
+    signs = _signs(p_signs, width + v.shape[1])
+    if np.count_nonzero(w) < width + v.shape[1] + 3:
+        raise ValueError(
+            f"{np.count_nonzero(w)} samples have a non-zero weight; the fit needs at least "
+            f"{width + v.shape[1] + 3}."
+        )
+    grid = t
+    if origin is not None:
+        origin = float(np.asarray(check.float_array(origin, "origin")))
+        if not np.isfinite(origin) or origin >= times[0]:
+            raise ValueError(
+                f"`origin` must be a finite time before the first sample ({times[0]:g}), got {origin}."
+            )
+        # the step load: one more sample at the origin, the inputs held at their first values
+        grid = np.concatenate([[origin], times])
+        u2 = jnp.concatenate([u2[:1], u2])
+        v = np.concatenate([v[:1], v])
+        y = jnp.concatenate([y[:1], y])
+        w = np.concatenate([[0.0], w])
+    n_all = u2.shape[0]
+    mem = make_memory(
+        memory, dt if grid is None else None, n_all, rule=rule, order_range=bounds, times=grid
     )
     big_y = y - x0  # with an estimated offset, x0 = y[0] + the fitted correction
-    mem = make_memory(memory, dt, num, rule=rule, order_range=bounds)
+    sw = jnp.asarray(np.sqrt(w), u2.dtype)
+    v = jnp.asarray(v, u2.dtype)
+    trim = slice(1, None) if origin is not None else slice(None)
 
     if isinstance(order, str):
         if order != "constant":
@@ -137,42 +242,83 @@ def refit(
         num_knots = int(order)
     else:
         fixed = check.order(order, num, bounds=bounds, closed=True)
+        if origin is not None:
+            fixed = jnp.concatenate([fixed[:1], fixed])
         phi = scan_memory(mem, u2, fixed, False)
-        return _linear(phi, big_y, fixed, x0, width, estimate, w)
+        fit = _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs)
+        return jax.tree_util.tree_map(
+            lambda a: a[trim] if getattr(a, "shape", ()) and a.shape[0] == n_all else a, fit
+        )
 
-    out = _fit(
-        mem, u2, big_y, w, jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
-        jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
-    )
+    active = np.ones(signs.size)
+    while True:
+        out = _fit(
+            mem, u2, v, big_y, sw, jnp.asarray(active), jnp.asarray(order0, big_y.dtype),
+            num_knots, bounds, estimate, jnp.asarray(rtol, big_y.dtype),
+            jnp.asarray(atol, big_y.dtype), max_steps, throw,
+        )
+        coefficients = np.asarray(out["p"])
+        broken = (active > 0) & (signs * coefficients < 0)
+        if not broken.any():
+            break
+        # fix the coefficient furthest on the wrong side (in standard errors) at its bound
+        se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
+        active[int(np.argmax(np.where(broken, -signs * coefficients / se, -np.inf)))] = 0.0
     offset = out.pop("offset")
     fit = out.pop("fit")
-    span = out.pop("span")
+    span = float(out.pop("span"))
     knots = out["knots"]
     margin = 1e-3 * (bounds[1] - bounds[0])
-    places = _knot_places(num_knots) if num_knots > 1 else jnp.zeros(1)
+    places = np.asarray(_knot_places(num_knots)) * (span - 1)
+    all_times = times if grid is None or origin is None else np.asarray(grid)
+    out = {k: (a[trim] if k in ("order", "order_stderr", "order_lower", "order_upper",
+                                "residuals") else a) for k, a in out.items()}
     return Refit(
         **out,
         x0=x0 + offset if estimate else x0,
-        knot_times=places * (span - 1) * float(dt) if num_knots > 1 else jnp.zeros(1),
-        y_hat=fit + x0,
+        knot_times=(
+            jnp.asarray(np.interp(places, np.arange(n_all), all_times))
+            if num_knots > 1 else jnp.zeros(1)
+        ),
+        y_hat=(fit + x0)[trim],
+        p_at_bound=tuple(bool(a == 0) for a in active),
         at_bound=bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin))),
     )
 
 
+def _direct_regressors(direct, num):
+    if direct is None:
+        return np.zeros((num, 0))
+    v = np.asarray(check.samples(direct, "direct"))
+    v = v[:, None] if v.ndim == 1 else v
+    if v.shape[0] != num:
+        raise ValueError(
+            f"`direct` must have {num} samples like `u`, got shape {v.shape}."
+        )
+    return v
+
+
 @eqx.filter_jit
-def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max_steps, throw):
+def _fit(
+    mem, u2, v, big_y, sw, active, order0, num_knots, bounds, estimate, rtol, atol, max_steps,
+    throw,
+):
     """The Levenberg–Marquardt fit and its Gauss–Newton errors, compiled once per shape and
-    static setting (numbers are arrays, the model is built inside: no retracing)."""
+    static setting (numbers are arrays, the model is built inside: no retracing). ``sw`` is the
+    square root of each sample's weight; coefficients with ``active = 0`` are held at 0."""
     TRACES["fit"] += 1  # runs only while tracing
     num, width = u2.shape
+    count = active.shape[0]  # coefficients: of the integrated inputs, then of `direct`
     # up to the last fitted sample (as a float: it scales the knots' grid)
-    span = (jnp.max(jnp.where(w > 0, jnp.arange(num), 0)) + 1).astype(w.dtype)
+    span = (jnp.max(jnp.where(sw > 0, jnp.arange(num), 0)) + 1).astype(sw.dtype)
     lo, hi = bounds
     z0 = (order0 - lo) / (hi - lo)
     raw0 = jnp.full((num_knots,), jnp.log(z0 / (1 - z0)))
+    keep = jnp.concatenate([active, jnp.ones((1,), sw.dtype)]) if estimate else active
 
-    def design(phi):  # regressors of the linear part: Φ and, for an estimated offset, 1
-        return jnp.concatenate([phi, jnp.ones((num, 1), phi.dtype)], 1) if estimate else phi
+    def design(phi):  # regressors of the linear part: Φ, the direct ones and (estimated) 1
+        parts = [phi, v] + ([jnp.ones((num, 1), phi.dtype)] if estimate else [])
+        return jnp.concatenate(parts, 1) * keep
 
     phi_of = order_map(mem, u2)  # the order-free history, once, outside the solver's loop
 
@@ -181,12 +327,12 @@ def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max
         beta = _order_curve(raw, num, bounds, span)
         return design(phi_of(beta)) @ p
 
-    # a start for p: linear least squares at the initial order
+    # a start for p: linear least squares at the initial order (0 for held coefficients)
     phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
-    p0 = jnp.linalg.lstsq(phi0 * w[:, None], big_y * w)[0]
+    p0 = jnp.linalg.lstsq(phi0 * sw[:, None], big_y * sw)[0]
     theta0 = jnp.concatenate([raw0, p0])
     sol = optx.least_squares(
-        lambda th, _: (model(th) - big_y) * w,
+        lambda th, _: (model(th) - big_y) * sw,
         optx.LevenbergMarquardt(rtol=rtol, atol=atol),
         theta0,
         max_steps=max_steps,
@@ -201,23 +347,25 @@ def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max
     phi_t, dphi_t = phi_of(_order_curve(raw_t, num, bounds, span), True)
     dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw_t)
     jac = jnp.concatenate(
-        [(dphi_t @ p_t[:width])[:, None] * dbeta, design(phi_t)], axis=1
-    ) * w[:, None]
-    dof = jnp.maximum(jnp.sum(w) - theta.size, 1.0)
-    sigma2 = jnp.sum(w * residuals**2) / dof
-    cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)
+        [(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1
+    ) * sw[:, None]
+    free = jnp.concatenate([jnp.ones((num_knots,), sw.dtype), keep])
+    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - jnp.sum(free), 1.0)
+    sigma2 = jnp.sum((sw * residuals) ** 2) / dof
+    # held coefficients: an identity block in the information, then no variance
+    cov = sigma2 * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free)) * jnp.outer(free, free)
     raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
     graw = jax.jacfwd(raw_of)(theta)
     raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, cov, graw), 0.0))
     raw = raw_of(theta)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
-    pc = cov[num_knots : num_knots + width, num_knots : num_knots + width]
+    pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
     return dict(
         order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
         order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
         order_upper=lo + (hi - lo) * jax.nn.sigmoid(raw + 2 * raw_sd),
-        p=theta[num_knots : num_knots + width],
+        p=theta[num_knots : num_knots + count] * active,
         p_stderr=jnp.sqrt(jnp.maximum(jnp.diag(pc), 0.0)),
         p_cov=pc,
         offset=theta[-1] if estimate else jnp.zeros((), theta.dtype),
@@ -232,25 +380,35 @@ def _fit(mem, u2, big_y, w, order0, num_knots, bounds, estimate, rtol, atol, max
     )
 
 
-def _linear(phi, big_y, fixed, x0, width, estimate, w):
-    """With the order fixed the model is linear in p (and the offset): ordinary least squares."""
-    if estimate:
-        phi = jnp.concatenate([phi, jnp.ones((phi.shape[0], 1), phi.dtype)], 1)
-    p, *_ = jnp.linalg.lstsq(phi * w[:, None], big_y * w)
-    fit = phi @ p
+def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
+    """With the order fixed the model is linear in the coefficients (and the offset): weighted
+    least squares, with the sign constraints by the same active set as `refit`."""
+    parts = [phi, v] + ([jnp.ones((phi.shape[0], 1), phi.dtype)] if estimate else [])
+    full = jnp.concatenate(parts, 1)
+    count = signs.size
+    active = np.ones(full.shape[1])
+    while True:
+        a = full * jnp.asarray(active)
+        p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
+        broken = (active[:count] > 0) & (signs * np.asarray(p[:count]) < 0)
+        if not broken.any():
+            break
+        active[int(np.argmax(np.where(broken, -signs * np.asarray(p[:count]), -np.inf)))] = 0.0
+    fit = full @ p
     residuals = big_y - fit
-    dof = jnp.maximum(jnp.sum(w) - phi.shape[1], 1.0)
-    sigma2 = jnp.sum(w * residuals**2) / dof
-    cov = sigma2 * jnp.linalg.pinv((phi * w[:, None]).T @ phi)
+    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - float(np.sum(active)), 1.0)
+    sigma2 = jnp.sum((sw * residuals) ** 2) / dof
+    aw = a * sw[:, None]
+    cov = sigma2 * jnp.linalg.pinv(aw.T @ aw + jnp.diag(1.0 - active)) * np.outer(active, active)
     zero = jnp.zeros_like(fixed)
     return Refit(
         order=fixed,
         order_stderr=zero,
         order_lower=fixed,
         order_upper=fixed,
-        p=p[:width],
-        p_stderr=jnp.sqrt(jnp.diag(cov)[:width]),
-        p_cov=cov[:width, :width],
+        p=p[:count],
+        p_stderr=jnp.sqrt(jnp.diag(cov)[:count]),
+        p_cov=cov[:count, :count],
         x0=x0 + (p[-1] if estimate else 0.0),
         x0_stderr=jnp.sqrt(cov[-1, -1]) if estimate else jnp.zeros(()),
         knots=fixed[:0],
@@ -260,6 +418,7 @@ def _linear(phi, big_y, fixed, x0, width, estimate, w):
         sigma=jnp.sqrt(sigma2),
         result=optx.RESULTS.successful,
         steps=jnp.asarray(0),
+        p_at_bound=tuple(bool(a == 0) for a in active[:count]),
     )
 
 

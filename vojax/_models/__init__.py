@@ -4,6 +4,12 @@ from ._viscoelastic import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,
 )
 from ._viscoelastic import (
+    FractionalMaxwell as FractionalMaxwell,
+)
+from ._viscoelastic import (
+    FractionalZener as FractionalZener,
+)
+from ._viscoelastic import (
     KelvinVoigt as KelvinVoigt,
 )
 from ._viscoelastic import (

@@ -1,4 +1,5 @@
-"""The springpot and the fractional Kelvin–Voigt law as regressions of eq. (11)."""
+"""Viscoelastic laws with a springpot as regressions of eq. (11): the springpot, the fractional
+Kelvin–Voigt, Maxwell and Zener (standard linear solid) laws."""
 
 import abc
 
@@ -31,14 +32,33 @@ def _array(p):
     return np.asarray(p, dtype=float)
 
 
+def _stress_and_strain(stress, strain):
+    """``[σ, ε]`` (N, 2) on the host, after checking both."""
+    stress = check.samples(stress, "stress")
+    strain = check.samples(strain, "strain")
+    if stress.shape != strain.shape or stress.ndim != 1:
+        raise ValueError(
+            f"`stress` and `strain` must both have shape (N,), got {stress.shape} and {strain.shape}."
+        )
+    return np.stack([np.asarray(stress), np.asarray(strain)], axis=1)
+
+
 class AbstractViscoelasticModel(eqx.Module):
     """A constitutive law ``σ ↔ ε`` written as ``D^{q} ε = pᵀ u`` (output ``x = ε``)."""
 
     names: eqx.AbstractClassVar[tuple[str, ...]]
+    # the sign of each coefficient (of `inputs`, then of `direct`) that keeps the physical
+    # parameters physical: +1 (≥ 0), −1 (≤ 0); for `refit(..., p_signs=model.p_signs)`
+    p_signs: eqx.AbstractClassVar[tuple[int, ...]]
 
     @abc.abstractmethod
     def inputs(self, stress, strain):
         """The regressors ``u`` (N, n) of eq. (11) built from the stress and the strain."""
+
+    def direct(self, stress, strain=None):
+        """Regressors that enter without integration (order 0), ``(N, m)``, or ``None``: for
+        `refit(..., direct=...)`; the adaptive law and the tracker take models without them."""
+        return None
 
     @abc.abstractmethod
     def parameters(self, p) -> dict:
@@ -60,6 +80,7 @@ class Springpot(AbstractViscoelasticModel):
     """``σ = η D^{q(t)} ε``: ``u = σ``, ``p = 1/η`` (section 6 of the paper)."""
 
     names = ("eta",)
+    p_signs = (1,)
 
     def inputs(self, stress, strain=None):
         return np.asarray(check.samples(stress, "stress")).reshape(-1, 1)  # host side
@@ -77,15 +98,10 @@ class KelvinVoigt(AbstractViscoelasticModel):
     """``σ = k ε + η D^{q(t)} ε``: ``u = [σ, ε]``, ``p = [1/η, −k/η]`` (docs/method.md §6)."""
 
     names = ("eta", "k")
+    p_signs = (1, -1)
 
     def inputs(self, stress, strain):
-        stress = check.samples(stress, "stress")
-        strain = check.samples(strain, "strain")
-        if stress.shape != strain.shape or stress.ndim != 1:
-            raise ValueError(
-                f"`stress` and `strain` must both have shape (N,), got {stress.shape} and {strain.shape}."
-            )
-        return np.stack([np.asarray(stress), np.asarray(strain)], axis=1)  # host side
+        return _stress_and_strain(stress, strain)
 
     def parameters(self, p):
         p = _array(p)
@@ -95,3 +111,58 @@ class KelvinVoigt(AbstractViscoelasticModel):
 
     def regression(self, *, eta, k):
         return jnp.array([1.0 / eta, -k / eta])
+
+
+class FractionalMaxwell(AbstractViscoelasticModel):
+    """A spring in series with a springpot, ``ε = σ/E + I^{q(t)} σ / η``: ``u = σ`` and the
+    order-0 regressor ``v = σ`` (`direct`), ``p = [1/η, 1/E]``. `refit` only (the jump of the
+    spring at loading is the instantaneous compliance of a creep test)."""
+
+    names = ("eta", "E")
+    p_signs = (1, 1)
+
+    def inputs(self, stress, strain=None):
+        return np.asarray(check.samples(stress, "stress")).reshape(-1, 1)
+
+    def direct(self, stress, strain=None):
+        return self.inputs(stress)
+
+    def parameters(self, p):
+        p = _array(p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return {"eta": 1.0 / p[..., 0], "E": 1.0 / p[..., 1]}
+
+    def regression(self, *, eta, E):
+        return jnp.array([1.0 / eta, 1.0 / E])
+
+
+class FractionalZener(AbstractViscoelasticModel):
+    """The standard linear solid with a springpot: a spring ``E0`` in parallel with a spring
+    ``E1`` in series with a springpot ``(η, q)``, ``σ + (η/E1) D^q σ = E0 ε + η (E0+E1)/E1 D^q ε``.
+    Integrated ``q`` times (a test starting from rest) it is
+    ``ε = [E1 I^q σ − E0 E1 I^q ε]/(η (E0+E1)) + σ/(E0+E1)``: ``u = [σ, ε]``, ``v = σ``,
+    ``p = [E1/(η(E0+E1)), −E0 E1/(η(E0+E1)), 1/(E0+E1)]``. `refit` only.
+
+    `p_signs` keeps η, E0 and E0 + E1 positive; E1 > 0 is not a sign of one coefficient
+    (``E1 = 1/p[2] − E0``): check it in `parameters`."""
+
+    names = ("eta", "E0", "E1")
+    p_signs = (1, -1, 1)
+
+    def inputs(self, stress, strain):
+        return _stress_and_strain(stress, strain)
+
+    def direct(self, stress, strain=None):
+        return np.asarray(check.samples(stress, "stress")).reshape(-1, 1)
+
+    def parameters(self, p):
+        p = _array(p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e0 = -p[..., 1] / p[..., 0]
+            total = 1.0 / p[..., 2]
+            e1 = total - e0
+            return {"eta": e1 / (p[..., 0] * total), "E0": e0, "E1": e1}
+
+    def regression(self, *, eta, E0, E1):
+        total = E0 + E1
+        return jnp.array([E1 / (eta * total), -E0 * E1 / (eta * total), 1.0 / total])
