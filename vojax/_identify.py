@@ -113,9 +113,16 @@ def run_law(law: AdaptiveLaw, u, y):
     return out
 
 
-def build_law(dt, num_steps, *, lam, gamma, alpha0, alpha_bounds, memory, rule, r0=None, tol=1e-10):
-    """The `AdaptiveLaw` of Theorem 1 with its memory designed for the order bounds."""
-    mem = make_memory(memory, dt, num_steps, rule=rule, tol=tol, order_range=alpha_bounds)
+def build_law(
+    dt, num_steps, *, lam, gamma, alpha0, alpha_bounds, memory, rule, r0=None, tol=1e-10,
+    times=None,
+):
+    """The `AdaptiveLaw` of Theorem 1 with its memory designed for the order bounds; on the
+    sample `times` when given (then `dt` is the nominal step, the steps come from the memory)."""
+    mem = make_memory(
+        memory, None if times is not None else dt, num_steps, rule=rule, tol=tol,
+        order_range=alpha_bounds, times=times,
+    )
     return assemble_law(mem, dt, lam, gamma, alpha0, alpha_bounds, r0)
 
 
@@ -181,7 +188,12 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
     return u2, y, bounds, x0, r0
 
 
-def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds, *, num=None, mem=None):
+def nominal_step(dt, t):
+    """The step that sets the scale of gains and forgetting: `dt`, or the median step of `t`."""
+    return float(np.asarray(dt)) if t is None else float(np.median(np.diff(np.asarray(t))))
+
+
+def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds, *, num=None, mem=None, times=None):
     """``R_0`` worth one sample of information at the initial order: ``h·diag(mean φ²)`` with
     ``φ = Φ(α̂(0), t)``. It scales with the inputs, so the law does not depend on their units.
     With `num`, ``u2`` is a record of `num` samples padded after its end (the mean covers the
@@ -189,7 +201,10 @@ def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds, *, num=None, mem=None):
     size = u2.shape[0]
     num = size if num is None else int(num)
     if mem is None:
-        mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds)
+        mem = make_memory(
+            memory, None if times is not None else dt, size, rule=rule, tol=tol,
+            order_range=bounds, times=times,
+        )
     phi = np.asarray(scan_memory(mem, jnp.asarray(u2), jnp.full((size,), float(alpha0)), False))
     power = np.mean(phi[:num] ** 2, axis=0)
     if not np.all(power > 0):
@@ -267,8 +282,9 @@ def diagnose(alpha, lower, upper, bounds, converged, at_edge) -> Diagnostics:
 def identify(
     u,
     y,
-    dt,
+    dt=None,
     *,
+    t=None,
     method: str = "gradient",
     smooth: bool = True,
     lam=None,
@@ -308,7 +324,11 @@ def identify(
 
     **Arguments:**
 
-    - `u`: inputs, ``(N,)`` or ``(N, n)``; `y`: measured output ``(N,)``; `dt`: the step.
+    - `u`: inputs, ``(N,)`` or ``(N, n)``; `y`: measured output ``(N,)``.
+    - `dt`: the step; or `t`: the sample times ``(N,)``, strictly increasing (exactly one).
+      On a non-uniform grid the memory uses exact weights for every step and the law
+      integrates over the local step ``t_k − t_{k−1}`` (LSFF's forgetting ``e^{−λh_k}``, the
+      order law's ``h_k γ``); gains and forgetting keep their units (1/time).
     - `method`, `smooth`: see above.
     - `gamma`: the law's order gain γ > 0, or ``"auto"`` (default) to choose it by `tune_gains`
       from normalised signals (unit-free). A number is taken literally, as the paper's 0.01.
@@ -342,7 +362,7 @@ def identify(
         if x0 is not None:
             raise ValueError("`x0` is estimated by method='kalman'; leave it None.")
         return _identify_kalman(
-            u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn
+            u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn
         )
     if mask is not None:
         raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
@@ -351,21 +371,24 @@ def identify(
     if isinstance(lam, str):
         raise ValueError(f"`lam` must be a positive number or None, got {lam!r}.")
     # validate once, before any (possibly long) tuning; the law and the tuner share the settings
-    u2, y, bounds, x0, r0 = check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0)
+    u2, y, bounds, x0, r0 = check_options(
+        u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, t=t
+    )
+    step = nominal_step(dt, t)
     if isinstance(r0, str):
-        r0 = auto_r0(u2, dt, alpha0, memory, rule, tol, bounds)
+        r0 = auto_r0(u2, step, alpha0, memory, rule, tol, bounds, times=t)
     shared = dict(alpha0=alpha0, alpha_bounds=bounds, memory=memory, rule=rule, r0=r0, tol=tol)
     at_edge = ()
     if isinstance(gamma, str):  # "auto", checked above
         from ._tune import tune_gains
 
-        gains = tune_gains(u2, y, dt, x0=x0, lam=lam, **shared)
+        gains = tune_gains(u2, y, dt, t=t, x0=x0, lam=lam, **shared)
         gamma, lam = gains.gamma, gains.lam
         at_edge = gains.at_edge
     elif lam is None:
         lam = PAPER_LAM
     check.positive(gamma, "gamma")
-    law = build_law(dt, u2.shape[0], lam=lam, gamma=gamma, **shared)
+    law = build_law(step, u2.shape[0], lam=lam, gamma=gamma, times=t, **shared)
     out = run_law(law, u2, y - x0)
     bad = _first_bad(out.alpha, out.p, out.dp, out.y_hat)
     if bad is not None:
@@ -429,12 +452,12 @@ def law_identification(
     )
 
 
-def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn):
+def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn):
     from ._tracker import track
 
     u2, y, bounds, _, _ = check_options(
         u, y, dt, None, sum(check.interval(alpha_bounds, "alpha_bounds")) / 2, alpha_bounds,
-        memory, rule, None, None,
+        memory, rule, None, None, t=t,
     )
     if noise is not None:
         keys = {"order_drift", "parameter_drift", "noise_std"}
@@ -446,8 +469,8 @@ def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, 
     if mask is not None:
         mask = check_mask(mask, u2.shape[0], u2.shape[1])
         span = int(np.flatnonzero(mask)[-1]) + 1
-    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds)
-    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask)
+    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
+    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t)
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
@@ -474,7 +497,7 @@ def _identify_kalman(u, y, dt, smooth, alpha_bounds, memory, rule, noise, mask, 
         gamma=nan,
         lam=nan,
         alpha0=nan,
-        dt=jnp.asarray(float(dt)),
+        dt=jnp.asarray(nominal_step(dt, t)),
         alpha_bounds=bounds,
         memory=memory,
         method="kalman",

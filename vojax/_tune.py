@@ -162,8 +162,9 @@ class Gains(eqx.Module):
 def tune_gains(
     u,
     y,
-    dt,
+    dt=None,
     *,
+    t=None,
     alpha0=0.5,
     alpha_bounds=DEFAULT_BOUNDS,
     memory: str = "exponential",
@@ -188,7 +189,7 @@ def tune_gains(
     to absorb a wrong order (order and parameters compensate), which a one-step prediction
     cannot see but a prediction ``D`` samples ahead can. A coarse grid comes first (``γ`` over five decades around
     ``1/mean((y−x0)²)``, the scale at which ``γ Λ e`` is O(1) per unit time; ``λ`` from
-    ``0.3/T`` to ``0.3/dt``, or the given `lam` alone), all runs in one vmapped scan. From the best grid point,
+    ``0.3/T`` to ``0.3/dt`` (the median step on a grid `t`), or the given `lam` alone), all runs in one vmapped scan. From the best grid point,
     BFGS on ``(log γ, log λ)`` with ``jax.grad`` through the checkpointed scan refines it; the
     refinement is kept only when it lowers the loss. Starting from the grid keeps the search out
     of the chattering region, where the loss is large and its gradient meaningless.
@@ -201,7 +202,7 @@ def tune_gains(
     **Returns:** a `Gains`.
     """
     search = _prepare(
-        u, y, dt, alpha0=alpha0, alpha_bounds=alpha_bounds, memory=memory, rule=rule, x0=x0,
+        u, y, dt, t=t, alpha0=alpha0, alpha_bounds=alpha_bounds, memory=memory, rule=rule, x0=x0,
         r0=r0, lam=lam, tol=tol, burn_in=burn_in, lag=lag, num_gamma=num_gamma,
         num_lam=num_lam, pad_to=pad_to,
     )
@@ -272,14 +273,18 @@ class _Search(eqx.Module):
 
 
 def _prepare(
-    u, y, dt, *, alpha0=0.5, alpha_bounds=DEFAULT_BOUNDS, memory="exponential",
+    u, y, dt, *, t=None, alpha0=0.5, alpha_bounds=DEFAULT_BOUNDS, memory="exponential",
     rule="trapezoid", x0=None, r0="auto", lam=None, tol=1e-10, burn_in=0.1, lag=0.1,
     num_gamma=11, num_lam=8, pad_to=None,
 ) -> _Search:
     """Validates a record and lays out its search (host side, in NumPy)."""
+    from ._identify import nominal_step
+
     u2, y, bounds, x0, r0 = check_options(
-        u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0
+        u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, t=t
     )
+    if t is not None and pad_to is not None:
+        raise ValueError("`pad_to` pads a uniform record; it cannot be used with `t`.")
     if not 0 <= burn_in < 1:
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
@@ -292,7 +297,8 @@ def _prepare(
     if n - start < 2:
         raise ValueError(f"the record is too short to tune gains: {n} samples.")
     scale = 1.0 / max(float(np.mean(big_y**2)), 1e-300)
-    horizon = max((n - 1) * float(dt), float(dt))
+    step = nominal_step(dt, t)
+    horizon = max((n - 1) * step if t is None else float(np.ptp(np.asarray(t))), step)
     # padded to `pad_to` samples (after the end: the law is causal, so the real samples'
     # outputs do not see the padding) with the loss weighted to the real samples: one
     # compiled program serves every record length of a bucket
@@ -301,12 +307,12 @@ def _prepare(
         raise ValueError(f"`pad_to` ({size}) is shorter than the record ({n} samples).")
     weights = np.zeros(size)
     weights[start:n] = 1.0
-    mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds)
+    mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds, times=t)
     u_padded = np.concatenate([u2, np.zeros((size - n, u2.shape[1]))])
     if isinstance(r0, str):
         from ._identify import auto_r0
 
-        r0 = auto_r0(u_padded, dt, alpha0, memory, rule, tol, bounds, num=n, mem=mem)
+        r0 = auto_r0(u_padded, step, alpha0, memory, rule, tol, bounds, num=n, mem=mem)
     data = _TuneData(
         memory=mem,
         u=jnp.asarray(u_padded),
@@ -314,13 +320,13 @@ def _prepare(
         weights=jnp.asarray(weights, u2.dtype),
         lag=jnp.asarray(d),
         r0=jnp.asarray(r0, u2.dtype),
-        dt=jnp.asarray(dt, u2.dtype),
+        dt=jnp.asarray(step, u2.dtype),
         alpha0=jnp.asarray(alpha0, u2.dtype),
         bounds=bounds,
         ring=max(int(np.ceil(lag * size)), _block(size)),
     )
     gammas = scale * np.logspace(-3, 2, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples
-    lams = np.geomspace(0.3 / horizon, 0.3 / float(dt), num_lam) if lam is None else np.array([float(lam)])
+    lams = np.geomspace(0.3 / horizon, 0.3 / step, num_lam) if lam is None else np.array([float(lam)])
     g, lm = np.meshgrid(np.log(gammas), np.log(lams), indexing="ij")
     return _Search(data, g, lm, gammas, lams, scale, lam is not None)

@@ -62,14 +62,15 @@ class AdaptiveLaw(eqx.Module):
 
     def step(self, state: LawState, u_k, y_k):
         alpha = state.alpha
+        h = self.memory.step_size(state.memory)  # the local step on a non-uniform grid
         memory, (phi, dphi) = self.memory.step(state.memory, u_k, alpha)
         (lsff, p), (lsff_tangent, dp) = jax.jvp(
-            lambda s, ph: self.lsff.step(s, ph, y_k),
+            lambda s, ph: self.lsff.step(s, ph, y_k, h),
             (state.lsff, phi),
             (state.lsff_tangent, dphi),
         )
         y_hat = jnp.dot(p, phi)
         lam_k = jnp.dot(p, dphi) + jnp.dot(dp, phi)  # Λ of eq. (30)
-        alpha_next = self.order.step(alpha, lam_k, y_k - y_hat)
+        alpha_next = self.order.step(alpha, lam_k, y_k - y_hat, h)
         out = LawOutput(alpha, p, dp, y_hat, jnp.dot(state.p, phi), lam_k, phi)
         return LawState(memory, lsff, lsff_tangent, alpha_next, p), out

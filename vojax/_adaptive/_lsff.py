@@ -58,10 +58,12 @@ class LSFF(eqx.Module):
         r0 = jnp.eye(num_inputs, dtype=dtype) if self.r0 is None else self.r0
         return LSFFState(r0, jnp.zeros((num_inputs,), dtype), jnp.zeros((), dtype))
 
-    def step(self, state: LSFFState, phi, y):
-        """Returns ``(new_state, p_k)`` after the sample ``(φ_k, y_k)``."""
-        f = jnp.where(state.started > 0, jnp.exp(-self.lam * self.dt), 1.0)
-        information = f * state.information + self.dt * jnp.outer(phi, phi)
-        moment = f * state.moment + self.dt * y * phi
+    def step(self, state: LSFFState, phi, y, h=None):
+        """Returns ``(new_state, p_k)`` after the sample ``(φ_k, y_k)``; ``h`` is the step
+        ending at the sample (default `dt`; on a non-uniform grid, the local step)."""
+        h = self.dt if h is None else h
+        f = jnp.where(state.started > 0, jnp.exp(-self.lam * h), 1.0)
+        information = f * state.information + h * jnp.outer(phi, phi)
+        moment = f * state.moment + h * y * phi
         p = cholesky_solve(information, moment)
         return LSFFState(information, moment, jnp.ones_like(state.started)), p

@@ -19,7 +19,9 @@ class OrderGradient(eqx.Module):
     def init(self) -> Float[Array, ""]:
         return jnp.asarray(self.alpha0)
 
-    def step(self, alpha, sensitivity, error):
-        """``Λ_k`` (30) and the output error ``y_k − ŷ_k`` → ``α̂_{k+1}``."""
+    def step(self, alpha, sensitivity, error, h=None):
+        """``Λ_k`` (30) and the output error ``y_k − ŷ_k`` → ``α̂_{k+1}``; ``h`` the step
+        (default `dt`; on a non-uniform grid, the step ending at sample k: known online)."""
         lo, hi = self.bounds
-        return jnp.clip(alpha + self.dt * self.gamma * sensitivity * error, lo, hi)
+        h = self.dt if h is None else h
+        return jnp.clip(alpha + h * self.gamma * sensitivity * error, lo, hi)

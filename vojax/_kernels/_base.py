@@ -38,6 +38,11 @@ class AbstractMemory(eqx.Module):
     def update(self, state, u_k):
         """The state after sample ``k``."""
 
+    @abc.abstractmethod
+    def step_size(self, state):
+        """``h_k = t_k − t_{k−1}``, the step ending at the current sample (at sample 0, the
+        first step): what the laws driven by the memory integrate over."""
+
     def readout_and_sensitivity(self, state, u_k, b):
         """``(Φ, ∂Φ/∂b)`` at the current sample: a forward-mode ``jax.jvp`` of `readout`."""
         b = jnp.asarray(b, jnp.result_type(float))

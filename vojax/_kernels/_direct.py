@@ -45,6 +45,9 @@ class DirectMemory(AbstractMemory):
         phi = jnp.exp(log_norm(b, self.dt, self.rule)) * total
         return jnp.where(state.k > 0, phi, 0.0)
 
+    def step_size(self, state: DirectState):
+        return self.dt
+
     def update(self, state: DirectState, u_k) -> DirectState:
         row = self.capacity - 1 - state.k
         buffer = lax.dynamic_update_slice_in_dim(state.buffer, u_k[None, :], row, axis=0)
@@ -84,6 +87,10 @@ class GridDirectMemory(AbstractMemory):
         # rows from k on are still zero in the buffer: sample k enters through u_k
         history = jnp.matmul(w, state.buffer, precision=lax.Precision.HIGHEST)
         return history + w[state.k] * u_k
+
+    def step_size(self, state: GridState):
+        k = jnp.maximum(state.k, 1)
+        return self.times[k] - self.times[k - 1]
 
     def update(self, state: GridState, u_k) -> GridState:
         buffer = lax.dynamic_update_slice_in_dim(state.buffer, u_k[None, :], state.k, axis=0)

@@ -243,6 +243,9 @@ class ExponentialMemory(AbstractMemory):
         older = jnp.matmul(c, state.history, precision=lax.Precision.HIGHEST)
         return jnp.where(state.k > 0, last + older, 0.0)
 
+    def step_size(self, state: ExponentialState):
+        return self.dt if self.steps is None else self.steps[state.k]
+
     def update(self, state: ExponentialState, u_k) -> ExponentialState:
         # no interval ends at sample 0: its contribution is gated off by a factor, not a
         # select (a select over the whole state costs XLA:CPU a copy per step)

@@ -300,8 +300,11 @@ class TrackResult(eqx.Module):
     constant_order: float = eqx.field(static=True)
 
 
-def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3):
-    """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`; see `identify`."""
+def track(
+    memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3, times=None
+):
+    """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
+    `times` (then `dt` is None); see `identify`."""
     num, n = u.shape
     mask = jnp.ones((num,), u.dtype) if mask is None else jnp.asarray(mask, u.dtype)
     scales = data_scales(u, y, mask)
@@ -314,11 +317,18 @@ def track(memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, itera
     un = un / jnp.asarray(rms_phi)
     p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
     m0, p0 = prior(n, u.dtype)
-    steps = jnp.full((num,), float(dt), u.dtype)
-    # an array, not a Python number: a new record length or step must not recompile
+    # the step after each sample, t_{k+1} − t_k (the last one repeated); arrays, not Python
+    # numbers: a new record length or step must not recompile
+    if times is None:
+        steps = jnp.full((num,), float(dt), u.dtype)
+        times = float(dt) * np.arange(num)
+    else:
+        gaps = np.diff(np.asarray(times))
+        steps = jnp.asarray(np.concatenate([gaps, gaps[-1:]]), u.dtype)
     # the record's span up to its last fitted sample (padding after it does not count)
     last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
-    horizon = jnp.asarray(max(last * float(dt), float(dt)), u.dtype)
+    span = float(np.asarray(times)[last] - np.asarray(times)[0])
+    horizon = jnp.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype)
     starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
