@@ -35,6 +35,9 @@ from ._kernels import (
 from ._kernels import (
     ExponentialMemory as ExponentialMemory,
 )
+from ._kernels import (
+    GridDirectMemory as GridDirectMemory,
+)
 from ._models import (
     AbstractViscoelasticModel as AbstractViscoelasticModel,
 )

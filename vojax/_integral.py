@@ -47,9 +47,9 @@ def make_memory(
 
 
 def _grid_memory(memory, times, num_steps, rule, tol, order_range):
-    times = check.times(times, int(num_steps))
+    checked = check.times(times, int(num_steps))
     if memory == "direct":
-        return GridDirectMemory(times=times, rule=rule)
+        return GridDirectMemory(times=checked, rule=rule)
     if isinstance(times, jax.core.Tracer):
         raise TypeError(
             "`t` must be concrete for memory='exponential' (its modes are designed on the "

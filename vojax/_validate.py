@@ -144,13 +144,15 @@ def times(t, num_samples: int, name: str = "t"):
 
 
 def grid(dt, t, num_samples: int):
-    """Exactly one of the step ``dt`` and the sample times ``t``: returns ``(dt, t)`` checked,
-    the other ``None``."""
+    """Exactly one of the step ``dt`` and the sample times ``t``, checked; returns them as
+    given (a NumPy grid stays on the host for the exponential memory's design)."""
     if (dt is None) == (t is None):
         raise TypeError(
             "give exactly one of `dt` (a uniform step) and `t` (the sample times), "
             + ("got neither." if dt is None else "got both.")
         )
     if t is None:
-        return step(dt), None
-    return None, times(t, num_samples)
+        step(dt)
+    else:
+        times(t, num_samples)
+    return dt, t
