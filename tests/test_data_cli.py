@@ -64,11 +64,23 @@ def test_loader_reads_groups_trims_and_resamples(tmp_path):
     path2 = tmp_path / "uneven.csv"
     with open(path2, "w") as f:
         f.write("t,F,d\n" + "".join(f"{x},{2 * x},{x}\n" for x in t))
-    with pytest.warns(UserWarning, match=r"time steps vary by 50 %"):
-        rec = load_records(path2, time="t", inputs=["F"], output="d")[0]
-    np.testing.assert_allclose(rec.inputs[:, 0], 2 * rec.time, atol=1e-14)
+    # an irregular clock is kept as recorded (no resampling, no warning)
+    rec = load_records(path2, time="t", inputs=["F"], output="d")[0]
+    assert not rec.uniform and rec.dt == pytest.approx(0.1)
+    np.testing.assert_array_equal(rec.time, t)
+    np.testing.assert_array_equal(rec.grid["t"], t)
     with pytest.raises(DataError, match="time steps vary by 50 %.*--strict"):
         load_records(path2, time="t", inputs=["F"], output="d", strict=True)
+    # resampling only when asked: onto t_0 + k·step, linear in between
+    rec = load_records(path2, time="t", inputs=["F"], output="d", resample=0.1)[0]
+    assert rec.uniform and rec.grid == {"dt": 0.1} and rec.resampled == pytest.approx(0.5)
+    np.testing.assert_allclose(rec.time, 0.1 * np.arange(6), atol=1e-15)
+    np.testing.assert_allclose(rec.inputs[:, 0], 2 * rec.time, atol=1e-14)
+    # … refused where it would smooth away the short steps, or make too many samples
+    with pytest.raises(DataError, match=r"steps of 0\.05 \(at time 0\.25\).*--resample ≤ 0\.2"):
+        load_records(path2, time="t", inputs=["F"], output="d", resample=0.3)
+    with pytest.raises(DataError, match="makes 5,000,001 samples.*limit is 1,000,000"):
+        load_records(path2, time="t", inputs=["F"], output="d", resample=1e-7)
 
 
 @pytest.mark.parametrize(

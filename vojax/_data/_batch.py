@@ -173,6 +173,9 @@ def run_batch(
     figure_format="png",
     record_figures=True,
     figure_workers=None,
+    origin=None,
+    fit_from=None,
+    fit_to=None,
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -190,16 +193,18 @@ def run_batch(
     none (the overview figure is always drawn). The record figures are drawn in
     `figure_workers` worker processes (default: the cores but one, at least one, at most four;
     0 draws them in this process), off the computation's path; a record counts as done when its
-    figure and summary are written.
+    figure and summary are written. Records on irregular clocks run one at a time, on their own
+    clock. `origin`, `fit_from`, `fit_to`: the refit's, as in `identify_record`.
     """
     pad = bucket_length if buckets else (lambda n: n)
     from .._tune import tune_gains
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    fit = {k: v for k, v in dict(origin=origin, fit_from=fit_from, fit_to=fit_to).items() if v is not None}
     settings = dict(
         model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
-        figure_format=figure_format, **(loader or {}),
+        figure_format=figure_format, **(loader or {}), **fit,
     )
     with _locked(out_dir), contextlib.ExitStack() as cleanup:
         _remove_orphans(out_dir)
@@ -271,13 +276,18 @@ def run_batch(
         # the gain tuning, the tracker and the refit run one record at a time
         buckets = {}
         for r, state in todo:
-            # steps equal to 12 digits share a bucket (a time column's rounding differs by file)
-            buckets.setdefault((pad(r.time.size), float(f"{r.dt:.12g}")), []).append((r, state))
+            # steps equal to 12 digits share a bucket (a time column's rounding differs by file);
+            # a record on an irregular clock is a bucket of its own, run at its length
+            key = (pad(r.time.size), float(f"{r.dt:.12g}")) if r.uniform else (None, r.name)
+            buckets.setdefault(key, []).append((r, state))
         for b, ((num, dt), group) in enumerate(buckets.items()):
             if progress:  # the first record of a bucket compiles its programs: say so
+                what = (
+                    f"{len(group)} record(s) padded to {num} samples" if num is not None
+                    else f"record {dt!r} on its own irregular clock"
+                )
                 print(
-                    f"\rvojax batch: length bucket {b + 1}/{len(buckets)} ({len(group)} "
-                    f"record(s) padded to {num} samples): compiling…   ",
+                    f"\rvojax batch: length bucket {b + 1}/{len(buckets)} ({what}): compiling…   ",
                     end="",
                     file=sys.stderr,
                     flush=True,
@@ -290,8 +300,8 @@ def run_batch(
                 except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
                     fail(r, e)
                     finished(r, state, False)
-            if method not in ("adaptive", "both"):
-                gains = [(np.nan, np.nan)] * len(prepared)  # the law is not run
+            if num is None or method not in ("adaptive", "both"):
+                gains = [(np.nan, np.nan)] * len(prepared)  # not run here
             elif gamma == "auto":
                 # one record at a time, one compiled program per bucket (a vmapped search
                 # over the bucket compiles for longer than it saves: 5.4 s against 2.8 s
@@ -311,7 +321,7 @@ def run_batch(
                 gains = [(float(gamma), PAPER_LAM if lam is None else float(lam))] * len(prepared)
             if not prepared:
                 continue
-            if method in ("adaptive", "both"):
+            if num is not None and method in ("adaptive", "both"):
                 # padded after each record's end (inputs 0, output held): causal, so unseen
                 us = np.stack([_pad_to(p[2], num, 0.0) for p in prepared])
                 ys = np.stack([_pad_to(p[3], num, p[3][-1]) for p in prepared])
@@ -328,14 +338,19 @@ def run_batch(
                     continue
             for i, (r, state, u, y, names, physical) in enumerate(prepared):
                 try:
-                    if method in ("adaptive", "both"):
+                    if num is None:  # an irregular clock: everything on it, one record
+                        columns, summary = identify_record(
+                            r, model=model, method=method, gamma=gamma, lam=lam, area=area,
+                            length=length, **fit,
+                        )
+                    elif method in ("adaptive", "both"):
                         columns, summary = _columns_from_batch(
                             r, y, names, physical, out, x0, i, g[i], model, method, area, length
                         )
                         if method == "both":
                             refit_cols, refit_summary = identify_record(
                                 r, model=model, method="refit", area=area, length=length,
-                                pad_to=pad(r.time.size),
+                                pad_to=pad(r.time.size), **fit,
                             )
                             for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
                                 columns[k] = refit_cols[k]
@@ -343,7 +358,7 @@ def run_batch(
                     else:  # "refit" or "kalman": one record at a time
                         columns, summary = identify_record(
                             r, model=model, method=method, area=area, length=length,
-                            pad_to=pad(r.time.size),
+                            pad_to=pad(r.time.size), **fit,
                         )
                     check_finite(summary, columns)
                     summary["provenance"] = provenance[r.name]

@@ -10,9 +10,16 @@ import optimistix as optx
 
 from .._io import atomic_path, write_json
 from .._stats import delta_stderr
-from .._models import KelvinVoigt, Springpot
+from .._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
 
-MODELS = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt()}
+MODELS = {
+    "springpot": Springpot(),
+    "kelvin-voigt": KelvinVoigt(),
+    "maxwell": FractionalMaxwell(),
+    "zener": FractionalZener(),
+}
+# models with an order-0 regressor: the refit takes them, the adaptive law and the tracker not
+REFIT_ONLY = ("maxwell", "zener")
 
 
 class _Columns:
@@ -54,8 +61,30 @@ def regressors(record, model: str, area=None, length=None):
                 "in the units of the data's columns."
             )
     law = MODELS[model]
-    u = law.inputs(stress) if model == "springpot" else law.inputs(stress, strain)
-    return np.asarray(u), strain, list(law.names), law.parameters
+    return np.asarray(law.inputs(stress, strain)), strain, list(law.names), law.parameters
+
+
+def refit_options(record, model, area=None, length=None, origin=None, fit_from=None, fit_to=None):
+    """The `refit` keywords for a record: the model's order-0 regressors and signs, and the
+    test's origin and fit window given in the file's time unit (the record's clock starts at 0
+    at its first sample, ``time_offset`` in the file)."""
+    options = {}
+    if model in MODELS:
+        law = MODELS[model]
+        options["p_signs"] = law.p_signs
+        stress = record.inputs[:, 0] / (area or 1.0)
+        direct = law.direct(stress, record.output / (length or 1.0))
+        if direct is not None:
+            options["direct"] = np.asarray(direct)
+    shift = record.time_offset
+    if origin is not None:
+        options["origin"] = float(origin) - shift
+    if fit_from is not None or fit_to is not None:
+        options["window"] = (
+            -np.inf if fit_from is None else float(fit_from) - shift,
+            np.inf if fit_to is None else float(fit_to) - shift,
+        )
+    return options
 
 
 def diagnostics_dict(d):
@@ -147,6 +176,7 @@ def record_header(record, model, method, area, length):
         "source": record.source,
         "samples": int(record.time.size),
         "dt": record.dt,
+        "uniform_clock": record.uniform,
         "resampled_step_spread": record.resampled,
         "model": model,
         "method": method,
@@ -223,6 +253,9 @@ def _padded(fn, u, y, pad_to, **kwargs):
     up = np.concatenate([u, np.zeros((extra, u.shape[1]))])
     yp = np.concatenate([y, np.full(extra, y[-1])])
     mask = np.r_[np.ones(num), np.zeros(extra)]
+    if kwargs.get("direct") is not None:  # order-0 regressors are padded like the inputs
+        d = kwargs["direct"]
+        kwargs = {**kwargs, "direct": np.concatenate([d, np.zeros((extra, d.shape[1]))])}
     res = fn(up, yp, mask=mask, **kwargs)
     return jax.tree_util.tree_map(
         lambda a: np.asarray(a)[:num] if getattr(a, "ndim", 0) >= 1 and a.shape[0] == pad_to else a,
@@ -232,31 +265,42 @@ def _padded(fn, u, y, pad_to, **kwargs):
 
 def identify_record(
     record, *, model="springpot", method="adaptive", gamma="auto", lam=None, area=None,
-    length=None, pad_to=None,
+    length=None, pad_to=None, origin=None, fit_from=None, fit_to=None,
 ):
     """Runs the adaptive law and/or the refit on one record; returns ``(columns, summary)``.
-    With `pad_to`, the tracker and the refit run on the record padded to that length and
-    masked (results equal to the unpadded run within the solvers' tolerances)."""
+    With `pad_to`, the tracker and the refit of a record on a uniform clock run on it padded
+    to that length and masked (results equal to the unpadded run within the solvers'
+    tolerances). `origin` (the test's start, before the first sample) and the fit window
+    `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
+    the model's coefficients physical (`p_signs`)."""
     from .._identify import identify
     from .._refit import refit
 
+    if model in REFIT_ONLY and method != "refit":
+        raise ValueError(
+            f"--model {model} has a spring (an order-0 term) that the adaptive law and the "
+            "tracker do not take; use --method refit."
+        )
+    if method not in ("refit", "both") and not (origin is None and fit_from is None and fit_to is None):
+        raise ValueError("--origin, --fit-from and --fit-to set the refit; use --method refit or both.")
     u, y, names, physical = regressors(record, model, area, length)
+    grid = record.grid
+    pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
     columns = {"time": record.time}
     summary = record_header(record, model, method, area, length)
     if method in ("adaptive", "both", "kalman"):
         if method == "kalman":
-            res = _padded(
-                identify, u, y, pad_to, dt=record.dt, method="kalman", warn=False
-            )
+            res = _padded(identify, u, y, pad_to, **grid, method="kalman", warn=False)
         else:
-            res = identify(u, y, record.dt, gamma=gamma, lam=lam, warn=False)
+            res = identify(u, y, **grid, gamma=gamma, lam=lam, warn=False)
         cols, summary["adaptive"] = adaptive_part(res, y, physical)
         columns.update(cols)
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
     if method in ("refit", "both"):
-        fit = _padded(refit, u, y, pad_to, dt=record.dt)
+        options = refit_options(record, model, area, length, origin, fit_from, fit_to)
+        fit = _padded(refit, u, y, pad_to, **grid, **options)
         p = np.asarray(fit.p)
         phys = {k: float(v) for k, v in physical(p).items()}
         columns["refit_alpha"] = np.asarray(fit.order)
@@ -271,6 +315,7 @@ def identify_record(
             "at_bound": bool(fit.at_bound),
             "p": p.tolist(),
             "p_stderr": np.asarray(fit.p_stderr).tolist(),
+            "p_at_bound": list(fit.p_at_bound),
             "parameters": phys,
             "parameters_stderr": delta_stderr(physical, p, np.asarray(fit.p_cov)),
             "x0": float(fit.x0),

@@ -2,12 +2,15 @@
 
 import csv
 import dataclasses
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 UNIFORM_RTOL = 1e-6  # relative spread of the time steps below which a grid counts as uniform
+RESAMPLE_LIMIT = 1_000_000  # the most samples `resample` may create from one record
+# `resample` refuses a step more than this many times the record's shortest step: the samples
+# of a fast phase (a loading ramp) would be smoothed away
+RESAMPLE_MAX_RATIO = 4.0
 
 
 class DataError(ValueError):
@@ -16,11 +19,15 @@ class DataError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class Record:
-    """One recorded test on a uniform time grid.
+    """One recorded test, on its own clock.
 
-    ``time`` (N,), ``inputs`` (N, n) in the order of ``input_names``, ``output`` (N,), ``dt``;
+    ``time`` (N,) from 0 at the first sample (``time_offset`` is the file's time there),
+    ``inputs`` (N, n) in the order of ``input_names``, ``output`` (N,); ``uniform`` says
+    whether the steps are equal (to 1e-6), and ``dt`` is the step (the median step when not).
     ``source`` is the file, ``name`` the record (the file's stem or the group's value);
-    ``resampled`` is the relative spread of the original time steps when they were resampled.
+    ``resampled`` is the relative spread of the original time steps when the record was
+    resampled (``resample=``). `grid` gives the keyword for vojax's functions:
+    ``vojax.identify(rec.inputs, rec.output, **rec.grid)``.
     """
 
     name: str
@@ -33,6 +40,13 @@ class Record:
     dt: float
     resampled: float | None = None
     time_name: str = "time"
+    uniform: bool = True
+    time_offset: float = 0.0
+
+    @property
+    def grid(self) -> dict:
+        """``{"dt": dt}`` on a uniform clock, ``{"t": time}`` otherwise."""
+        return {"dt": self.dt} if self.uniform else {"t": self.time}
 
 
 def _read_csv(path: Path):
@@ -102,8 +116,10 @@ def _column(path, header, rows, line_numbers, name, numeric=True):
     return np.array(values, dtype=object if not numeric else float)
 
 
-def _uniform(path, name, t, columns: dict, lines, strict: bool):
-    """Checks the time column and brings the record onto a uniform grid."""
+def _clock(path, name, t, columns: dict, lines, strict: bool, resample=None):
+    """Checks the time column; resamples the record onto a uniform grid only when asked.
+
+    **Returns:** ``(time, columns, dt, spread, uniform)``."""
     label = f"{path}, record {name!r}" if name else str(path)
     for key, values in {"time": t, **columns}.items():
         bad = ~np.isfinite(values)
@@ -121,19 +137,40 @@ def _uniform(path, name, t, columns: dict, lines, strict: bool):
         )
     dt = float(np.median(steps))
     spread = float(np.max(np.abs(steps - dt)) / dt)
+    if resample is not None:
+        return _resample(label, t, columns, float(resample), steps, spread)
     if spread <= UNIFORM_RTOL:
-        return t, columns, dt, None
+        return t, columns, dt, None, True
     if strict:
         raise DataError(
             f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g} (--strict)."
         )
-    warnings.warn(
-        f"{label}: time steps vary by {100 * spread:.3g} % of the median step {dt:g}; "
-        "resampled linearly onto a uniform grid.",
-        stacklevel=3,
-    )
-    grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1)
-    return grid, {k: np.interp(grid, t, v) for k, v in columns.items()}, dt, spread
+    return t, columns, dt, None, False  # used as recorded: the kernels take any clock
+
+
+def _resample(label, t, columns, step, steps, spread):
+    """Linear resampling onto ``t_0 + k·step``, refused where it would lose a phase or
+    create more than `RESAMPLE_LIMIT` samples."""
+    if not np.isfinite(step) or step <= 0:
+        raise DataError(f"--resample must be a positive step, got {step}.")
+    count = int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1
+    if count > RESAMPLE_LIMIT:
+        raise DataError(
+            f"{label}: --resample {step:g} makes {count:,} samples of a record {t[-1] - t[0]:g} "
+            f"long (the limit is {RESAMPLE_LIMIT:,}); use a larger step, or leave --resample "
+            "out: irregular clocks are used as recorded."
+        )
+    shortest = int(np.argmin(steps))
+    if step > RESAMPLE_MAX_RATIO * steps[shortest]:
+        raise DataError(
+            f"{label}: the file has steps of {steps[shortest]:g} (at time {t[shortest]:g}), "
+            f"{step / steps[shortest]:.3g} times shorter than --resample {step:g}: resampling "
+            f"would smooth away what happens there. Use --resample ≤ "
+            f"{RESAMPLE_MAX_RATIO * steps[shortest]:g}, or leave it out: irregular clocks "
+            "are used as recorded."
+        )
+    grid = t[0] + step * np.arange(count)
+    return grid, {k: np.interp(grid, t, v) for k, v in columns.items()}, step, spread, True
 
 
 def load_records(
@@ -144,6 +181,7 @@ def load_records(
     output: str,
     group_by: str | None = None,
     strict: bool = False,
+    resample: float | None = None,
     trim_column: str | None = None,
     trim_below: float | None = None,
 ) -> list[Record]:
@@ -154,8 +192,11 @@ def load_records(
     - `time`, `inputs`, `output`: column names (NPZ: array names).
     - `group_by`: a column naming the record in a long-format file (e.g. ``specimen``); rows
       of a record need not be contiguous but keep their order.
-    - `strict`: reject a non-uniform time column instead of resampling it (with a warning
-      saying by how much the steps varied).
+    - `strict`: reject a non-uniform time column (by default it is used as recorded: vojax's
+      kernels integrate exactly between any increasing sample times).
+    - `resample`: a step: resample every record linearly onto a uniform grid of this step;
+      refused (`DataError`) when that makes more than 1,000,000 samples, or when the file has
+      steps more than 4 times shorter (a fast phase, such as a loading ramp, would be lost).
     - `trim_column`, `trim_below`: drop the leading samples while ``|column| < trim_below``
       (e.g. force before contact); the time is re-zeroed at the first kept sample.
 
@@ -208,7 +249,9 @@ def load_records(
                 )
             idx, t, rec_lines = idx[keep[0] :], t[keep[0] :], rec_lines[keep[0] :]
         data = {c: cols[c][idx] for c in dict.fromkeys([*inputs, output])}
-        grid, data, dt, spread = _uniform(path, name, t, data, rec_lines, strict)
+        grid, data, dt, spread, uniform = _clock(
+            path, name, t, data, rec_lines, strict, resample
+        )
         records.append(
             Record(
                 name=name or path.stem,
@@ -221,6 +264,8 @@ def load_records(
                 dt=dt,
                 resampled=spread,
                 time_name=time,
+                uniform=uniform,
+                time_offset=float(grid[0]),
             )
         )
     return records

@@ -1,0 +1,128 @@
+"""The command line on recordings as they come: irregular clocks used as recorded, the test's
+origin, fit windows, order-0 models and sign constraints, each equal to the library call."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax._cli import main
+
+COLUMNS = ["--time", "t", "--input", "stress", "--output", "strain"]
+
+
+def _write(path, t, stress, strain):
+    with open(path, "w") as f:
+        f.write("t,stress,strain\n")
+        for row in zip(t, stress, strain):
+            f.write(",".join(repr(float(v)) for v in row) + "\n")
+    return str(path)
+
+
+def _summary(folder):
+    return json.loads((folder / "summary.json").read_text())
+
+
+def test_log_spaced_creep_with_its_origin(tmp_path):
+    """A creep file logged on a log-spaced clock from 10 s, loaded at t = 0: the CLI uses the
+    samples as recorded (no resampling) and `--origin 0` gives the library's refit with
+    ``t`` and ``origin`` (the record's clock starts at its first sample, 10 s in the file)."""
+    t = np.geomspace(10.0, 1e6, 150)
+    strain = 0.02 + 1.5 * t**0.2 / math.gamma(1.2) * (1 + 1e-3 * np.sin(np.arange(150)))
+    path = _write(tmp_path / "creep.csv", t, np.full(t.size, 3.0), strain)
+    out = tmp_path / "out"
+    assert main(["identify", path, *COLUMNS, "--method", "refit", "--origin", "0", "--out", str(out)]) == 0
+    s = _summary(out)
+    assert s["uniform_clock"] is False and s["samples"] == 150
+    fit = vojax.refit(np.full(t.size, 3.0), strain, t=t - 10.0, origin=-10.0, p_signs=(1,))
+    assert s["refit"]["order"] == pytest.approx(float(fit.order[0]), rel=1e-10)
+    assert s["refit"]["parameters"]["eta"] == pytest.approx(1 / float(fit.p[0]), rel=1e-10)
+    assert abs(s["refit"]["order"] - 0.2) < 1e-3
+    table = np.genfromtxt(out / "identification.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(table["time"], t - 10.0, rtol=1e-15)
+
+
+def _ramp_hold_file(tmp_path):
+    dt = 0.05
+    t = dt * np.arange(300)
+    stress = np.minimum(t / 1.0, 1.0) * 2.0
+    strain = np.asarray(vojax.simulate(stress, 0.3, np.array([0.7]), dt))
+    strain = strain + np.where(t < 1.0, 0.2 * strain, 0.0)  # another law during the ramp
+    return _write(tmp_path / "ramp.csv", t + 5.0, stress, strain), t, stress, strain
+
+
+def test_fit_window_in_the_files_time(tmp_path):
+    """``--fit-from 6`` in the file's time (5 s before the record's clock) fits the hold phase
+    only: the library's refit with ``window=(1, ∞)`` on the record's clock."""
+    path, t, stress, strain = _ramp_hold_file(tmp_path)
+    out = tmp_path / "out"
+    assert main(["identify", path, *COLUMNS, "--method", "refit", "--fit-from", "6", "--out", str(out)]) == 0
+    fit = vojax.refit(stress, strain, 0.05, window=(1.0, np.inf), p_signs=(1,))
+    s = _summary(out)
+    assert s["refit"]["order"] == pytest.approx(float(fit.order[0]), rel=1e-10)
+    assert abs(s["refit"]["order"] - 0.3) < 1e-6  # the hold phase is the springpot's
+
+
+def test_maxwell_and_signs_from_the_command_line(tmp_path, capsys):
+    """`--model maxwell` refits with its spring as the order-0 regressor; with another method
+    it is refused naming the option; so are the refit's options with the tracker alone."""
+    dt = 0.02
+    t = dt * np.arange(400)
+    stress = 1.0 + 0.5 * np.sin(1.3 * t)
+    strain = np.asarray(vojax.simulate(stress, 0.35, np.array([0.5]), dt)) + stress / 4.0
+    path = _write(tmp_path / "maxwell.csv", t, stress, strain)
+    out = tmp_path / "out"
+    assert main(["identify", path, *COLUMNS, "--model", "maxwell", "--method", "refit", "--out", str(out)]) == 0
+    s = _summary(out)["refit"]
+    assert s["parameters"]["E"] == pytest.approx(4.0, rel=1e-6)
+    assert s["parameters"]["eta"] == pytest.approx(2.0, rel=1e-6)
+    assert s["p_at_bound"] == [False, False]
+    assert main(["identify", path, *COLUMNS, "--model", "maxwell", "--out", str(tmp_path / "o2")]) == 1
+    assert "add --method refit" in capsys.readouterr().err
+    assert main(["identify", path, *COLUMNS, "--origin", "-1", "--out", str(tmp_path / "o3")]) == 1
+    assert "--origin set the refit, which --method kalman does not run" in capsys.readouterr().err
+
+
+def test_kelvin_voigt_keeps_k_non_negative(tmp_path):
+    """Data whose free Kelvin–Voigt fit has k < 0: the CLI holds k at 0 (its bound), says so,
+    and the order and η are the springpot's fit of the same data."""
+    dt = 0.05
+    t = dt * np.arange(300)
+    stress = 1.0 + 0.4 * np.sin(0.9 * t)
+    x = np.asarray(vojax.simulate(stress, 0.4, np.array([1.0]), dt))
+    strain = x + 0.02 * x * np.sin(2.3 * t)
+    free = vojax.refit(np.stack([stress, strain], 1), strain, dt)
+    assert float(free.p[1]) > 0  # k = −p₂/p₁ < 0 without the constraint
+    path = _write(tmp_path / "kv.csv", t, stress, strain)
+    out = tmp_path / "out"
+    assert main(["identify", path, *COLUMNS, "--model", "kelvin-voigt", "--method", "refit", "--out", str(out)]) == 0
+    s = _summary(out)["refit"]
+    assert s["p_at_bound"] == [False, True] and s["parameters"]["k"] == 0.0
+    spring = vojax.refit(stress, strain, dt)
+    assert s["order"] == pytest.approx(float(spring.order[0]), rel=1e-8)
+    assert s["parameters"]["eta"] == pytest.approx(1 / float(spring.p[0]), rel=1e-8)
+
+
+def test_batch_runs_irregular_records_on_their_clock(tmp_path):
+    """A folder with two uniform records and one on an irregular clock: all three computed;
+    the irregular one equals `identify_record` on it alone."""
+    from vojax._data._pipeline import identify_record
+
+    rng = np.random.default_rng(0)
+    files = []
+    for i, jitter in enumerate((0.0, 0.0, 0.3)):
+        steps = 0.05 * (1 + jitter * rng.uniform(-1, 1, 199))
+        t = np.concatenate([[0.0], np.cumsum(steps)])
+        stress = 1.0 + 0.5 * np.sin(0.8 * t + i)
+        strain = np.asarray(vojax.simulate(stress, 0.4, np.array([0.8]), t=t))
+        files.append(_write(tmp_path / f"r{i}.csv", t, stress, strain))
+    out = tmp_path / "out"
+    assert main(["batch", *files, *COLUMNS, "--method", "refit", "--quiet", "--figures", "overview", "--out", str(out)]) == 0
+    (rec,) = vojax.load_records(files[2], time="t", inputs=["stress"], output="strain")
+    assert not rec.uniform
+    _, alone = identify_record(rec, method="refit")
+    s = _summary(out / "r2")
+    assert s["refit"]["order"] == pytest.approx(alone["refit"]["order"], rel=1e-10)
+    assert abs(s["refit"]["order"] - 0.4) < 1e-6
