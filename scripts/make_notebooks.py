@@ -176,15 +176,15 @@ def report(name, t, u, y, tracker, fit, u_label, y_label):
     return fig"""),
     ("md", """## The adhesive staircase
 
-Its time steps are uneven at the ends of the holds (2.4 s, then 6 s): the loader resamples
-onto a uniform grid at the median step and says so."""),
-    ("code", """with warnings.catch_warnings(record=True) as caught:
-    warnings.simplefilter("always")
-    (oca,) = vojax.load_records(vojax.io.example_file("adhesive"), time="time_s",
-                                inputs=["nominal_shear_stress_kPa"], output="shear_strain")
-print(caught[0].message)
-tracker = vojax.identify(oca.inputs, oca.output, oca.dt, method="kalman", warn=False)
-fit = vojax.refit(oca.inputs, oca.output, oca.dt)
+Its time steps are uneven at the ends of the holds (2.4 s, then 6 s). vojax uses the samples
+as recorded: the kernels integrate exactly between any increasing times, and `record.grid`
+hands the clock to every function (`t=` on an irregular clock, `dt=` on a uniform one)."""),
+    ("code", """(oca,) = vojax.load_records(vojax.io.example_file("adhesive"), time="time_s",
+                            inputs=["nominal_shear_stress_kPa"], output="shear_strain")
+steps = np.diff(oca.time)
+print("uniform clock: %s; steps from %.3g to %.3g s" % (oca.uniform, steps.min(), steps.max()))
+tracker = vojax.identify(oca.inputs, oca.output, **oca.grid, method="kalman", warn=False)
+fit = vojax.refit(oca.inputs, oca.output, **oca.grid)
 report("adhesive", oca.time, oca.inputs, oca.output, tracker, fit,
        "shear stress (kPa)", "shear strain (–)");"""),
     ("md", """The tracker reproduces the strain almost exactly (NRMSE ≈ 0) and reports a band of ±0.001 —
@@ -200,15 +200,14 @@ come with it."""),
     ("md", """## Passive myocardium: a 10 s ramp, then a hold
 
 Tension (kPa) drives the stretch ε = (L − 0.95)/0.95. The hold is log-spaced in the file;
-resampling at the median step keeps the ramp (about 19 samples)."""),
-    ("code", """with warnings.catch_warnings(record=True) as caught:
-    warnings.simplefilter("always")
-    (myo,) = vojax.load_records(vojax.io.example_file("myocardium"), time="Time",
-                                inputs=["F"], output="L")
-print(caught[0].message)
+on its own clock the ramp keeps every recorded sample."""),
+    ("code", """(myo,) = vojax.load_records(vojax.io.example_file("myocardium"), time="Time",
+                            inputs=["F"], output="L")
+steps = np.diff(myo.time)
+print("uniform clock: %s; %d samples, steps from %.3g to %.3g s" % (myo.uniform, myo.time.size, steps.min(), steps.max()))
 strain = (myo.output - 0.95) / 0.95
-tracker2 = vojax.identify(myo.inputs, strain, myo.dt, method="kalman", warn=False)
-fit2 = vojax.refit(myo.inputs, strain, myo.dt)
+tracker2 = vojax.identify(myo.inputs, strain, **myo.grid, method="kalman", warn=False)
+fit2 = vojax.refit(myo.inputs, strain, **myo.grid)
 report("myocardium", myo.time, myo.inputs, strain, tracker2, fit2, "tension (kPa)", "stretch ε (–)");"""),
     ("md", """Here the tracker's order runs from one bound to the other and its diagnostics say the
 estimation is not trustworthy: the record is a single ramp and hold, too little excitation

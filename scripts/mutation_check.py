@@ -25,8 +25,8 @@ LAW = "tests/test_law_transcription.py"
 MUTATIONS = {
     "order law uses the a-priori error": (
         "vojax/_adaptive/_law.py",
-        [("self.order.step(alpha, lam_k, y_k - y_hat)",
-          "self.order.step(alpha, lam_k, y_k - jnp.dot(state.p, phi))")],
+        [("self.order.step(alpha, lam_k, y_k - y_hat, h)",
+          "self.order.step(alpha, lam_k, y_k - jnp.dot(state.p, phi), h)")],
         [LAW],
     ),
     "online tracker's y_pred taken after the update": (
@@ -60,18 +60,18 @@ MUTATIONS = {
     ),
     "sign of the order law flipped": (
         "vojax/_adaptive/_order.py",
-        [("alpha + self.dt * self.gamma", "alpha - self.dt * self.gamma")],
+        [("alpha + h * self.gamma", "alpha - h * self.gamma")],
         [LAW],
     ),
     "h dropped from the order law": (
         "vojax/_adaptive/_order.py",
-        [("alpha + self.dt * self.gamma * sensitivity", "alpha + self.gamma * sensitivity")],
+        [("alpha + h * self.gamma * sensitivity", "alpha + self.gamma * sensitivity")],
         [LAW],
     ),
     "refit covariance uses sigma, not sigma squared": (
         "vojax/_refit.py",
-        [("cov = sigma2 * jnp.linalg.pinv(jac.T @ jac)",
-          "cov = jnp.sqrt(sigma2) * jnp.linalg.pinv(jac.T @ jac)")],
+        [("cov = sigma2 * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))",
+          "cov = jnp.sqrt(sigma2) * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))")],
         ["tests/test_refit.py"],
     ),
     "batch writes the first record's law output for every record": (
@@ -138,13 +138,13 @@ MUTATIONS = {
     ),
     "refit mask ignored in the residuals": (
         "vojax/_refit.py",
-        [("lambda th, _: (model(th) - big_y) * w", "lambda th, _: model(th) - big_y")],
+        [("lambda th, _: (model(th) - big_y) * sw", "lambda th, _: model(th) - big_y")],
         ["tests/test_refit.py"],
     ),
     "refit's tolerance passed as a Python number (a retrace per value)": (
         "vojax/_refit.py",
-        [("jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,",
-          "float(rtol), float(atol), max_steps, throw,")],
+        [("jnp.asarray(rtol, big_y.dtype),\n            jnp.asarray(atol, big_y.dtype), max_steps, throw,",
+          "float(rtol),\n            float(atol), max_steps, throw,")],
         ["tests/test_retracing.py::test_refit_traces_once"],
     ),
     "order-free history read one sample late": (
@@ -155,8 +155,8 @@ MUTATIONS = {
     ),
     "refit Jacobian's order column without the chain rule dβ/draw": (
         "vojax/_refit.py",
-        [("[(dphi_t @ p_t[:width])[:, None] * dbeta, design(phi_t)], axis=1",
-          "[(dphi_t @ p_t[:width])[:, None] * jnp.ones_like(dbeta), design(phi_t)], axis=1")],
+        [("[(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1",
+          "[(dphi_t @ (p_t[:width] * active[:width]))[:, None] * jnp.ones_like(dbeta), design(phi_t)], axis=1")],
         ["tests/test_refit.py::test_standard_errors_are_the_gauss_newton_covariance",
          "tests/test_refit.py::test_knot_standard_errors_from_an_autodiff_jacobian"],
     ),
@@ -166,6 +166,58 @@ MUTATIONS = {
         ["tests/test_tune.py"],
     ),
 
+    "grid weights of u_i and u_{i+1} swapped": (
+        "vojax/_kernels/_weights.py",
+        [("        return scale * w_this, scale * w_next", "        return scale * w_next, scale * w_this")],
+        ["tests/test_grid.py"],
+    ),
+    "grid weights' long-lag series with a wrong coefficient": (
+        "vojax/_kernels/_weights.py",
+        [("s_this = _poly([c / ((j + 1) * (j + 2))", "s_this = _poly([c / ((j + 1) * (j + 3))")],
+        ["tests/test_grid.py::test_interval_weights_against_50_digit_closed_forms"],
+    ),
+    "exponential memory on a grid decays by the smallest step": (
+        "vojax/_kernels/_exponential.py",
+        [("return h, self.log_q - s * h, jnp.exp(-s * h), w_prev, w_cur",
+          "return h, self.log_q - s * h, jnp.exp(-s * self.dt), w_prev, w_cur")],
+        ["tests/test_grid.py"],
+    ),
+    "the law's LSFF ignores the local step": (
+        "vojax/_adaptive/_law.py",
+        [("lambda s, ph: self.lsff.step(s, ph, y_k, h)", "lambda s, ph: self.lsff.step(s, ph, y_k)")],
+        ["tests/test_grid_identify.py"],
+    ),
+    "refit with an origin fits the added sample": (
+        "vojax/_refit.py",
+        [("w = np.concatenate([[0.0], w])", "w = np.concatenate([[1.0], w])")],
+        ["tests/test_refit_recordings.py"],
+    ),
+    "sign constraints never hold a coefficient": (
+        "vojax/_refit.py",
+        [("broken = (active > 0) & (signs * coefficients < 0)",
+          "broken = (active > 0) & (signs * coefficients < -np.inf)")],
+        ["tests/test_refit_recordings.py::test_sign_constraint_holds_the_broken_coefficient_at_zero"],
+    ),
+    "refit weights not square-rooted in the residuals": (
+        "vojax/_refit.py",
+        [("sw = jnp.asarray(np.sqrt(w), u2.dtype)", "sw = jnp.asarray(w, u2.dtype)")],
+        ["tests/test_refit_recordings.py::test_weights_are_weighted_least_squares"],
+    ),
+    "Zener's E1 from the wrong sum": (
+        "vojax/_models/_viscoelastic.py",
+        [("e1 = total - e0", "e1 = total + e0")],
+        ["tests/test_models.py"],
+    ),
+    "resampling smooths away a fast phase": (
+        "vojax/_data/_records.py",
+        [("if step > RESAMPLE_MAX_RATIO * steps[shortest]:", "if step > 1e9 * steps[shortest]:")],
+        ["tests/test_data_cli.py"],
+    ),
+    "the CLI's fit window ignores the file's time offset": (
+        "vojax/_data/_pipeline.py",
+        [("    shift = record.time_offset", "    shift = 0.0")],
+        ["tests/test_cli_recordings.py"],
+    ),
 }
 
 

@@ -129,6 +129,7 @@ def test_convergence_order_on_graded_grids(rule, mu, expected):
     assert abs(slope(1.0 / ns, np.array(errors)) - expected) < 0.1
 
 
+@pytest.mark.slow
 def test_exponential_history_equals_scan_on_a_grid():
     """The order-free history of a grid (per-step decays and weights in an associative scan)
     read out at an order trajectory equals the sample-by-sample scan, Φ and ∂Φ/∂b."""

@@ -25,7 +25,12 @@ def _uniform_record(n=400, order=0.45, noise=0.01, seed=0):
 
 
 @pytest.mark.parametrize(
-    "kwargs", [dict(gamma=0.5, lam=0.9), dict(), pytest.param(dict(method="kalman"), marks=pytest.mark.slow)]
+    "kwargs",
+    [
+        dict(gamma=0.5, lam=0.9),
+        pytest.param(dict(), marks=pytest.mark.slow),
+        pytest.param(dict(method="kalman"), marks=pytest.mark.slow),
+    ],
 )
 def test_uniform_times_equal_the_step(kwargs):
     """Fixed gains, tuned gains and the tracker: ``t = k·dt`` gives the `dt` results to the

@@ -44,6 +44,13 @@ def regressors(record, model: str, area=None, length=None):
     if model == "linear":
         names = [f"p_{c}" for c in record.input_names]
         return record.inputs, record.output, names, _Columns(tuple(names))
+    stress, strain = _stress_strain(record, model, area, length)
+    law = MODELS[model]
+    return np.asarray(law.inputs(stress, strain)), strain, list(law.names), law.parameters
+
+
+def _stress_strain(record, model, area, length):
+    """Eq. (35) on a record: ``σ = F/area``, ``ε = d/length`` (either 1 when not given)."""
     if record.inputs.shape[1] != 1:
         raise ValueError(
             f"--model {model} takes one --input (the stress or force), got {record.inputs.shape[1]}; "
@@ -60,8 +67,7 @@ def regressors(record, model: str, area=None, length=None):
                 f"reach {big:.3g}, beyond what float64 arithmetic can square; give {option} "
                 "in the units of the data's columns."
             )
-    law = MODELS[model]
-    return np.asarray(law.inputs(stress, strain)), strain, list(law.names), law.parameters
+    return stress, strain
 
 
 def refit_options(record, model, area=None, length=None, origin=None, fit_from=None, fit_to=None):
@@ -72,8 +78,7 @@ def refit_options(record, model, area=None, length=None, origin=None, fit_from=N
     if model in MODELS:
         law = MODELS[model]
         options["p_signs"] = law.p_signs
-        stress = record.inputs[:, 0] / (area or 1.0)
-        direct = law.direct(stress, record.output / (length or 1.0))
+        direct = law.direct(*_stress_strain(record, model, area, length))
         if direct is not None:
             options["direct"] = np.asarray(direct)
     shift = record.time_offset
