@@ -4,12 +4,15 @@
 
 Cases, each in a fresh process (compilation counted apart from the warm time):
 
-- the rheometer creep record of ../shared/data (a 500 Pa step; its log-spaced samples are
-  resampled by the loader at the median step): `vojax.refit` (constant order, offset
-  estimated) against `scipy.optimize.curve_fit` of the closed-form springpot creep
-  ε(t) = c + σ₀ t^q / (η Γ(1+q)) on the same samples, and against one `vojax.identify`;
-- the myocardium 0.1 s ramp-hold record (tension → stretch), resampled likewise: `vojax.refit`
-  to convergence; and the same record interpolated onto 60,000 samples (a long record).
+- the rheometer creep record of ../shared/data (a 500 Pa step; its log-spaced samples are used
+  on their own clock, `record.grid`; vojax before 2026-11-22 resampled them at the median
+  step): `vojax.refit` (constant order, offset estimated) against `scipy.optimize.curve_fit`
+  of the closed-form springpot creep ε(t) = c + σ₀ t^q / (η Γ(1+q)) on the same samples, and
+  against one `vojax.identify`;
+- the myocardium 0.1 s ramp-hold record (tension → stretch), likewise: `vojax.refit` to
+  convergence; and the same record interpolated onto 60,000 uniform samples (a long record);
+- `logspaced1e4-refit`: a synthetic creep of 10,000 samples log-spaced over 10 decades
+  (1e-6 … 1e4 s) after a step at t = 0 (`t=`, `origin=0`): uniformly it would need 1e10 samples.
 
 Prints the warm times (median of --repeats), the orders found and the ratios measured in the
 same run.
@@ -33,7 +36,13 @@ jax.config.update("jax_enable_x64", True)
 case, data, repeats = sys.argv[1], sys.argv[2], int(sys.argv[3])
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
-    if case.startswith("creep"):
+    if case.startswith("logspaced"):
+        tt = np.geomspace(1e-6, 1e4, 10_000)
+        u = np.full((tt.size, 1), 2.0)
+        y = 0.01 + 2.0 * tt**0.3 / 1.5 / 0.8974706963062772
+        y = y * (1 + 1e-3 * np.random.default_rng(0).standard_normal(tt.size))
+        rec = type("R", (), dict(dt=float(np.median(np.diff(tt))), time=tt, grid={"t": tt}))()
+    elif case.startswith("creep"):
         rec, = vojax.load_records(data + "/rheometer-creep-hermes/creep_experiment.csv",
                                   time="time_s", inputs=["stress_Pa"], output="strain")
         u, y = rec.inputs, rec.output
@@ -51,7 +60,11 @@ def timed(fn):
     t0 = time.perf_counter(); out = fn(); jax.block_until_ready(out) if not isinstance(out, tuple) else None
     return time.perf_counter() - t0, out
 
-result = dict(case=case, samples=int(y.size), dt=rec.dt)
+grid = getattr(rec, "grid", {"dt": rec.dt})  # records on their own clock (vojax ≥ 2026-11-22)
+extra = dict(origin=-1e-6) if case.startswith("logspaced") else {}  # the step at t = 0
+if case.startswith("logspaced"):
+    grid = {"t": rec.time - rec.time[0]}
+result = dict(case=case, samples=int(y.size), dt=rec.dt, uniform="dt" in grid)
 if case == "creep-curve_fit":
     from scipy.optimize import curve_fit
     from scipy.special import gamma as G
@@ -66,19 +79,19 @@ if case == "creep-curve_fit":
     result.update(warm=float(np.median(times)), order=float(popt[0]),
                   order_stderr=float(np.sqrt(pcov[0, 0])))
 elif case == "creep-identify":
-    t0 = time.perf_counter(); res = vojax.identify(u, y, rec.dt, warn=False); res.alpha.block_until_ready()
+    t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False); res.alpha.block_until_ready()
     cold = time.perf_counter() - t0
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter(); res = vojax.identify(u, y, rec.dt, warn=False); res.alpha.block_until_ready()
+        t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False); res.alpha.block_until_ready()
         times.append(time.perf_counter() - t0)
     result.update(cold=cold, warm=float(np.median(times)), order=float(res.alpha[-1]))
 else:  # refit
-    t0 = time.perf_counter(); fit = vojax.refit(u, y, rec.dt); fit.order.block_until_ready()
+    t0 = time.perf_counter(); fit = vojax.refit(u, y, **grid, **extra); fit.order.block_until_ready()
     cold = time.perf_counter() - t0
     times = []
-    for _ in range(repeats if case.startswith("creep") else 1):
-        t0 = time.perf_counter(); fit = vojax.refit(u, y, rec.dt); fit.order.block_until_ready()
+    for _ in range(repeats if not case.startswith("myocardium60k") else 1):
+        t0 = time.perf_counter(); fit = vojax.refit(u, y, **grid, **extra); fit.order.block_until_ready()
         times.append(time.perf_counter() - t0)
     import optimistix as optx
     result.update(cold=cold, warm=float(np.median(times)), order=float(fit.order[0]),
@@ -89,7 +102,7 @@ print(json.dumps(result))
 
 
 CASES = ("creep-curve_fit", "creep-refit", "creep-identify", "myocardium-refit",
-         "myocardium60k-refit")
+         "myocardium60k-refit", "logspaced1e4-refit")
 
 
 def main():

@@ -209,9 +209,9 @@ strain = (myo.output - 0.95) / 0.95
 tracker2 = vojax.identify(myo.inputs, strain, **myo.grid, method="kalman", warn=False)
 fit2 = vojax.refit(myo.inputs, strain, **myo.grid)
 report("myocardium", myo.time, myo.inputs, strain, tracker2, fit2, "tension (kPa)", "stretch ε (–)");"""),
-    ("md", """Here the tracker's order runs from one bound to the other and its diagnostics say the
-estimation is not trustworthy: the record is a single ramp and hold, too little excitation
-for a moving order, and its fit is good only because q and η trade off freely. The refit's
+    ("md", """Here the tracker's band covers most of the order range and its diagnostics say the data
+do not determine the order: the record is a single ramp and hold, too little excitation for a
+moving order, and its fit is good only because q and η trade off freely. The refit's
 constant q, with its interval, is the number to report for this record; the tracker's
 message is the warning vojax gives instead of a confident-looking curve."""),
 ]

@@ -70,8 +70,7 @@ MUTATIONS = {
     ),
     "refit covariance uses sigma, not sigma squared": (
         "vojax/_refit.py",
-        [("cov = sigma2 * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))",
-          "cov = jnp.sqrt(sigma2) * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))")],
+        [("    cov = sigma2 * inverse\n    raw_of", "    cov = jnp.sqrt(sigma2) * inverse\n    raw_of")],
         ["tests/test_refit.py"],
     ),
     "batch writes the first record's law output for every record": (
@@ -212,6 +211,12 @@ MUTATIONS = {
         "vojax/_data/_records.py",
         [("if step > RESAMPLE_MAX_RATIO * steps[shortest]:", "if step > 1e9 * steps[shortest]:")],
         ["tests/test_data_cli.py"],
+    ),
+    "refit covariance by a pseudo-inverse of the normal matrix": (
+        "vojax/_refit.py",
+        [("    cov = scale[:, None] * ((vt.T * inv_s2) @ vt) * scale[None, :]",
+          "    cov = jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))")],
+        ["tests/test_refit_recordings.py"],
     ),
     "the CLI's fit window ignores the file's time offset": (
         "vojax/_data/_pipeline.py",

@@ -188,3 +188,53 @@ def test_recording_options_validation(kwargs, error, match):
     y = np.linspace(0.0, 1.0, 50)
     with pytest.raises(error, match=match):
         vojax.refit(u, y, 0.1, **kwargs)
+
+
+def _kelvin_voigt_relaxation(q=0.3, eta=40.0, k=20.0, ramp=1.0, n=240):
+    """A strain ramp to 0.2 over `ramp` s, then held; the stress of σ = kε + η D^q ε in closed
+    form (Riemann–Liouville from rest): D^q of the ramp r t is r t^{1−q}/Γ(2−q), and the hold
+    subtracts the same from t − ramp. Log-spaced times after a linear ramp, like the
+    myocardium files."""
+    t = np.concatenate([np.linspace(0.0, ramp, 41), ramp + np.geomspace(0.01, 100.0, n - 41)])
+    r = 0.2 / ramp
+    strain = np.minimum(t, ramp) * r
+    d = r * (t ** (1 - q) - np.where(t > ramp, t - ramp, 0.0) ** (1 - q)) / math.gamma(2 - q)
+    return t, k * strain + eta * d, strain
+
+
+def test_a_hold_of_constant_output_is_not_a_confident_order():
+    """Strain as output during a strain hold is constant: with the offset estimated, the hold
+    alone does not determine the order, and the refit must not say it does (a pseudo-inverse of
+    the normal matrix reported ±5e-10 here). From rest (x0 = 0) the same window recovers the
+    truth (noise-free data: to the quadrature's error on this grid)."""
+    t, stress, strain = _kelvin_voigt_relaxation()
+    u = np.stack([stress, strain], axis=1)
+    hold = (1.0, np.inf)
+    loose = vojax.refit(u, strain, t=t, window=hold)
+    assert not float(loose.order_stderr[0]) < 0.05
+    assert float(loose.order_lower[0]) < 0.2 and float(loose.order_upper[0]) > 0.8
+    fit = vojax.refit(u, strain, t=t, window=hold, x0=0.0)
+    assert abs(float(fit.order[0]) - 0.3) < 0.01
+    phys = vojax.KelvinVoigt().parameters(fit.p)
+    assert abs(float(phys["k"]) - 20.0) < 0.05 * 20.0
+
+
+def test_an_undetermined_coefficient_has_an_infinite_error():
+    """An input that is zero over the record leaves its coefficient undetermined: its standard
+    error and variance are inf (not the 0 a pseudo-inverse gives), the other coefficient's is
+    the one-input fit's, and the delta method keeps quantities free of it finite."""
+    from vojax._stats import delta_stderr
+
+    dt, n = 0.05, 300
+    t = dt * np.arange(n)
+    s = np.sin(0.9 * t) + 0.5
+    y = np.asarray(vojax.simulate(s, 0.4, np.array([1.5]), dt))
+    y = y + 1e-3 * np.random.default_rng(5).standard_normal(n)
+    fit = vojax.refit(np.stack([s, np.zeros(n)], 1), y, dt, x0=0.0)
+    one = vojax.refit(s, y, dt, x0=0.0)
+    assert np.isinf(float(fit.p_stderr[1])) and np.isinf(float(fit.p_cov[1, 1]))
+    np.testing.assert_allclose(fit.p_stderr[0], one.p_stderr[0], rtol=1e-6)
+    np.testing.assert_allclose(fit.order_stderr, one.order_stderr, rtol=1e-6)
+    se = delta_stderr(lambda p: {"a": 1 / p[0], "b": p[1] / p[0]}, fit.p, fit.p_cov)
+    assert np.isfinite(se["a"]) and np.isinf(se["b"])
+    assert se["a"] == pytest.approx(float(one.p_stderr[0]) / float(one.p[0]) ** 2, rel=1e-6)

@@ -23,6 +23,10 @@ class Refit(eqx.Module):
     - `p` (n + m,), `p_stderr`, `p_cov` (n + m, n + m): the fitted coefficients of the
       integrated inputs and then of the `direct` regressors, their standard errors and
       covariance; `p_at_bound`: which coefficients were held at 0 by `p_signs` (error 0).
+    - A standard error (and variance) is ``inf`` where the data do not determine the quantity:
+      the Jacobian scaled to unit columns has a singular value below 1e-10 of its largest
+      along it (e.g. a hold phase of constant output with the offset estimated). The order's
+      interval then spans `order_bounds`.
     - `x0`, `x0_stderr`: the output offset (at `origin` when given), estimated unless given
       (then its error is 0).
     - `knots` (K,), `knot_times` (K,): the fitted orders at the knots (K = 1: constant), and
@@ -53,6 +57,31 @@ class Refit(eqx.Module):
 
 
 TRACES = {"fit": 0}
+# a direction of the column-scaled Jacobian whose singular value is below this fraction of the
+# largest is not determined by the data: the coefficients along it get an infinite variance
+UNDETERMINED_RCOND = 1e-10
+
+
+def _gauss_newton(jac, free):
+    """``(JᵀJ)⁻¹`` from the SVD of the Jacobian with unit columns (unit-free; the normal
+    matrix, which squares the condition number, is never formed), and which parameters the
+    data do not determine: those with weight on a direction whose singular value is below
+    `UNDETERMINED_RCOND` of the largest, or whose column is 0. Their variance is returned as
+    ``inf`` (and their covariances 0): a pseudo-inverse would report 0 there, the most
+    confident number for the least determined parameter. Parameters with ``free = 0`` are held
+    (variance 0). The residual variance's degrees of freedom count the determined ones
+    only (N − rank J)."""
+    aug = jnp.concatenate([jac, jnp.diag(1.0 - free)], axis=0)  # held: a unit row, no effect
+    norms = jnp.linalg.norm(aug, axis=0)
+    scale = jnp.where(norms > 0, 1.0 / jnp.where(norms > 0, norms, 1.0), 0.0)
+    _, s, vt = jnp.linalg.svd(aug * scale, full_matrices=False)
+    kept = s > UNDETERMINED_RCOND * s[0]
+    inv_s2 = jnp.where(kept, 1.0 / jnp.where(kept, s, 1.0) ** 2, 0.0)
+    cov = scale[:, None] * ((vt.T * inv_s2) @ vt) * scale[None, :]
+    loose = jnp.any((jnp.abs(vt.T) > 1e-6) & ~kept[None, :], axis=1) | (norms == 0)
+    loose = loose & (free > 0)
+    cov = jnp.where(loose[:, None] | loose[None, :], 0.0, cov) * jnp.outer(free, free)
+    return cov + jnp.diag(jnp.where(loose, jnp.inf, 0.0)), loose
 
 
 def _knot_places(num_knots):
@@ -350,13 +379,17 @@ def _fit(
         [(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1
     ) * sw[:, None]
     free = jnp.concatenate([jnp.ones((num_knots,), sw.dtype), keep])
-    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - jnp.sum(free), 1.0)
+    inverse, loose = _gauss_newton(jac, free)
+    determined = jnp.sum(free) - jnp.sum(loose, dtype=sw.dtype)
+    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - determined, 1.0)
     sigma2 = jnp.sum((sw * residuals) ** 2) / dof
-    # held coefficients: an identity block in the information, then no variance
-    cov = sigma2 * jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free)) * jnp.outer(free, free)
+    cov = sigma2 * inverse
     raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
     graw = jax.jacfwd(raw_of)(theta)
-    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, cov, graw), 0.0))
+    finite = jnp.where(loose[:, None] | loose[None, :], 0.0, cov)
+    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, finite, graw), 0.0))
+    # a sample whose order depends on an undetermined knot: an infinite error, the band the range
+    raw_sd = jnp.where(jnp.any((jnp.abs(graw) > 0) & loose[None, :], axis=1), jnp.inf, raw_sd)
     raw = raw_of(theta)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
     pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
@@ -396,10 +429,11 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
         active[int(np.argmax(np.where(broken, -signs * np.asarray(p[:count]), -np.inf)))] = 0.0
     fit = full @ p
     residuals = big_y - fit
-    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - float(np.sum(active)), 1.0)
+    inverse, loose = _gauss_newton(a * sw[:, None], jnp.asarray(active))
+    determined = float(np.sum(active)) - jnp.sum(loose, dtype=sw.dtype)
+    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - determined, 1.0)
     sigma2 = jnp.sum((sw * residuals) ** 2) / dof
-    aw = a * sw[:, None]
-    cov = sigma2 * jnp.linalg.pinv(aw.T @ aw + jnp.diag(1.0 - active)) * np.outer(active, active)
+    cov = sigma2 * inverse
     zero = jnp.zeros_like(fixed)
     return Refit(
         order=fixed,

@@ -32,7 +32,12 @@ def delta_stderr(fn, p, cov) -> dict:
         jacobian = _jacobian
     jac = np.asarray(jacobian(fn, p))
     names = list(fn(np.asarray(p)))
-    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+    # an infinite variance (a coefficient the data do not determine) makes every quantity that
+    # depends on it undetermined too, and leaves the others alone
+    loose = ~np.isfinite(np.diag(cov))
+    finite = np.where(loose[:, None] | loose[None, :], 0.0, cov)
+    var = np.einsum("ij,jk,ik->i", jac, finite, jac)
+    var = np.where(np.any((np.abs(jac) > 0) & loose[None, :], axis=1), np.inf, var)
     return {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(names, var)}
 
 

@@ -119,6 +119,12 @@ def _non_finite(data, where=""):
     return None
 
 
+def _without_errors(data):
+    if isinstance(data, dict):
+        return {k: _without_errors(v) for k, v in data.items() if "stderr" not in k}
+    return data
+
+
 def check_finite(summary, columns):
     """Raises `ValueError` naming the first non-finite estimate: a failure is never a result."""
     for name in ESTIMATES:
@@ -127,7 +133,11 @@ def check_finite(summary, columns):
             if not np.all(np.isfinite(values)):
                 k = int(np.argmax(~np.isfinite(values)))
                 raise ValueError(f"the identification diverged: {name} is not finite at sample {k}.")
-    bad = _non_finite({k: v for k, v in summary.items() if k in ("adaptive", "refit")})
+    # an infinite standard error is a result (the data do not determine that quantity; JSON
+    # writes null), a non-finite estimate is not
+    bad = _non_finite(
+        {k: _without_errors(v) for k, v in summary.items() if k in ("adaptive", "refit")}
+    )
     if bad is not None:
         raise ValueError(f"the identification diverged: {bad} is not finite.")
 
