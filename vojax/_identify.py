@@ -65,8 +65,9 @@ class Identification(eqx.Module):
     - `dp` (N, n): ∂p/∂β along a uniform order shift (26), and `Lambda` (N,): Λ of eq. (30);
       ``None`` for ``method="kalman"``.
     - `method`, `diagnostics` (`Diagnostics`), and the settings used: `gamma`, `lam`, `alpha0`,
-      `dt`, `alpha_bounds`, `memory` (for ``"kalman"``, `gamma` and `lam` are NaN and
-      `diagnostics`/`tuning` say what was chosen).
+      `dt` (the median step when the samples came with times `t`), `alpha_bounds`, `memory`
+      (for ``"kalman"``, `gamma` and `lam` are NaN and `diagnostics`/`tuning` say what was
+      chosen).
 
     For ``method="gradient"`` the band is the law's spread over realisations of the
     measurement noise, by the delta method through its own recursion (see
