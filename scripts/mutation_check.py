@@ -193,8 +193,8 @@ MUTATIONS = {
     ),
     "sign constraints never hold a coefficient": (
         "vojax/_refit.py",
-        [("broken = (active > 0) & (signs * coefficients < 0)",
-          "broken = (active > 0) & (signs * coefficients < -np.inf)")],
+        [("broken = (active[:count] > 0) & (signs * coefficients < 0)",
+          "broken = (active[:count] > 0) & (signs * coefficients < -np.inf)")],
         ["tests/test_refit_recordings.py::test_sign_constraint_holds_the_broken_coefficient_at_zero"],
     ),
     "refit weights not square-rooted in the residuals": (

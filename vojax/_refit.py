@@ -286,13 +286,9 @@ def refit(
             num_knots, bounds, estimate, jnp.asarray(rtol, big_y.dtype),
             jnp.asarray(atol, big_y.dtype), max_steps, throw,
         )
-        coefficients = np.asarray(out["p"])
-        broken = (active > 0) & (signs * coefficients < 0)
-        if not broken.any():
-            break
-        # fix the coefficient furthest on the wrong side (in standard errors) at its bound
         se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
-        active[int(np.argmax(np.where(broken, -signs * coefficients / se, -np.inf)))] = 0.0
+        if not _hold_worst(active, signs, np.asarray(out["p"]), se):
+            break
     offset = out.pop("offset")
     fit = out.pop("fit")
     span = float(out.pop("span"))
@@ -313,6 +309,18 @@ def refit(
         p_at_bound=tuple(bool(a == 0) for a in active),
         at_bound=bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin))),
     )
+
+
+def _hold_worst(active, signs, coefficients, scale) -> bool:
+    """One step of the sign constraints' active set: the coefficient furthest on the wrong side
+    of its sign (in units of `scale`) is held at 0, its bound (``active`` is updated in place).
+    Returns False when every sign holds."""
+    count = signs.size
+    broken = (active[:count] > 0) & (signs * coefficients < 0)
+    if not broken.any():
+        return False
+    active[int(np.argmax(np.where(broken, -signs * coefficients / scale, -np.inf)))] = 0.0
+    return True
 
 
 def _direct_regressors(direct, num):
@@ -423,10 +431,8 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
     while True:
         a = full * jnp.asarray(active)
         p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
-        broken = (active[:count] > 0) & (signs * np.asarray(p[:count]) < 0)
-        if not broken.any():
+        if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):
             break
-        active[int(np.argmax(np.where(broken, -signs * np.asarray(p[:count]), -np.inf)))] = 0.0
     fit = full @ p
     residuals = big_y - fit
     inverse, loose = _gauss_newton(a * sw[:, None], jnp.asarray(active))

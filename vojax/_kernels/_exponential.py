@@ -87,7 +87,6 @@ def _kernel_error(log_s, log_q, orders, lags):
     return float(err), float(derr)
 
 
-@functools.lru_cache(maxsize=64)
 def design_modes(
     dt: float,
     num_steps: int,
@@ -99,9 +98,11 @@ def design_modes(
 
     **Returns:** a dict of NumPy arrays ``log_s`` (ln s_j), ``log_q`` (ln of Δx(1+e^{−x_j}))
     and the measured worst relative kernel error ``error`` and b-derivative error
-    ``derivative_error`` over a grid of lags and orders.
+    ``derivative_error`` over a grid of lags and orders (cached by `design_span`).
     """
-    return design_span(float(dt), max(num_steps - 1, 2) * float(dt), tol, order_range)
+    return design_span(
+        float(dt), max(num_steps - 1, 2) * float(dt), float(tol), tuple(map(float, order_range))
+    )
 
 
 @functools.lru_cache(maxsize=64)
