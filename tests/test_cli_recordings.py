@@ -126,3 +126,37 @@ def test_batch_runs_irregular_records_on_their_clock(tmp_path):
     s = _summary(out / "r2")
     assert s["refit"]["order"] == pytest.approx(alone["refit"]["order"], rel=1e-10)
     assert abs(s["refit"]["order"] - 0.4) < 1e-6
+
+
+def test_an_undetermined_parameter_is_written_not_failed(tmp_path):
+    """A hold of constant strain fitted alone (offset estimated) leaves the order undetermined:
+    the record is written (the interval spans the bounds, the figure draws no band for an
+    infinite error, without a warning), not reported as a failure."""
+    t = np.concatenate([np.linspace(0.0, 1.0, 41), 1.0 + np.geomspace(0.01, 100.0, 199)])
+    strain = np.minimum(t, 1.0) * 0.2
+    stress = 20.0 * strain + 40.0 * 0.2 * (t**0.7 - np.where(t > 1, t - 1, 0.0) ** 0.7) / math.gamma(1.7)
+    path = _write(tmp_path / "hold.csv", t, stress, strain)
+    out = tmp_path / "out"
+    args = ["identify", path, *COLUMNS, "--model", "kelvin-voigt", "--method", "refit",
+            "--fit-from", "1.0", "--out", str(out)]
+    assert main(args) == 0
+    s = _summary(out)["refit"]
+    assert s["order_lower"] < 0.1 and s["order_upper"] > 0.9
+    assert (out / "identification.png").is_file()
+
+
+def test_record_figure_with_an_infinite_error_warns_nothing(tmp_path):
+    """`record_figure` draws a parameter whose standard error is inf (undetermined) as a line
+    without a band; under the tests' warnings-as-errors a NaN transform would fail here."""
+    from vojax._plotting import record_figure
+
+    t = np.linspace(0.0, 10.0, 50)
+    columns = {"time": t, "y": np.sin(t), "refit_alpha": np.full(50, 0.5),
+               "refit_alpha_lower": np.full(50, 0.01), "refit_alpha_upper": np.full(50, 0.99),
+               "refit_y_hat": np.sin(t)}
+    summary = {"record": "r", "model": "kelvin-voigt", "output_column": "strain",
+               "input_columns": ["stress"], "parameter_names": ["eta", "k"],
+               "refit": {"parameters": {"eta": 40.0, "k": 20.0},
+                         "parameters_stderr": {"eta": float("inf"), "k": 3.0}}}
+    record_figure(columns, summary, np.sin(t)[:, None], tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 0

@@ -1,5 +1,6 @@
 """Figures in the layout of the paper (matplotlib, imported lazily, Agg backend)."""
 
+import math
 from pathlib import Path
 
 from ._io import atomic_path
@@ -118,12 +119,14 @@ def record_figure(columns, summary, inputs, path) -> None:
     refit = summary.get("refit")
     if refit:
         # the refit's constant parameters with their ±2 SE (delta method) as shaded bands
+        # (an infinite error, a parameter the data do not determine, draws no band)
         for i, (name, value) in enumerate(refit["parameters"].items()):
-            se = refit["parameters_stderr"].get(name, float("nan"))
+            se = refit["parameters_stderr"].get(name)
+            finite = se is not None and math.isfinite(se)
             ax.axhline(value, color=f"C{i}", ls=":", lw=1.2, label=f"{name} (refit)")
-            if se == se:  # not NaN
+            if finite:
                 ax.axhspan(value - 2 * se, value + 2 * se, color=f"C{i}", alpha=0.12, lw=0)
-            series.append([value - 2 * se, value + 2 * se] if se == se else [value])
+            series.append([value - 2 * se, value + 2 * se] if finite else [value])
     _robust_limits(ax, series)
     ax.set(
         title="parameters (y-limits from the 2nd half)",
