@@ -145,9 +145,10 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
 
 @pytest.mark.slow
 def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path, capsys):
-    """Three lengths (82, 90, 96 samples) pad to one bucket (96): the gains are tuned and the
-    law run on the padded records, yet each record's order equals `identify` on that record
-    alone with automatic gains, and the law and the tuner compile once for the bucket."""
+    """Three lengths (82, 90, 120 samples; buckets of 96 and 128 on their own) pad to one
+    bucket (128, merged: padding is cheaper than another compilation): the gains are tuned and
+    the law run on the padded records, yet each record's order equals `identify` on that
+    record alone with automatic gains, and the law and the tuner compile once for the batch."""
     import vojax
     from vojax import _tune
     from vojax._cli import main
@@ -156,7 +157,7 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
     data = tmp_path / "data"
     data.mkdir()
     series = {}
-    for name, q, n in (("a", 0.3, 82), ("b", 0.5, 90), ("c", 0.7, 96)):
+    for name, q, n in (("a", 0.3, 82), ("b", 0.5, 90), ("c", 0.7, 120)):
         series[name] = _springpot_csv(data / f"{name}.csv", n=n, q=q)
     law, tune = _batch.TRACES["law_batch"], _tune.TRACES["tune"]
     args = ["batch", *sorted(str(p) for p in data.glob("*.csv")), "--time", "time_s", "--input",
@@ -174,7 +175,7 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
     capsys.readouterr()
     assert main([*args[:-1], "--out", str(tmp_path / "again")]) == 0
     err = capsys.readouterr().err
-    assert "length bucket 1/1 (3 record(s) padded to 96 samples): compiling" in err
+    assert "length bucket 1/1 (3 record(s) padded to 128 samples): compiling" in err
     assert "3/3 done, 0 failed, 0 up to date" in err
 
 
@@ -215,3 +216,43 @@ def test_record_figures_in_worker_processes_or_none(tmp_path):
     for i in range(5):
         a = (tmp_path / "a" / f"r{i}" / "identification.csv").read_text()
         assert a == (tmp_path / "b" / f"r{i}" / "identification.csv").read_text()
+
+
+def test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths():
+    """Against brute force over every cut of the sorted candidate lengths (m·2^k) into runs,
+    each run padded to its longest: the plan's cost, compile_cost·buckets + Σ padded samples,
+    is the least; every record is padded to a bucket ≥ its length; no compile cost leaves each
+    record at its own candidate length and a huge one makes a single bucket."""
+    import itertools
+
+    from vojax._data._pipeline import bucket_length, plan_buckets
+
+    def cost(plan, lengths, k):
+        return k * len(set(plan.values())) + sum(plan[n] for n in lengths)
+
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        lengths = [int(n) for n in rng.integers(1, 3000, size=int(rng.integers(1, 30)))]
+        k = float(rng.choice([0.0, 50.0, 1e3, 1e4, 1e6]))
+        plan = plan_buckets(lengths, k)
+        assert all(plan[n] >= n and plan[n] in {bucket_length(m) for m in lengths} for n in lengths)
+        sizes = sorted({bucket_length(n) for n in lengths})
+        best = np.inf
+        for cuts in itertools.product([False, True], repeat=len(sizes) - 1):
+            target, start = {}, 0
+            for j in range(len(sizes)):
+                if j == len(sizes) - 1 or cuts[j]:
+                    target.update({s: sizes[j] for s in sizes[start : j + 1]})
+                    start = j + 1
+            best = min(best, cost({n: target[bucket_length(n)] for n in lengths}, lengths, k))
+        assert cost(plan, lengths, k) == best, (trial, lengths, k)
+    lengths = [120, 130, 150, 180, 200]
+    assert plan_buckets(lengths, 0) == {n: bucket_length(n) for n in lengths}
+    assert set(plan_buckets(lengths, 1e9).values()) == {256}
+    # 1000 short records are not padded 3× to join ten long ones, at the default cost
+    plan = plan_buckets([100] * 1000 + [300] * 10)
+    assert (plan[100], plan[300]) == (128, 384)
+    with pytest.raises(ValueError, match="compile_cost"):
+        plan_buckets([10], -1.0)
+    with pytest.raises(ValueError, match="≥ 1"):
+        plan_buckets([10, 0])

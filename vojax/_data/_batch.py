@@ -6,6 +6,7 @@ then spans `jax.devices()` of all hosts, and each host should be given its own s
 files (the outputs are per record, so hosts do not collide).
 """
 
+import collections
 import contextlib
 import csv
 import dataclasses
@@ -25,21 +26,22 @@ from .._identify import DEFAULT_BOUNDS, PAPER_LAM, assemble_law, auto_r0, law_id
 from .._integral import make_memory
 from .._io import atomic_path
 from .._stats import noise_variance
+from .._plotting import warm_record_figure
 from ._paths import inside, record_folder
 from ._pipeline import (
     adaptive_part,
     check_finite,
-    bucket_length,
     identify_record,
     make_provenance,
+    plan_buckets,
     record_header,
     regressors,
     finish_outputs,
-    write_outputs,
     write_table,
 )
 
 LOCK_NAME = ".vojax-batch.lock"
+TABLE_EVERY_S = 1.0  # summary.csv is rebuilt at most this often during a run, and at its end
 
 
 def _sharded(x, mesh):
@@ -185,8 +187,12 @@ def run_batch(
     skipped only when its outputs are complete and its provenance matches; otherwise it is
     redone (``overwrite=False``: it fails, saying why). A record that fails is listed in
     ``failures.csv`` with its reason and the rest go on. ``summary.csv`` is rebuilt from the
-    records' own ``summary.json`` after every record, sorted by record, so a killed run loses
-    nothing and a re-run gives exactly one row per record. The folder is locked for the run.
+    records' own ``summary.json`` as records finish (at most once a second) and at the end,
+    sorted by record, so a killed run loses nothing and a re-run gives exactly one row per
+    record. The folder is locked for the run.
+    Records are padded to the lengths of `plan_buckets` (for the records to be computed) and
+    masked; their results equal the unpadded runs' within the solvers' tolerances (1e-6
+    relative or better), so they can differ at that level with the batch's other records.
     ``buckets=False`` runs the tracker and the refit at each record's own length (one
     compilation per distinct length; for benchmarks). `figure_format`: ``png``, ``svg`` or
     ``pdf`` for each record's ``identification.<format>``; ``record_figures=False`` draws
@@ -196,9 +202,9 @@ def run_batch(
     figure and summary are written. Records on irregular clocks run one at a time, on their own
     clock. `origin`, `fit_from`, `fit_to`: the refit's, as in `identify_record`.
     """
-    pad = bucket_length if buckets else (lambda n: n)
     from .._tune import tune_gains
 
+    use_buckets = buckets
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     fit = {k: v for k, v in dict(origin=origin, fit_from=fit_from, fit_to=fit_to).items() if v is not None}
@@ -227,26 +233,13 @@ def run_batch(
                 todo.append((r, state))
         mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
         rows_cache = {}
-        pool = _figure_pool(figure_workers, len(todo)) if record_figures else None
-        if pool is not None:  # an interrupted run stops its workers too
-            cleanup.callback(pool.shutdown, wait=True, cancel_futures=True)
-        pending = []  # (record, state, future) whose figure and summary a worker is writing
-
-        def settle(wait=False):
-            for item in list(pending):
-                r, state, future = item
-                if wait or future.done():
-                    pending.remove(item)
-                    try:
-                        future.result()
-                    except Exception as e:  # noqa: BLE001 - a bad figure fails its record only
-                        fail(r, e)
-                        finished(r, state, False)
-                    else:
-                        finished(r, state, True)
+        figures = _Figures(figure_workers if record_figures else 0, len(todo))
+        cleanup.callback(figures.close)  # an interrupted run stops its workers too
 
         started = time.perf_counter()
         total = len(todo)
+
+        last_table = [time.perf_counter()]
 
         def finished(r, state, ok):
             if ok:
@@ -254,7 +247,12 @@ def run_batch(
                     report.redone += 1
                 else:
                     report.computed += 1
-                _write_summary_table(out_dir, records, folders, provenance, rows_cache)
+                # the table is rebuilt at most once a second (each rebuild writes every row) and
+                # at the end; a killed run loses nothing: each record's summary.json is written
+                # before it counts as done, and the next run rebuilds the table from them
+                if time.perf_counter() - last_table[0] >= TABLE_EVERY_S:
+                    _write_summary_table(out_dir, records, folders, provenance, rows_cache)
+                    last_table[0] = time.perf_counter()
             else:
                 report.failed += 1
             if progress:
@@ -271,14 +269,36 @@ def run_batch(
         def fail(r, e):
             failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
 
-        # records are padded to a few bucket lengths (m·2^k) and masked or cut back, so that a
-        # batch compiles a few programs: the law runs a bucket's records together under vmap;
-        # the gain tuning, the tracker and the refit run one record at a time
+        def settled():  # the records whose figure and summary are written, or failed to be
+            for (r, state), error in figures.collect():
+                if error is not None:  # a bad figure fails its record only
+                    fail(r, error)
+                finished(r, state, error is None)
+
+        # records are padded to a few bucket lengths (m·2^k, neighbours merged where a compile
+        # costs more than the padding: `plan_buckets`) and masked or cut back, so that a batch
+        # compiles a few programs: the law runs a bucket's records together under vmap; the
+        # gain tuning, the tracker and the refit run one record at a time. Steps equal to 12
+        # digits share a bucket (a time column's rounding differs by file); a record on an
+        # irregular clock is a bucket of its own, run at its length.
+        def step(r):
+            return float(f"{r.dt:.12g}")
+
+        plans = {}
+        for r, _ in todo:
+            if r.uniform:
+                plans.setdefault(step(r), []).append(r.time.size)
+        plans = {
+            dt: plan_buckets(sizes) if use_buckets else {n: n for n in sizes}
+            for dt, sizes in plans.items()
+        }
+
+        def pad(r):
+            return plans[step(r)][r.time.size]
+
         buckets = {}
         for r, state in todo:
-            # steps equal to 12 digits share a bucket (a time column's rounding differs by file);
-            # a record on an irregular clock is a bucket of its own, run at its length
-            key = (pad(r.time.size), float(f"{r.dt:.12g}")) if r.uniform else (None, r.name)
+            key = (pad(r), step(r)) if r.uniform else (None, r.name)
             buckets.setdefault(key, []).append((r, state))
         for b, ((num, dt), group) in enumerate(buckets.items()):
             if progress:  # the first record of a bucket compiles its programs: say so
@@ -350,7 +370,7 @@ def run_batch(
                         if method == "both":
                             refit_cols, refit_summary = identify_record(
                                 r, model=model, method="refit", area=area, length=length,
-                                pad_to=pad(r.time.size), **fit,
+                                pad_to=pad(r), **fit,
                             )
                             for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
                                 columns[k] = refit_cols[k]
@@ -358,26 +378,20 @@ def run_batch(
                     else:  # "refit" or "kalman": one record at a time
                         columns, summary = identify_record(
                             r, model=model, method=method, area=area, length=length,
-                            pad_to=pad(r.time.size), **fit,
+                            pad_to=pad(r), **fit,
                         )
                     check_finite(summary, columns)
                     summary["provenance"] = provenance[r.name]
-                    if pool is None:
-                        inputs = r.inputs if record_figures else None
-                        write_outputs(folders[r.name], columns, summary, inputs, figure_format)
-                        finished(r, state, True)
-                    else:
-                        write_table(folders[r.name], columns, figure_format)
-                        future = pool.submit(
-                            finish_outputs, folders[r.name], columns, summary, r.inputs,
-                            figure_format,
-                        )
-                        pending.append((r, state, future))
+                    write_table(folders[r.name], columns, figure_format)
+                    inputs = r.inputs if record_figures else None
+                    figures.add((r, state), folders[r.name], columns, summary, inputs, figure_format)
                 except Exception as e:  # noqa: BLE001
                     fail(r, e)
                     finished(r, state, False)
-                settle()
-        settle(wait=True)
+                settled()
+        for _ in figures.drain():
+            settled()
+        settled()
         if progress:
             print(file=sys.stderr)
         rows = _write_summary_table(out_dir, records, folders, provenance, rows_cache)
@@ -398,23 +412,93 @@ def run_batch(
 MIN_RECORDS_FOR_WORKERS = 4  # fewer records are drawn here: a worker takes ~2 s to start
 
 
-def _figure_pool(workers, count):
-    """Worker processes for the record figures (started by spawn: forking a process that runs
-    JAX's threads is unsafe), or None to draw them in this process."""
-    import os
+class _Figures:
+    """Each record's figure, then its ``summary.json`` (`finish_outputs`), written by worker
+    processes while this process computes the next records, and by this process as well once
+    it has none left (`drain`). Workers are started by spawn (forking a process that runs JAX's
+    threads is unsafe) with `workers` processes (None: the cores but one, at least one, at most
+    four; 0, or fewer than `MIN_RECORDS_FOR_WORKERS` records: none, all drawn here); each
+    builds its figure at once, while the batch compiles. At most two records per worker are
+    handed over at a time, so that the rest can still be drawn here."""
 
-    if workers is None:
-        workers = max(1, min(4, (os.cpu_count() or 2) - 1))
-    if workers < 0:
-        raise ValueError(f"`figure_workers` must be ≥ 0, got {workers}.")
-    if workers == 0 or count < MIN_RECORDS_FOR_WORKERS:
-        return None
-    import concurrent.futures
-    import multiprocessing
+    def __init__(self, workers, count):
+        import os
 
-    return concurrent.futures.ProcessPoolExecutor(
-        max_workers=workers, mp_context=multiprocessing.get_context("spawn")
-    )
+        if workers is None:
+            workers = max(1, min(4, (os.cpu_count() or 2) - 1))
+        if workers < 0:
+            raise ValueError(f"`figure_workers` must be ≥ 0, got {workers}.")
+        self.pool = None
+        self.waiting = collections.deque()  # (key, arguments) not handed over yet
+        self.running = []  # (key, future)
+        self.ready = []  # (key, error or None)
+        if workers and count >= MIN_RECORDS_FOR_WORKERS:
+            import concurrent.futures
+            import multiprocessing
+
+            self.pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            )
+            self.limit = 2 * workers
+            for _ in range(workers):
+                self.running.append((None, self.pool.submit(warm_record_figure)))
+
+    def add(self, key, *arguments):
+        """Queues `finish_outputs(*arguments)` for the record `key`."""
+        if self.pool is None:
+            self._here(key, arguments)
+        else:
+            self.waiting.append((key, arguments))
+            self._hand_over()
+
+    def _here(self, key, arguments):
+        try:
+            finish_outputs(*arguments)
+        except Exception as e:  # noqa: BLE001
+            self.ready.append((key, e))
+        else:
+            self.ready.append((key, None))
+
+    def _hand_over(self):
+        self._poll()
+        while self.waiting and len(self.running) < self.limit:
+            key, arguments = self.waiting.popleft()
+            self.running.append((key, self.pool.submit(finish_outputs, *arguments)))
+
+    def _poll(self, wait=False):
+        for item in list(self.running):
+            key, future = item
+            if wait or future.done():
+                self.running.remove(item)
+                try:
+                    future.result()
+                except Exception as e:  # noqa: BLE001 - a bad figure fails its record only
+                    if key is not None:  # a failed warm-up only costs time
+                        self.ready.append((key, e))
+                else:
+                    if key is not None:
+                        self.ready.append((key, None))
+
+    def collect(self):
+        """``(key, error or None)`` of the records finished since the last call."""
+        if self.pool is not None:
+            self._hand_over()
+        ready, self.ready = self.ready, []
+        return ready
+
+    def drain(self):
+        """Draws the records not handed over here, alongside the workers, yielding after each
+        (for `collect`); returns when all are written."""
+        while self.waiting:
+            self._here(*self.waiting.popleft())
+            self._hand_over()
+            yield
+        if self.pool is not None:
+            self._poll(wait=True)
+
+    def close(self):
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
 
 
 @dataclasses.dataclass

@@ -255,6 +255,43 @@ def bucket_length(num: int) -> int:
     return min(m * 2**k for m in (4, 6) if m * 2**k >= num)
 
 
+# One more compiled length costs about as much wall time as this many padded samples: on the
+# 2-core CPU a bucket compiles in ~7 s (the tuner, the law, the refit), and a padded sample
+# costs ~5e-5 s of tuning and refitting per record (scripts/bench_batch.py, docs/benchmarks.md).
+COMPILE_COST_SAMPLES = 100_000
+
+
+def plan_buckets(lengths, compile_cost: float = COMPILE_COST_SAMPLES) -> dict:
+    """``{length: padded length}`` for the records of one batch: the padded lengths are
+    `bucket_length`'s (``m·2^k``), and neighbouring ones are merged (the shorter records padded
+    to the longer length) where that saves more compilation than the padding costs, counting
+    one compiled length as `compile_cost` samples. Dynamic programming over the sorted lengths
+    gives the least total ``compile_cost · buckets + Σ padded samples``."""
+    lengths = [int(n) for n in lengths]
+    if compile_cost < 0 or not np.isfinite(compile_cost):
+        raise ValueError(f"`compile_cost` must be a finite number ≥ 0, got {compile_cost}.")
+    if any(n < 1 for n in lengths):
+        raise ValueError(f"record lengths must be ≥ 1, got {min(lengths)}.")
+    sizes = sorted({bucket_length(n) for n in lengths})
+    counts = [sum(bucket_length(n) == s for n in lengths) for s in sizes]
+    # best[j]: the least cost of the first j sizes; the last bucket of that plan is sizes[j-1]
+    best, cut = [0.0], [0]
+    for j in range(1, len(sizes) + 1):
+        options = [
+            (best[i] + compile_cost + sizes[j - 1] * sum(counts[i:j]), i) for i in range(j)
+        ]
+        cost, i = min(options)
+        best.append(cost)
+        cut.append(i)
+    padded, j = {}, len(sizes)
+    while j > 0:
+        i = cut[j]
+        for s in sizes[i:j]:
+            padded[s] = sizes[j - 1]
+        j = i
+    return {n: padded[bucket_length(n)] for n in lengths}
+
+
 def _padded(fn, u, y, pad_to, **kwargs):
     """``fn(u, y, …)`` on the record padded to `pad_to` samples and masked, its per-sample
     outputs cut back: one compiled program serves every record of a bucket. Padding comes
@@ -359,9 +396,14 @@ def write_table(out_dir, columns, figure_format="png"):
     writer = csv.writer(buffer)
     names = list(columns)
     writer.writerow(names)
-    # a quantity undefined at a sample (η = 1/p while p̂ = 0 at sample 0) is left empty
-    for row in zip(*(np.asarray(columns[n]) for n in names)):
-        writer.writerow([repr(float(v)) if np.isfinite(v) else "" for v in row])
+    # a quantity undefined at a sample (η = 1/p while p̂ = 0 at sample 0) is left empty;
+    # repr of a Python float is the shortest string that reads back to the same number
+    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
+    finite = np.isfinite(data).tolist()
+    writer.writerows(
+        [repr(v) if ok else "" for v, ok in zip(row, oks)]
+        for row, oks in zip(data.tolist(), finite)
+    )
     with atomic_path(out_dir / "identification.csv") as tmp, open(tmp, "w") as f:
         f.write(buffer.getvalue())
 

@@ -1,0 +1,137 @@
+"""The record figure drawn again on one reused figure equals a fresh one, pixel for pixel; the
+figures leave pyplot alone; the batch's figure queue reports every record once."""
+
+import numpy as np
+import pytest
+
+matplotlib = pytest.importorskip("matplotlib")
+
+
+def _records():
+    """Three records of different shapes: the law and the refit on one input; a refit of two
+    parameters, one undetermined (inf error); two inputs with a narrow output range."""
+    t1 = np.linspace(0.0, 12.0, 150)
+    a = (
+        {
+            "time": t1, "y": 1 - np.exp(-t1), "y_hat": 1 - np.exp(-1.02 * t1),
+            "refit_y_hat": 1 - np.exp(-0.98 * t1), "alpha": 0.4 + 0.01 * np.sin(t1),
+            "alpha_lower": 0.35 + 0.0 * t1, "alpha_upper": 0.45 + 0.0 * t1,
+            "refit_alpha": np.full(150, 0.41), "refit_alpha_lower": np.full(150, 0.39),
+            "refit_alpha_upper": np.full(150, 0.43), "eta": 2.0 + 0.1 * np.cos(t1),
+        },
+        {
+            "record": "a", "model": "springpot", "output_column": "displacement_mm",
+            "input_columns": ["force_N"], "parameter_names": ["eta"], "time_column": "time_s",
+            "adaptive": {"method": "gradient"},
+            "refit": {"parameters": {"eta": 2.05}, "parameters_stderr": {"eta": 0.02}},
+        },
+        np.tanh(t1)[:, None],
+    )
+    t2 = np.linspace(0.0, 3.0, 60)
+    b = (
+        {
+            "time": t2, "y": 5e3 * t2, "refit_y_hat": 4.9e3 * t2,
+            "refit_alpha": np.full(60, 0.5), "refit_alpha_lower": np.full(60, 0.01),
+            "refit_alpha_upper": np.full(60, 0.99),
+        },
+        {
+            "record": "b", "model": "kelvin-voigt", "output_column": "strain",
+            "input_columns": ["stress"], "parameter_names": ["eta", "k"], "length": 2.0,
+            "refit": {"parameters": {"eta": 40.0, "k": 20.0},
+                      "parameters_stderr": {"eta": float("inf"), "k": 3.0}},
+        },
+        (1e4 * t2)[:, None],
+    )
+    t3 = np.linspace(-1.0, 1.0, 90)
+    c = (
+        {
+            "time": t3, "y": 1e-3 + 1e-6 * t3, "y_hat": 1e-3 + 1.1e-6 * t3,
+            "alpha": np.full(90, 0.7), "alpha_lower": np.full(90, 0.6),
+            "alpha_upper": np.full(90, 0.8), "p_u1": 0.2 + 0 * t3, "p_u2": -0.1 + 0 * t3,
+        },
+        {
+            "record": "c", "model": "linear", "output_column": "x", "input_columns": ["u1", "u2"],
+            "parameter_names": ["p_u1", "p_u2"], "adaptive": {"method": "kalman"},
+        },
+        np.c_[np.sin(3 * t3), np.cos(3 * t3)],
+    )
+    return {"a": a, "b": b, "c": c}
+
+
+def test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel(tmp_path):
+    """Each record drawn on a new figure, then all drawn in turn on the one reused figure
+    (after records of other shapes): the PNGs decode to the same pixels. A reset that forgot
+    the last record's lines, bands, legend, colour cycle or fixed y-limits shows here."""
+    from matplotlib.image import imread
+
+    from vojax import _plotting
+
+    records = _records()
+    for name, (columns, summary, inputs) in records.items():
+        _plotting._RECORD_FIGURE.clear()
+        _plotting.record_figure(columns, summary, inputs, tmp_path / f"fresh_{name}.png")
+    _plotting._RECORD_FIGURE.clear()
+    for step, name in enumerate(["a", "b", "c", "a", "c", "b"]):
+        columns, summary, inputs = records[name]
+        _plotting.record_figure(columns, summary, inputs, tmp_path / f"reused_{step}.png")
+        fresh = imread(tmp_path / f"fresh_{name}.png")
+        reused = imread(tmp_path / f"reused_{step}.png")
+        assert fresh.shape == reused.shape
+        np.testing.assert_array_equal(reused, fresh, err_msg=f"record {name} at step {step}")
+    # the records differ, so equality above is not that of blank images
+    assert not np.array_equal(imread(tmp_path / "fresh_a.png"), imread(tmp_path / "fresh_b.png"))
+
+
+def test_figures_leave_pyplot_alone(tmp_path):
+    """Drawing record, overview and study figures opens no pyplot figure and keeps the
+    backend: a notebook shows none of them and keeps its own."""
+    import types
+
+    plt = pytest.importorskip("matplotlib.pyplot")
+    from vojax import _plotting
+
+    before, backend = plt.get_fignums(), matplotlib.get_backend()
+    columns, summary, inputs = _records()["a"]
+    _plotting.record_figure(columns, summary, inputs, tmp_path / "r.png")
+    row = {"record": "a", "adaptive_alpha_final": 0.4, "adaptive_alpha_final_std": 0.01,
+           "refit_order": 0.41, "refit_order_lower": 0.39, "refit_order_upper": 0.43,
+           "adaptive_nrmse": 0.01, "refit_nrmse": 0.02}
+    _plotting.overview_figure([row, dict(row, record="b")], tmp_path / "o.png")
+    t = np.linspace(0.0, 1.0, 20)
+    result = types.SimpleNamespace(alpha=t, y_hat=t, p=np.c_[t, t])
+    _plotting.study_figures(t, t, np.c_[t, t], t, t, result, tmp_path)
+    assert plt.get_fignums() == before
+    assert matplotlib.get_backend() == backend
+    for name in ("r.png", "o.png", "fig2_order.png", "fig3_output.png", "fig4_parameters.png"):
+        assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.slow
+def test_the_figure_queue_reports_every_record_once_with_its_error(tmp_path):
+    """Eight records handed to one worker (at most two at a time) while this process queues
+    the rest and draws them on `drain`: each key comes back exactly once, the record whose
+    summary lacks a field with its error, and every other record has its figure and summary."""
+    from vojax._data._batch import _Figures
+
+    columns, summary, inputs = _records()["a"]
+    figures = _Figures(1, 8)
+    try:
+        keys = [f"r{i}" for i in range(8)]
+        for key in keys:
+            (tmp_path / key).mkdir()
+            bad = key == "r5"
+            s = {k: v for k, v in summary.items() if not (bad and k == "output_column")}
+            figures.add(key, tmp_path / key, columns, s, inputs, "png")
+        assert len(figures.waiting) > 0  # some left for this process to draw
+        got = list(figures.collect())
+        for _ in figures.drain():
+            got += figures.collect()
+        got += figures.collect()
+    finally:
+        figures.close()
+    assert sorted(k for k, _ in got) == keys
+    errors = {k: e for k, e in got if e is not None}
+    assert list(errors) == ["r5"] and "output_column" in str(errors["r5"])
+    for key in keys:
+        has = (tmp_path / key / "identification.png").is_file(), (tmp_path / key / "summary.json").is_file()
+        assert has == ((False, False) if key == "r5" else (True, True))
