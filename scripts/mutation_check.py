@@ -223,6 +223,38 @@ MUTATIONS = {
         [("    shift = record.time_offset", "    shift = 0.0")],
         ["tests/test_cli_recordings.py"],
     ),
+    "bucket plan pads to the first length of a run, not the last": (
+        "vojax/_data/_pipeline.py",
+        [("            padded[s] = sizes[j - 1]", "            padded[s] = sizes[i]")],
+        ["tests/test_batch.py::test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths"],
+    ),
+    "bucket plan forgets the compile cost of a run": (
+        "vojax/_data/_pipeline.py",
+        [("(best[i] + compile_cost + sizes[j - 1] * sum(counts[i:j]), i)",
+          "(best[i] + sizes[j - 1] * sum(counts[i:j]), i)")],
+        ["tests/test_batch.py::test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths"],
+    ),
+    "reused record figure keeps the last record's view": (
+        "vojax/_plotting.py",
+        [("        ax.set(xlim=(0.0, 1.0), ylim=(0.0, 1.0))  # a new axes' view, where no data sets it\n", "")],
+        ["tests/test_figures.py::test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel"],
+    ),
+    "reused record figure keeps the colour cycle": (
+        "vojax/_plotting.py",
+        [("        ax.set_prop_cycle(None)  # colours from C0 again\n", "")],
+        ["tests/test_figures.py::test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel"],
+    ),
+    "figure queue drops what this process draws": (
+        "vojax/_data/_batch.py",
+        [("        else:\n            self.ready.append((key, None))\n\n    def _hand_over",
+          "\n    def _hand_over")],
+        ["tests/test_figures.py::test_the_figure_queue_reports_every_record_once_with_its_error"],
+    ),
+    "identification.csv loses the NaN blanks": (
+        "vojax/_data/_pipeline.py",
+        [("[repr(v) if ok else \"\" for v, ok in zip(row, oks)]", "[repr(v) for v in row]")],
+        ["tests/test_outputs.py::test_identification_table_round_trips_floats_and_leaves_non_finite_blank"],
+    ),
 }
 
 

@@ -269,3 +269,29 @@ def test_demo_refuses_settings_that_diverge(tmp_path):
     proc = _cli("demo", "--lam", "1000", "--out", "d", cwd=tmp_path)
     assert proc.returncode == 1 and "diverged at sample" in proc.stderr
     assert not (tmp_path / "d" / "summary.json").exists()
+
+
+def test_identification_table_round_trips_floats_and_leaves_non_finite_blank(tmp_path):
+    """`write_table`: every finite number reads back bit for bit (float32 columns as their
+    float64 value), a NaN or ±inf is an empty cell, and the header keeps the column order."""
+    from vojax._data._pipeline import write_table
+
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal(50) * 10.0 ** rng.integers(-300, 300, 50)
+    a[[0, 7, 9]] = [np.nan, np.inf, -np.inf]
+    columns = {"time": np.arange(50) * 0.1, "a": a, "b": rng.random(50).astype(np.float32)}
+    write_table(tmp_path, columns)
+    with open(tmp_path / "identification.csv", newline="") as f:
+        reader = csv.reader(f)
+        assert next(reader) == ["time", "a", "b"]
+        rows = list(reader)
+    assert len(rows) == 50
+    for k, row in enumerate(rows):
+        for name, cell in zip(columns, row):
+            value = float(columns[name][k])
+            if np.isfinite(value):
+                assert float(cell) == value and cell == repr(value)
+            else:
+                assert cell == ""
+    with pytest.raises(ValueError, match="png, svg or pdf"):
+        write_table(tmp_path, columns, "jpg")

@@ -451,3 +451,68 @@ def test_online_filter_against_a_textbook_iterated_ekf():
         assert float(got.y_pred[k]) == pytest.approx(y_prior, rel=1e-9, abs=1e-11)
         assert float(got.y_hat[k]) == pytest.approx(theta[3] + theta[1:3] @ phi, rel=1e-9, abs=1e-11)
         m_pred, p_pred = theta, cov + np.diag(q_step)
+
+
+def test_small_spd_solve_equals_lapack():
+    """`solve_spd` (the unrolled Cholesky inside the filter and smoother scans) against
+    NumPy's LU solve, for d = 1…6, right-hand sides (d,) and (d, d), conditioning up to 1e8."""
+    from vojax._tracker._kalman import solve_spd
+
+    rng = np.random.default_rng(11)
+    for d in range(1, 7):
+        for cond in (1.0, 1e4, 1e8):
+            q, _ = np.linalg.qr(rng.standard_normal((d, d)))
+            a = q @ np.diag(np.geomspace(1.0, 1.0 / cond, d)) @ q.T
+            a = 0.5 * (a + a.T)
+            for b in (rng.standard_normal(d), rng.standard_normal((d, d))):
+                want = np.linalg.solve(a, b)
+                got = np.asarray(solve_spd(jnp.asarray(a), jnp.asarray(b)))
+                assert got.shape == want.shape
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * cond * np.max(np.abs(want)))
+
+
+@pytest.mark.slow
+def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, smoothed, monkeypatch):
+    """`smoother_batch` over three (intensity, start) pairs keeps the run of the highest
+    evidence: its trajectory, index and scores equal those of the three runs made one by one.
+    With a first-pass budget of one iteration (no run converges) the tracker runs the pass
+    again with the full budget and returns what the default budget gives."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+    from vojax._tracker._smoother import iterated_smoother, score, smoother_batch
+
+    t, u, y, *_, dt = ramp
+    num = 120
+    u, y = jnp.asarray(u[:num]), jnp.asarray(y[:num])
+    bounds = (0.01, 0.99)
+    memory = make_memory("exponential", dt, num, order_range=bounds)
+    mask = jnp.ones(num)
+    steps = jnp.full(num, dt)
+    horizon = jnp.asarray(dt * (num - 1))
+    scales = _track.data_scales(u, y, mask)
+    un = u / jnp.asarray(scales.u_scale)
+    yn = (y - scales.y_ref) / scales.y_scale
+    m0, p0 = _track.prior(u.shape[1], u.dtype)
+    starts = _track.starting_trajectories(memory, un, yn, mask, bounds, 0.5)[[0, 1, 5]]
+    rows = [(0.1, 1e-6, 1e-3), (10.0, 1e-6, 1e-2), (1.0, 1e-4, 1e-3)]
+    hyper = _track._stack_hypers(rows)
+    nominal = jnp.broadcast_to(jnp.asarray(starts)[:, None, :], (3, num, starts.shape[1]))
+    best, i, _, _, scores, iterations = smoother_batch(
+        memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 400
+    )
+    alone = [
+        iterated_smoother(memory, un, yn, mask, steps, horizon, Hyper(*np.log(row)), m0, p0,
+                          nominal[k], bounds, 400)
+        for k, row in enumerate(rows)
+    ]
+    want = [float(score(sm)) for sm in alone]
+    np.testing.assert_allclose(np.asarray(scores), want, rtol=1e-12)
+    assert int(i) == int(np.argmax(want)) and len(set(np.round(want, 6))) == 3
+    np.testing.assert_allclose(best.theta, alone[int(i)].theta, rtol=1e-12, atol=1e-12)
+    assert [int(k) for k in iterations] == [int(sm.iterations) for sm in alone]
+    # the fallback: nothing converges in one iteration, so the pass runs again in full
+    t, u, y, *_, dt = ramp
+    monkeypatch.setattr(_track, "GRID_MAX_ITER", 1)
+    again = vojax.identify(u, y, dt, method="kalman")
+    assert again.tuning == smoothed.tuning
+    np.testing.assert_allclose(again.alpha, smoothed.alpha, rtol=1e-12)

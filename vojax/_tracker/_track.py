@@ -13,7 +13,7 @@ from jax import lax
 from .._stats import noise_variance
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of, order_of
-from ._smoother import iterated_smoother, linearised_log_likelihood, smoother_batch
+from ._smoother import iterated_smoother, linearised_log_likelihood, score, smoother_batch
 
 PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
 PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
@@ -28,6 +28,10 @@ PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's
 START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
 NOISE_FLOOR = 0.25  # the noise variance stays ≥ this × the second-difference estimate
 MAX_ITER = 400  # Levenberg–Marquardt iterations of one smoothing
+# iterations of each run of the first pass: the runs that reach the best mode converge in
+# 5–25; most of the rest stall at MAX_ITER (a 1e4-sample record: 3,416 iterations of the
+# first pass, 2,400 of them in six runs that never converged, 240 of its 247 s)
+GRID_MAX_ITER = 60
 
 
 @dataclasses.dataclass(frozen=True)
@@ -185,25 +189,15 @@ def _stack_hypers(values):
     return Hyper(arr[:, 0], arr[:, 1], arr[:, 2])
 
 
-def _pick(tree, i):
-    return jax.tree_util.tree_map(lambda a: a[i], tree)
-
-
-def _score(sm):
-    """Laplace evidence of a smoothing run; −∞ unless it converged to a finite mode."""
-    ll = np.asarray(sm.log_likelihood)
-    ok = np.asarray(sm.converged) & np.isfinite(ll) & np.isfinite(np.asarray(sm.objective))
-    return np.where(ok, ll, -np.inf)
-
-
 def tune(
     memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, noise_floor=1e-10,
-    rounds=2, keep=1,
+    rounds=2,
 ):
     """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
     noise intensities and over starting trajectories, since the posterior of a variable order
     can have several modes. One compiled smoothing of every start × order-drift on `GRID_ORDER`
-    (parameter drift `PARAM_DRIFT0`, noise `noise0`); then, for the `keep` best, alternate a
+    (parameter drift `PARAM_DRIFT0`, noise `noise0`), each given `GRID_MAX_ITER` iterations
+    (all of them again, with `MAX_ITER`, if none converges); then, from the best, alternate a
     BFGS refinement of the likelihood of the linearised model and re-smoothing. Returns
     ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
     records otherwise reach a higher likelihood by explaining every wiggle with drifting
@@ -213,37 +207,33 @@ def tune(
     rows = [(qo, PARAM_DRIFT0, noise0) for _ in starts for qo in GRID_ORDER]
     noms = np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0)
     nominal = jnp.broadcast_to(jnp.asarray(noms)[:, None, :], (len(rows), num, noms.shape[1]))
-    batch = smoother_batch(
-        memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, nominal, bounds, MAX_ITER
-    )
-    score = _score(batch)
-    if not np.any(np.isfinite(score)):
+    for budget in (GRID_MAX_ITER, MAX_ITER):
+        sm, i, alt, i_alt, scores, _ = smoother_batch(
+            memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, nominal, bounds,
+            budget,
+        )
+        if np.any(np.isfinite(np.asarray(scores))):
+            break
+    else:
         # none converged: fall back on the best finite objective rather than giving up
-        obj = np.asarray(batch.objective)
-        if not np.any(np.isfinite(obj)):
+        if int(i_alt) < 0:
             raise ValueError("the tracker diverged from every starting order; check the data.")
-        score = np.where(np.isfinite(obj), -obj, -np.inf)
-    best = None
-    for i in np.argsort(-score)[:keep]:
-        if not np.isfinite(score[i]):
-            continue
-        hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
-        sm = _pick(batch, int(i))
-        cand = (float(score[i]), hyper, sm)
-        for _ in range(rounds):
-            # the refinement maximises the likelihood of the model linearised at this mode;
-            # keep it only if the re-smoothed mode's own evidence is higher
-            hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0, limits)
-            sm = iterated_smoother(
-                memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
-            )
-            ll = float(_score(sm))
-            if not ll > cand[0]:
-                break
-            cand = (ll, hyper, sm)
-        if best is None or cand[0] > best[0]:
-            best = cand
-    _, hyper, sm = best
+        sm, i = alt, i_alt
+    i = int(i)
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
+    cand = (float(score(sm)), hyper, sm)
+    for _ in range(rounds):
+        # the refinement maximises the likelihood of the model linearised at this mode;
+        # keep it only if the re-smoothed mode's own evidence is higher
+        hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0, limits)
+        sm = iterated_smoother(
+            memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
+        )
+        ll = float(score(sm))
+        if not ll > cand[0]:
+            break
+        cand = (ll, hyper, sm)
+    _, hyper, sm = cand
     x = np.asarray(hyper.as_array())
     edges = tuple(
         name
