@@ -117,7 +117,7 @@ MUTATIONS = {
     ),
     "RTS smoother gain transposed": (
         "vojax/_tracker/_kalman.py",
-        [("g = jnp.linalg.solve(p_pred, p).T", "g = jnp.linalg.solve(p_pred, p)")],
+        [("g = solve_spd(p_pred, p).T", "g = solve_spd(p_pred, p)")],
         ["tests/test_tracker.py"],
     ),
     "diagnostics trust an unconverged estimate": (
@@ -254,6 +254,22 @@ MUTATIONS = {
         "vojax/_data/_pipeline.py",
         [("[repr(v) if ok else \"\" for v, ok in zip(row, oks)]", "[repr(v) for v in row]")],
         ["tests/test_outputs.py::test_identification_table_round_trips_floats_and_leaves_non_finite_blank"],
+    ),
+    "small SPD solve divides by the wrong pivot": (
+        "vojax/_tracker/_kalman.py",
+        [("            low[i][j] = (a[i, j] - dot) / low[j][j]", "            low[i][j] = (a[i, j] - dot) / low[i][i]")],
+        ["tests/test_tracker.py::test_small_spd_solve_equals_lapack"],
+    ),
+    "first pass forgets which run was best": (
+        "vojax/_tracker/_smoother.py",
+        [("            best, jnp.where(s > s_best, i, i_best), jnp.maximum(s, s_best),",
+          "            best, i_best, jnp.maximum(s, s_best),")],
+        ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
+    ),
+    "first pass never retried with the full budget": (
+        "vojax/_tracker/_track.py",
+        [("    for budget in (GRID_MAX_ITER, MAX_ITER):", "    for budget in (GRID_MAX_ITER,):")],
+        ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
     ),
 }
 

@@ -497,8 +497,8 @@ def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, s
     rows = [(0.1, 1e-6, 1e-3), (10.0, 1e-6, 1e-2), (1.0, 1e-4, 1e-3)]
     hyper = _track._stack_hypers(rows)
     nominal = jnp.broadcast_to(jnp.asarray(starts)[:, None, :], (3, num, starts.shape[1]))
-    best, i, _, _, scores, iterations = smoother_batch(
-        memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, 400
+    best, i, _, scores, iterations = smoother_batch(
+        memory, un, yn, mask, steps, horizon, hyper, m0, p0, jnp.asarray(starts), bounds, 400
     )
     alone = [
         iterated_smoother(memory, un, yn, mask, steps, horizon, Hyper(*np.log(row)), m0, p0,

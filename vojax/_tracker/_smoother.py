@@ -63,43 +63,43 @@ def iterated_smoother(
 
 @eqx.filter_jit
 def smoother_batch(
-    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int
 ):
-    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B) and
-    starting trajectories `nominal` (B, N, d), in one compiled program. Keeps two runs, not B:
-    the best by `score` (the evidence of a converged run) and the best by its objective (for
-    when none converges). Returns ``(best, its index, best by objective, its index, scores
-    (B,), iterations (B,))``; memory does not grow with B."""
+    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B), each
+    from the constant trajectory of its row of `starts` (B, d), in one compiled program.
+    Keeps one run, not B: the best by `score` (the evidence of a converged run); of the rest
+    only the scores and the index of the best by objective (for when none converges), so that
+    memory does not grow with B. Returns ``(best, its index, index of the best by objective,
+    scores (B,), iterations (B,))``; an index is −1 where no run qualifies."""
+    num = u.shape[0]
 
-    def one(h, nom):
-        return _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nom, bounds, max_iter)
-
-    def take(cond, a, b):
-        return jax.tree_util.tree_map(lambda x, z: jnp.where(cond, x, z), a, b)
+    def one(h, start):
+        nominal = jnp.broadcast_to(start, (num, start.shape[0]))
+        return _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, max_iter)
 
     # one after the other (a scan), not vmapped: each run stops at its own convergence, where
     # a vmapped loop runs every member until the slowest is done
     def body(carry, item):
-        best, i_best, s_best, alt, i_alt, s_alt = carry
-        i, h, nom = item
-        sm = one(h, nom)
+        best, i_best, s_best, i_alt, s_alt = carry
+        i, h, start = item
+        sm = one(h, start)
         s, a = score(sm), jnp.where(jnp.isfinite(sm.objective), -sm.objective, -jnp.inf)
+        best = jax.tree_util.tree_map(lambda x, z: jnp.where(s > s_best, x, z), sm, best)
         carry = (
-            take(s > s_best, sm, best), jnp.where(s > s_best, i, i_best), jnp.maximum(s, s_best),
-            take(a > s_alt, sm, alt), jnp.where(a > s_alt, i, i_alt), jnp.maximum(a, s_alt),
+            best, jnp.where(s > s_best, i, i_best), jnp.maximum(s, s_best),
+            jnp.where(a > s_alt, i, i_alt), jnp.maximum(a, s_alt),
         )
         return carry, (s, sm.iterations)
 
-    first = jax.tree_util.tree_map(lambda a: a[0], (hyper, nominal))
+    first = jax.tree_util.tree_map(lambda a: a[0], (hyper, starts))
     blank = jax.tree_util.tree_map(
         lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(one, *first)
     )
     none, minus = jnp.asarray(-1), jnp.asarray(-jnp.inf, y.dtype)
-    count = nominal.shape[0]
-    (best, i_best, _, alt, i_alt, _), (scores, iterations) = lax.scan(
-        body, (blank, none, minus, blank, none, minus), (jnp.arange(count), hyper, nominal)
+    (best, i_best, _, i_alt, _), (scores, iterations) = lax.scan(
+        body, (blank, none, minus, none, minus), (jnp.arange(starts.shape[0]), hyper, starts)
     )
-    return best, i_best, alt, i_alt, scores, iterations
+    return best, i_best, i_alt, scores, iterations
 
 
 def score(sm):

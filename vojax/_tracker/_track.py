@@ -205,22 +205,25 @@ def tune(
     num = u.shape[0]
     limits = box(noise_floor)
     rows = [(qo, PARAM_DRIFT0, noise0) for _ in starts for qo in GRID_ORDER]
-    noms = np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0)
-    nominal = jnp.broadcast_to(jnp.asarray(noms)[:, None, :], (len(rows), num, noms.shape[1]))
+    first = jnp.asarray(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
     for budget in (GRID_MAX_ITER, MAX_ITER):
-        sm, i, alt, i_alt, scores, _ = smoother_batch(
-            memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, nominal, bounds,
+        sm, i, i_alt, scores, _ = smoother_batch(
+            memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, first, bounds,
             budget,
         )
         if np.any(np.isfinite(np.asarray(scores))):
             break
-    else:
-        # none converged: fall back on the best finite objective rather than giving up
-        if int(i_alt) < 0:
-            raise ValueError("the tracker diverged from every starting order; check the data.")
-        sm, i = alt, i_alt
-    i = int(i)
+    i = int(i) if int(i) >= 0 else int(i_alt)
+    if i < 0:
+        raise ValueError("the tracker diverged from every starting order; check the data.")
     hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
+    if not np.isfinite(np.asarray(scores)[i]):
+        # none converged: fall back on the best finite objective rather than giving up (the
+        # pass kept only its index: run it again, the same computation)
+        nominal = jnp.broadcast_to(first[i], (num, first.shape[1]))
+        sm = iterated_smoother(
+            memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
+        )
     cand = (float(score(sm)), hyper, sm)
     for _ in range(rounds):
         # the refinement maximises the likelihood of the model linearised at this mode;
