@@ -15,6 +15,7 @@ import argparse
 import csv
 import time
 import warnings
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -110,7 +111,8 @@ def main():
                 continue
             x = truth(u, alpha, dt)
             for level in args.noise:
-                rng = np.random.default_rng(hash((name, shape, level)) % 2**32)
+                # a stable seed per case (hash() of a str changes with every process)
+                rng = np.random.default_rng(zlib.crc32(f"{name}/{shape}/{level}".encode()))
                 y = x + level * np.std(x) * rng.standard_normal(n)
                 for method, run in methods.items():
                     started = time.perf_counter()
