@@ -234,11 +234,6 @@ MUTATIONS = {
           "(best[i] + sizes[j - 1] * sum(counts[i:j]), i)")],
         ["tests/test_batch.py::test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths"],
     ),
-    "reused record figure keeps the last record's view": (
-        "vojax/_plotting.py",
-        [("        ax.set(xlim=(0.0, 1.0), ylim=(0.0, 1.0))  # a new axes' view, where no data sets it\n", "")],
-        ["tests/test_figures.py::test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel"],
-    ),
     "reused record figure keeps the colour cycle": (
         "vojax/_plotting.py",
         [("        ax.set_prop_cycle(None)  # colours from C0 again\n", "")],
