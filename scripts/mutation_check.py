@@ -117,7 +117,7 @@ MUTATIONS = {
     ),
     "RTS smoother gain transposed": (
         "vojax/_tracker/_kalman.py",
-        [("g = solve_spd(p_pred, p).T", "g = solve_spd(p_pred, p)")],
+        [("g = cholesky_solve(p_pred, p).T", "g = cholesky_solve(p_pred, p)")],
         ["tests/test_tracker.py"],
     ),
     "diagnostics trust an unconverged estimate": (
@@ -251,8 +251,9 @@ MUTATIONS = {
         ["tests/test_outputs.py::test_identification_table_round_trips_floats_and_leaves_non_finite_blank"],
     ),
     "small SPD solve divides by the wrong pivot": (
-        "vojax/_tracker/_kalman.py",
-        [("            low[i][j] = (a[i, j] - dot) / low[j][j]", "            low[i][j] = (a[i, j] - dot) / low[i][i]")],
+        "vojax/_linalg.py",
+        [("            low[i][j] = (a[i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]",
+          "            low[i][j] = (a[i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[i][i]")],
         ["tests/test_tracker.py::test_small_spd_solve_equals_lapack"],
     ),
     "first pass forgets which run was best": (

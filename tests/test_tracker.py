@@ -454,12 +454,13 @@ def test_online_filter_against_a_textbook_iterated_ekf():
 
 
 def test_small_spd_solve_equals_lapack():
-    """`solve_spd` (the unrolled Cholesky inside the filter and smoother scans) against
-    NumPy's LU solve, for d = 1…6, right-hand sides (d,) and (d, d), conditioning up to 1e8."""
-    from vojax._tracker._kalman import solve_spd
+    """`cholesky_solve` (unrolled inside the filter and smoother scans and LSFF's step, LAPACK
+    beyond 6 unknowns) against NumPy's LU solve, for d = 1…8, right-hand sides (d,) and (d, d),
+    conditioning up to 1e8."""
+    from vojax._linalg import cholesky_solve as solve_spd
 
     rng = np.random.default_rng(11)
-    for d in range(1, 7):
+    for d in range(1, 9):
         for cond in (1.0, 1e4, 1e8):
             q, _ = np.linalg.qr(rng.standard_normal((d, d)))
             a = q @ np.diag(np.geomspace(1.0, 1.0 / cond, d)) @ q.T

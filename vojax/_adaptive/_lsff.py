@@ -2,35 +2,9 @@
 
 import equinox as eqx
 import jax.numpy as jnp
-from jax.scipy.linalg import cho_factor, cho_solve
 from jaxtyping import Array, Float
 
-UNROLL_UP_TO = 6  # inputs; beyond, LAPACK's Cholesky (its call overhead dominates small n)
-
-
-def cholesky_solve(a, b):
-    """Solves ``a x = b`` for symmetric positive definite ``a`` through its Cholesky factor.
-
-    For the few inputs of a constitutive law the factorisation is unrolled into scalar
-    operations that XLA fuses into the scan step; a LAPACK call per sample costs more than the
-    arithmetic.
-    """
-    n = a.shape[0]
-    if n > UNROLL_UP_TO:
-        return cho_solve(cho_factor(a, lower=True), b)
-    low = [[None] * n for _ in range(n)]
-    for j in range(n):
-        low[j][j] = jnp.sqrt(a[j, j] - sum(low[j][k] ** 2 for k in range(j)))
-        for i in range(j + 1, n):
-            low[i][j] = (a[i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]
-    z = []
-    for i in range(n):
-        z.append((b[i] - sum(low[i][k] * z[k] for k in range(i))) / low[i][i])
-    x = [None] * n
-    for i in reversed(range(n)):
-        x[i] = (z[i] - sum(low[k][i] * x[k] for k in range(i + 1, n))) / low[i][i]
-    return jnp.stack(x)
-
+from .._linalg import cholesky_solve
 
 class LSFFState(eqx.Module):
     information: Float[Array, "n n"]  # R_k
