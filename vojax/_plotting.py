@@ -17,13 +17,23 @@ def _figure(**options):
     return fig
 
 
+def _save(fig, path, dpi=110, compress_level=None):
+    """Writes `fig` to `path` atomically, in the format its suffix names (PNG by default);
+    `compress_level` is zlib's for a PNG (default: Pillow's; 1 gives 5 % larger files and
+    0.01–0.02 s less a figure)."""
+    fmt = Path(path).suffix.lstrip(".") or "png"
+    use = fmt == "png" and compress_level is not None
+    extra = {"pil_kwargs": {"compress_level": compress_level}} if use else {}
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=fmt, **extra)
+
+
 def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[str]:
     """Writes Figs. 2–4 of the paper (order, output, parameters) as PNG files; returns names."""
     written = []
 
     def save(fig, name):
-        with atomic_path(out_dir / name) as tmp:
-            fig.savefig(tmp, dpi=120, format="png")
+        _save(fig, out_dir / name, dpi=120)
         written.append(name)
 
     def subplots(*shape, figsize, **options):
@@ -173,11 +183,7 @@ def record_figure(columns, summary, inputs, path) -> None:
     if ax.get_legend_handles_labels()[0]:
         ax.legend()
     fig.suptitle(f"{summary['record']} — {summary['model']}")
-    fmt = Path(path).suffix.lstrip(".") or "png"
-    # zlib level 1: 5 % larger files, 0.01–0.02 s less per figure (a batch draws one a record)
-    extra = {"pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=fmt, **extra)
+    _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
 
 
 def overview_figure(rows, path) -> None:
@@ -226,5 +232,4 @@ def overview_figure(rows, path) -> None:
            title="fit quality")
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    _save(fig, path)

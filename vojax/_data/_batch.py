@@ -206,7 +206,6 @@ def run_batch(
     """
     from .._tune import tune_gains
 
-    use_buckets = buckets
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     fit = {k: v for k, v in dict(origin=origin, fit_from=fit_from, fit_to=fit_to).items() if v is not None}
@@ -291,25 +290,25 @@ def run_batch(
             if r.uniform:
                 plans.setdefault(step(r), []).append(r.time.size)
         plans = {
-            dt: plan_buckets(sizes) if use_buckets else {n: n for n in sizes}
+            dt: plan_buckets(sizes) if buckets else {n: n for n in sizes}
             for dt, sizes in plans.items()
         }
 
         def pad(r):
             return plans[step(r)][r.time.size]
 
-        buckets = {}
+        groups = {}
         for r, state in todo:
             key = (pad(r), step(r)) if r.uniform else (None, r.name)
-            buckets.setdefault(key, []).append((r, state))
-        for b, ((num, dt), group) in enumerate(buckets.items()):
+            groups.setdefault(key, []).append((r, state))
+        for b, ((num, dt), group) in enumerate(groups.items()):
             if progress:  # the first record of a bucket compiles its programs: say so
                 what = (
                     f"{len(group)} record(s) padded to {num} samples" if num is not None
                     else f"record {dt!r} on its own irregular clock"
                 )
                 print(
-                    f"\rvojax batch: length bucket {b + 1}/{len(buckets)} ({what}): compiling…   ",
+                    f"\rvojax batch: length bucket {b + 1}/{len(groups)} ({what}): compiling…   ",
                     end="",
                     file=sys.stderr,
                     flush=True,
