@@ -23,6 +23,7 @@ BOX = {
     "parameter_drift": (np.log(1e-10), np.log(1e2)),
     "noise": (np.log(1e-10), np.log(2.0)),
 }
+NOISE_MIN = float(np.exp(BOX["noise"][0]))  # the smallest measurement noise searched
 GRID_ORDER = (1e-1, 1.0, 1e1)  # variance of the change of β over the record, first pass
 PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's p is constant)
 START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
@@ -32,6 +33,11 @@ MAX_ITER = 400  # Levenberg–Marquardt iterations of one smoothing
 # 5–25; most of the rest stall at MAX_ITER (a 1e4-sample record: 3,416 iterations of the
 # first pass, 2,400 of them in six runs that never converged, 240 of its 247 s)
 GRID_MAX_ITER = 60
+# an output smoother than the model can follow (a controlled displacement, say: its second
+# differences show almost no noise, while a constant order leaves a misfit 1e8 times larger)
+# makes every run of a first pass at the data's noise stall; the first pass is also made at
+# the constant fit's misfit when that is at least this many times the data's noise
+MISFIT_RATIO = 10.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,23 +196,25 @@ def _stack_hypers(values):
 
 
 def tune(
-    memory, u, y, mask, steps, horizon, m0, p0, starts, noise0, bounds, noise_floor=1e-10,
+    memory, u, y, mask, steps, horizon, m0, p0, starts, noises, bounds, noise_floor=NOISE_MIN,
     rounds=2,
 ):
     """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
     noise intensities and over starting trajectories, since the posterior of a variable order
     can have several modes. One compiled smoothing of every start × order-drift on `GRID_ORDER`
-    (parameter drift `PARAM_DRIFT0`, noise `noise0`), each given `GRID_MAX_ITER` iterations
-    (all of them again, with `MAX_ITER`, if none converges); then, from the best, alternate a
-    BFGS refinement of the likelihood of the linearised model and re-smoothing. Returns
+    (parameter drift `PARAM_DRIFT0`, noise ``noises[0]``), each given `GRID_MAX_ITER`
+    iterations; if none converges, the same at each further level of `noises` in turn, then
+    at ``noises[0]`` with `MAX_ITER` iterations. From the best run, alternate a BFGS
+    refinement of the likelihood of the linearised model and re-smoothing. Returns
     ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
     records otherwise reach a higher likelihood by explaining every wiggle with drifting
     states and no noise at all, with meaningless, vanishing bands."""
     num = u.shape[0]
     limits = box(noise_floor)
-    rows = [(qo, PARAM_DRIFT0, noise0) for _ in starts for qo in GRID_ORDER]
     first = jnp.asarray(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
-    for budget in (GRID_MAX_ITER, MAX_ITER):
+    passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]
+    for noise, budget in passes:
+        rows = [(qo, PARAM_DRIFT0, noise) for _ in starts for qo in GRID_ORDER]
         sm, i, i_alt, scores, _ = smoother_batch(
             memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, first, bounds,
             budget,
@@ -326,12 +334,19 @@ def track(
     dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
     noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
-    noise0 = float(np.clip(noise_data, 1e-10, max(rss / dof, 1e-10)))
+    misfit = max(rss / dof, NOISE_MIN)
+    noise0 = float(np.clip(noise_data, NOISE_MIN, misfit))
     # the noise cannot be much below what the data's second differences show
-    noise_floor = max(NOISE_FLOOR * noise_data, 1e-10)
+    noise_floor = max(NOISE_FLOOR * noise_data, NOISE_MIN)
+    # first-pass noise levels, tried in turn until a run converges: the data's, then the
+    # constant fit's misfit when much larger; the misfit first when the output shows no noise
+    # at all (below the search box: a controlled signal), where the data's level stalls
+    noises = (noise0,)
+    if misfit >= MISFIT_RATIO * noise0:
+        noises = (misfit, noise0) if noise_data < NOISE_MIN else (noise0, misfit)
     if hyper is None:
         hyper, sm, tuning = tune(
-            memory, un, yn, mask, steps, horizon, m0, p0, starts, noise0, bounds, noise_floor
+            memory, un, yn, mask, steps, horizon, m0, p0, starts, noises, bounds, noise_floor
         )
     else:
         hyper = Hyper(
