@@ -264,8 +264,21 @@ MUTATIONS = {
     ),
     "first pass never retried with the full budget": (
         "vojax/_tracker/_track.py",
-        [("    for budget in (GRID_MAX_ITER, MAX_ITER):", "    for budget in (GRID_MAX_ITER,):")],
+        [("    passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]",
+          "    passes = [(noise, GRID_MAX_ITER) for noise in noises]")],
         ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
+    ),
+    "first pass never tried at the constant fit's misfit": (
+        "vojax/_tracker/_track.py",
+        [("    if misfit >= MISFIT_RATIO * noise0:\n", "    if False:\n")],
+        ["tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves"],
+    ),
+    "first pass noise taken from the constant fit's misfit always": (
+        "vojax/_tracker/_track.py",
+        [("    noises = (noise0,)\n", "    noises = (misfit,)\n"),
+         ("        noises = (misfit, noise0) if noise_data < NOISE_MIN else (noise0, misfit)",
+          "        noises = (misfit,)")],
+        ["tests/test_tracker.py::test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch"],
     ),
 }
 
