@@ -90,10 +90,18 @@ def _record_axes():
     """The record figure and its 2×2 axes, emptied of the last record's artists. A plain
     `Figure` on an Agg canvas, not registered with pyplot (a notebook never shows it)."""
     if not _RECORD_FIGURE:
+        from matplotlib.ticker import MaxNLocator
+
         fig = _figure(figsize=(10, 6.5))
         axes = fig.subplots(2, 2)
         # fixed margins: a constrained layout costs ~0.6 s per figure
         fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.91, wspace=0.25, hspace=0.38)
+        # at most six ticks an axis, on matplotlib's usual steps: tick labels are most of a
+        # figure's text, and text most of its time (0.17 → 0.14 s a figure against the
+        # default's eight or nine)
+        for ax in axes.flat:
+            for axis in (ax.xaxis, ax.yaxis):
+                axis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
         _RECORD_FIGURE.append((fig, axes))
     fig, axes = _RECORD_FIGURE[0]
     for ax in axes.flat:
