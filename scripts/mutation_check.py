@@ -268,6 +268,18 @@ MUTATIONS = {
           "    passes = [(noise, GRID_MAX_ITER) for noise in noises]")],
         ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
     ),
+    "golden section keeps the wrong side": (
+        "vojax/_tracker/_track.py",
+        [("        lo, hi = jnp.where(left, lo, a), jnp.where(left, b, hi)",
+          "        lo, hi = jnp.where(left, a, lo), jnp.where(left, hi, b)")],
+        ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
+    ),
+    "golden section pairs the new value with the wrong point": (
+        "vojax/_tracker/_track.py",
+        [("            jnp.where(left, f, fb), jnp.where(left, fa, f),",
+          "            jnp.where(left, fa, fb), jnp.where(left, f, f),")],
+        ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
+    ),
     "first pass never tried at the constant fit's misfit": (
         "vojax/_tracker/_track.py",
         [("    if misfit >= MISFIT_RATIO * noise0:\n", "    if False:\n")],

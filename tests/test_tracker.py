@@ -573,3 +573,29 @@ def test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch():
             res = vojax.identify(u[:, None], y, dt, method="kalman", warn=False)
             errors.append(np.sqrt(np.mean((np.asarray(res.alpha) - alpha) ** 2)))
     assert np.median(errors) < 0.08, np.round(errors, 3)
+
+
+def test_constant_fit_finds_the_least_squares_order_of_a_dense_scan():
+    """The compiled grid-and-golden-section search of the constant order against a dense scan
+    of the same profile (2,001 orders, one least-squares fit each, from Python): the same
+    minimum, to the dense scan's spacing; and a clear error when the fit is not finite."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+    from vojax._tracker._model import order_of
+
+    t, u, y, *_, dt = _ramp_case(n=300, noise=0.05, seed=8)
+    bounds = (0.01, 0.99)
+    memory = make_memory("exponential", dt, 300, order_range=bounds)
+    u, y, mask = jnp.asarray(u), jnp.asarray((y - y.mean()) / y.std()), jnp.ones(300)
+    alpha, coef, rss, _ = _track.constant_fit(memory, u, y, mask, bounds)
+    betas = np.linspace(-5.0, 5.0, 2001)
+    alphas = np.asarray(order_of(jnp.asarray(betas), bounds)[0])
+    dense = np.array([float(_track._constant_profile(memory, u, y, mask, a)[0]) for a in alphas])
+    k = int(np.argmin(dense))
+    assert 0 < k < 2000  # an interior minimum
+    assert rss <= dense[k] * (1 + 1e-12)
+    assert abs(alpha - alphas[k]) <= abs(alphas[k + 1] - alphas[k - 1])
+    refit = _track._constant_profile(memory, u, y, mask, jnp.asarray(alpha))
+    np.testing.assert_allclose(coef, refit[1], rtol=1e-10)
+    with pytest.raises(ValueError, match="not finite"):
+        _track.constant_fit(memory, u, y.at[5].set(jnp.nan), mask, bounds)

@@ -475,10 +475,9 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
-    diagnostics = diagnose(
-        res.alpha[:span], res.alpha_lower[:span], res.alpha_upper[:span], bounds,
-        res.converged, res.tuning.at_edge,
-    )
+    # cut in NumPy: an eager slice of a JAX array compiles anew for every record length
+    alpha, lower, upper = (np.asarray(a)[:span] for a in (res.alpha, res.alpha_lower, res.alpha_upper))
+    diagnostics = diagnose(alpha, lower, upper, bounds, res.converged, res.tuning.at_edge)
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)
     nan = jnp.asarray(jnp.nan)
