@@ -270,14 +270,7 @@ MUTATIONS = {
     ),
     "golden section keeps the wrong side": (
         "vojax/_tracker/_track.py",
-        [("        lo, hi = jnp.where(left, lo, a), jnp.where(left, b, hi)",
-          "        lo, hi = jnp.where(left, a, lo), jnp.where(left, hi, b)")],
-        ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
-    ),
-    "golden section pairs the new value with the wrong point": (
-        "vojax/_tracker/_track.py",
-        [("            jnp.where(left, f, fb), jnp.where(left, fa, f),",
-          "            jnp.where(left, fa, fb), jnp.where(left, f, f),")],
+        [("        if fa < fb:\n            hi, b, fb = b, a, fa", "        if fa > fb:\n            hi, b, fb = b, a, fa")],
         ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
     ),
     "first pass never tried at the constant fit's misfit": (

@@ -81,7 +81,9 @@ def data_scales(u, y, mask) -> Scales:
     return Scales(y_ref, y_scale, tuple(float(s) for s in u_scale))
 
 
-def _profile(memory, u, y, mask, alpha):
+@eqx.filter_jit
+def _constant_profile(memory, u, y, mask, alpha):
+    """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order."""
     phi = memory.run(u, jnp.full((u.shape[0],), alpha), False)
     x = jnp.concatenate([phi, jnp.ones((u.shape[0], 1), phi.dtype)], axis=1)
     w = jnp.sqrt(mask)
@@ -90,60 +92,35 @@ def _profile(memory, u, y, mask, alpha):
     return jnp.sum(res * res), coef, jnp.sqrt(jnp.sum(mask[:, None] * phi**2, 0) / jnp.sum(mask))
 
 
-@eqx.filter_jit
-def _constant_profile(memory, u, y, mask, alpha):
-    """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order,
-    and the RMS of the regressors' columns."""
-    return _profile(memory, u, y, mask, alpha)
-
-
-GOLDEN = (np.sqrt(5.0) - 1) / 2
-
-
-@eqx.filter_jit
-def _constant_search(memory, u, y, mask, bounds, num_grid, golden_steps):
-    """`constant_fit` in one compiled program (a record of a few hundred samples made 37
-    calls from Python, 22 ms; now one)."""
-
-    def at(beta):
-        return _profile(memory, u, y, mask, order_of(beta, bounds)[0])
-
-    def rss(beta):
-        return at(beta)[0]
-
-    betas = jnp.linspace(-4.5, 4.5, num_grid, dtype=u.dtype)
-    values = lax.map(rss, betas)
-    i = jnp.argmin(jnp.where(jnp.isnan(values), jnp.inf, values))
-    lo, hi = betas[jnp.maximum(i - 1, 0)], betas[jnp.minimum(i + 1, num_grid - 1)]
-    a, b = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-
-    def step(_, carry):
-        # the smaller of f(a), f(b) keeps its side: [lo, b] (a new point left of a) or
-        # [a, hi] (a new point right of b); one evaluation a step
-        lo, hi, a, b, fa, fb = carry
-        left = fa < fb
-        lo, hi = jnp.where(left, lo, a), jnp.where(left, b, hi)
-        new = jnp.where(left, hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo))
-        f = rss(new)
-        return (
-            lo, hi, jnp.where(left, new, b), jnp.where(left, a, new),
-            jnp.where(left, f, fb), jnp.where(left, fa, f),
-        )
-
-    _, _, a, b, fa, fb = lax.fori_loop(0, golden_steps, step, (lo, hi, a, b, rss(a), rss(b)))
-    best = jnp.where(fa < fb, a, b)
-    best = jnp.where(values[i] < jnp.minimum(fa, fb), betas[i], best)
-    return (order_of(best, bounds)[0], *at(best))
-
-
 def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
     """Constant-order least squares with offset: a grid in β, then golden-section search in β
     between the best grid point's neighbours. Returns ``(α, coef, rss, rms of Φ columns)``."""
-    alpha, rss, coef, rms_phi = _constant_search(
-        memory, u, y, mask, tuple(map(float, bounds)), num_grid, golden_steps
-    )
-    if not np.isfinite(float(rss)):
-        raise ValueError("the constant-order least-squares fit is not finite; check the data.")
+    betas = np.linspace(-4.5, 4.5, num_grid)
+
+    def at(beta):
+        alpha, _ = order_of(jnp.asarray(beta), bounds)
+        return _constant_profile(memory, u, y, mask, alpha)
+
+    values = [float(at(b)[0]) for b in betas]
+    i = int(np.nanargmin(values))
+    lo, hi = betas[max(i - 1, 0)], betas[min(i + 1, num_grid - 1)]
+    ratio = (np.sqrt(5.0) - 1) / 2
+    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    fa, fb = float(at(a)[0]), float(at(b)[0])
+    for _ in range(golden_steps):
+        if fa < fb:
+            hi, b, fb = b, a, fa
+            a = hi - ratio * (hi - lo)
+            fa = float(at(a)[0])
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + ratio * (hi - lo)
+            fb = float(at(b)[0])
+    best = a if fa < fb else b
+    if values[i] < min(fa, fb):
+        best = betas[i]
+    rss, coef, rms_phi = at(best)
+    alpha, _ = order_of(jnp.asarray(best), bounds)
     return float(alpha), np.asarray(coef), float(rss), np.asarray(rms_phi)
 
 
