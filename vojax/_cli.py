@@ -609,7 +609,7 @@ def build_parser() -> argparse.ArgumentParser:
         default="records",
         help="records (default): each record's figure, drawn in worker processes, and the "
         "overview; overview: only overview.<format> of all records (faster: a record's figure "
-        "costs about 0.15 s of one core)",
+        "costs about 0.14 s of one core)",
     )
     b.set_defaults(run=batch_command)
     return parser
