@@ -476,7 +476,9 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
     # cut in NumPy: an eager slice of a JAX array compiles anew for every record length
-    alpha, lower, upper = (np.asarray(a)[:span] for a in (res.alpha, res.alpha_lower, res.alpha_upper))
+    alpha, lower, upper = (
+        np.asarray(a)[:span] for a in (res.alpha, res.alpha_lower, res.alpha_upper)
+    )
     diagnostics = diagnose(alpha, lower, upper, bounds, res.converged, res.tuning.at_edge)
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)

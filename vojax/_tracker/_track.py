@@ -17,13 +17,13 @@ from ._smoother import iterated_smoother, linearised_log_likelihood, score, smoo
 
 PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
 PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
+NOISE_MIN = 1e-10  # the smallest measurement noise searched (normalised variance)
 # the box of the likelihood search, natural logs of normalised intensities
 BOX = {
     "order_drift": (np.log(1e-6), np.log(1e4)),
     "parameter_drift": (np.log(1e-10), np.log(1e2)),
-    "noise": (np.log(1e-10), np.log(2.0)),
+    "noise": (np.log(NOISE_MIN), np.log(2.0)),
 }
-NOISE_MIN = float(np.exp(BOX["noise"][0]))  # the smallest measurement noise searched
 GRID_ORDER = (1e-1, 1.0, 1e1)  # variance of the change of β over the record, first pass
 PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's p is constant)
 START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
