@@ -62,7 +62,8 @@ def test_tissue_notebook_executes():
         assert tracker < 0.5 * base and refit < 0.5 * base, text
     # what the markdown cells say: on the adhesive, three springpots give three orders whose
     # bands do not overlap (tracker with η drifting < tracker with η held < refit), the
-    # tracker's η drifting by more than 5 %; on the myocardium, tracker and refit agree on a
+    # tracker's η drifting by more than 5 % and its diagnostics refusing its band for the
+    # trade-off; on the myocardium, tracker and refit agree on a
     # constant order, the tracker's drift intensities at the lower edge of their search
     number = r"(-?[\d.]+(?:e[-+]?\d+)?)"
     lines = text.splitlines()
@@ -77,6 +78,7 @@ def test_tissue_notebook_executes():
     adhesive, myocardium = (s for s in lines if s.startswith("tracker:"))
     eta = re.search(rf"eta from {number} to {number}", adhesive)
     assert float(eta[2]) / float(eta[1]) > 1.05, text
+    assert "identified: False" in adhesive and "trades off with the parameters' drift" in adhesive
     assert q2_lo < lo3 <= hi3 < q2_hi, text  # myocardium: the tracker inside the refit's interval
     assert "order_drift" in myocardium and "parameter_drift" in myocardium, text
 

@@ -303,6 +303,43 @@ def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
     assert not wide.identified and "±0.3 wide" in wide.message
     stuck = diagnose(np.full(100, 0.99), lo, hi, (0.01, 0.99), True, ())
     assert not stuck.identified and "bound" in stuck.message
+    # the order with the drifting parameters held: refused when it moves by more than the band
+    traded = diagnose(alpha, lo, hi, (0.01, 0.99), True, (), held_shift=0.02)
+    assert not traded.identified and "moves by 0.02, more than its band (±0.01)" in traded.message
+    assert diagnose(alpha, lo, hi, (0.01, 0.99), True, (), held_shift=0.005).identified
+
+
+def test_order_traded_against_drifting_parameters_is_refused():
+    """The shipped adhesive staircase (a controlled, noise-free strain): the tracker's best
+    mode lets η drift, and its order then sits 0.06 below the order with η held. The
+    diagnostics must refuse the band, and the shift they report must be the one a separate
+    smoothing with the parameters held (through `noise=`) gives."""
+    from vojax._tracker._track import PARAM_DRIFT0, data_scales
+
+    (rec,) = vojax.load_records(vojax.io.example_file("adhesive"), time="time_s",
+                                inputs=["nominal_shear_stress_kPa"], output="shear_strain")
+    res = vojax.identify(rec.inputs, rec.output, **rec.grid, method="kalman", warn=False)
+    d = res.diagnostics
+    assert res.tuning.parameter_drift > 1e3 * PARAM_DRIFT0 and not d.identified
+    shift = float(d.message.split("moves by ")[1].split(",")[0])
+    # the same held smoothing, asked for by hand: tuned order drift, parameters held, the
+    # noise at the constant fit's misfit (the tracker's normalised units, back in strain)
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+
+    scales = data_scales(rec.inputs, rec.output, np.ones(rec.time.size))
+    memory = make_memory("exponential", None, rec.time.size, order_range=(0.01, 0.99),
+                         times=rec.time)
+    yn = (rec.output - scales.y_ref) / scales.y_scale
+    un = rec.inputs / np.asarray(scales.u_scale)
+    _, _, rss, _ = _track.constant_fit(memory, un, yn, np.ones(rec.time.size), (0.01, 0.99))
+    noise = {"order_drift": res.tuning.order_drift, "parameter_drift": PARAM_DRIFT0,
+             "noise_std": float(np.sqrt(rss / (rec.time.size - 3)) * scales.y_scale)}
+    held = vojax.identify(rec.inputs, rec.output, **rec.grid, method="kalman", noise=noise,
+                          warn=False)
+    half = rec.time.size // 2
+    want = float(np.median(np.abs(np.asarray(held.alpha) - np.asarray(res.alpha))[half:]))
+    assert shift == pytest.approx(want, abs=0.01) and shift > 0.03
 
 
 @pytest.mark.slow

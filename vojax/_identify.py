@@ -246,8 +246,9 @@ def _first_bad(*arrays):
     return int(np.argmax(bad)) if bad.any() else None
 
 
-def diagnose(alpha, lower, upper, bounds, converged, at_edge) -> Diagnostics:
-    """The `Diagnostics` of an order trajectory and its band."""
+def diagnose(alpha, lower, upper, bounds, converged, at_edge, held_shift=None) -> Diagnostics:
+    """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
+    moves (median over the second half) when the tracker's drifting parameters are held."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2
@@ -269,12 +270,18 @@ def diagnose(alpha, lower, upper, bounds, converged, at_edge) -> Diagnostics:
             "of noise, or drifting states that absorb the misfit): the band is not a "
             "statement about the data"
         )
+    traded = held_shift is not None and held_shift > width
+    if traded:
+        problems.append(
+            f"the order trades off with the parameters' drift: with the parameters held it "
+            f"moves by {held_shift:.2g}, more than its band (±{width:.2g})"
+        )
     others = [name for name in at_edge if name != "noise"]
     if others:
         problems.append(f"{', '.join(others)} at the edge of the search box")
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
-        and "noise" not in at_edge
+        and "noise" not in at_edge and not traded
     )
     message = "; ".join(problems)
     return Diagnostics(width, at_bound, bool(converged), tuple(at_edge), identified, message)
@@ -479,7 +486,13 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     alpha, lower, upper = (
         np.asarray(a)[:span] for a in (res.alpha, res.alpha_lower, res.alpha_upper)
     )
-    diagnostics = diagnose(alpha, lower, upper, bounds, res.converged, res.tuning.at_edge)
+    shift = None
+    if res.alpha_held is not None:
+        held = np.asarray(res.alpha_held)[:span]
+        shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
+    diagnostics = diagnose(
+        alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift
+    )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)
     nan = jnp.asarray(jnp.nan)

@@ -38,6 +38,9 @@ GRID_MAX_ITER = 60
 # makes every run of a first pass at the data's noise stall; the first pass is also made at
 # the constant fit's misfit when that is at least this many times the data's noise
 MISFIT_RATIO = 10.0
+# tuned parameter drift above this many times `PARAM_DRIFT0`: the order is smoothed again
+# with the parameters held, and the diagnostics compare the two (`held_order`)
+HELD_RATIO = 2.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,6 +259,20 @@ def tune(
     return hyper, sm, tuning
 
 
+def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, noise):
+    """The order trajectory smoothed again with the tuned order drift but the parameters held
+    (drift `PARAM_DRIFT0`) and the measurement noise at `noise` (the constant fit's misfit:
+    held parameters leave more of it), from the constant-order fit `start`. With one input an
+    order and drifting parameters trade off; where the tuned parameters drift, this is the
+    order the data give without that drift. None if the smoothing does not converge."""
+    held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
+                 jnp.log(jnp.asarray(noise, u.dtype)))
+    nominal = jnp.broadcast_to(jnp.asarray(start, u.dtype), (u.shape[0], len(start)))
+    sm = iterated_smoother(memory, u, y, mask, steps, horizon, held, m0, p0, nominal, bounds,
+                           MAX_ITER)
+    return order_of(sm.theta[:, 0], bounds)[0] if bool(sm.converged) else None
+
+
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
     """The online iterated EKF over the whole record in one scan."""
     tracker = KalmanTracker(
@@ -299,6 +316,8 @@ class TrackResult(eqx.Module):
     converged: bool = eqx.field(static=True)
     tuning: Tuning = eqx.field(static=True)
     constant_order: float = eqx.field(static=True)
+    # the order smoothed again with the parameters held (see `held_order`), or None
+    alpha_held: jax.Array | None = None
 
 
 def track(
@@ -359,6 +378,11 @@ def track(
             memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
         )
         tuning = Tuning(*map(float, np.exp(np.asarray(hyper.as_array()))), (), float(sm.log_likelihood), False)
+    alpha_held = None
+    if smooth and tuning.tuned and tuning.parameter_drift > HELD_RATIO * PARAM_DRIFT0:
+        alpha_held = held_order(
+            memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds, misfit
+        )
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
@@ -391,4 +415,5 @@ def track(
         converged=converged,
         tuning=tuning,
         constant_order=alpha_c,
+        alpha_held=alpha_held,
     )
