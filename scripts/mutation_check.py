@@ -273,6 +273,17 @@ MUTATIONS = {
         [("        if fa < fb:\n            hi, b, fb = b, a, fa", "        if fa > fb:\n            hi, b, fb = b, a, fa")],
         ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
     ),
+    "diagnostics ignore the order's trade-off with the parameters' drift": (
+        "vojax/_identify.py",
+        [("    traded = held_shift is not None and held_shift > width\n", "    traded = False\n")],
+        ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused"],
+    ),
+    "held smoothing keeps the tuned parameter drift": (
+        "vojax/_tracker/_track.py",
+        [("    held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),",
+          "    held = Hyper(hyper.log_q_order, hyper.log_q_params,")],
+        ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused"],
+    ),
     "first pass never tried at the constant fit's misfit": (
         "vojax/_tracker/_track.py",
         [("    if misfit >= MISFIT_RATIO * noise0:\n", "    if False:\n")],
