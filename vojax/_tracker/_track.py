@@ -212,7 +212,6 @@ def tune(
     ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
     records otherwise reach a higher likelihood by explaining every wiggle with drifting
     states and no noise at all, with meaningless, vanishing bands."""
-    num = u.shape[0]
     limits = box(noise_floor)
     first = jnp.asarray(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
     passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]
@@ -231,10 +230,7 @@ def tune(
     if not np.isfinite(np.asarray(scores)[i]):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
-        nominal = jnp.broadcast_to(first[i], (num, first.shape[1]))
-        sm = iterated_smoother(
-            memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
-        )
+        sm = smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, first[i], bounds)
     cand = (float(score(sm)), hyper, sm)
     for _ in range(rounds):
         # the refinement maximises the likelihood of the model linearised at this mode;
@@ -267,10 +263,16 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     order the data give without that drift. None if the smoothing does not converge."""
     held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
                  jnp.log(jnp.asarray(noise, u.dtype)))
-    nominal = jnp.broadcast_to(jnp.asarray(start, u.dtype), (u.shape[0], len(start)))
-    sm = iterated_smoother(memory, u, y, mask, steps, horizon, held, m0, p0, nominal, bounds,
-                           MAX_ITER)
+    sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
     return order_of(sm.theta[:, 0], bounds)[0] if bool(sm.converged) else None
+
+
+def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds):
+    """One smoothing at fixed intensities `hyper`, from the constant trajectory `start` (d,)."""
+    nominal = jnp.broadcast_to(jnp.asarray(start, u.dtype), (u.shape[0], len(start)))
+    return iterated_smoother(
+        memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
+    )
 
 
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
@@ -373,10 +375,7 @@ def track(
             jnp.log(jnp.asarray(float(hyper["parameter_drift"]))),
             jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
-        nominal = jnp.tile(jnp.asarray(starts[0]), (num, 1))
-        sm = iterated_smoother(
-            memory, un, yn, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
-        )
+        sm = smooth_from(memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds)
         tuning = Tuning(*map(float, np.exp(np.asarray(hyper.as_array()))), (), float(sm.log_likelihood), False)
     alpha_held = None
     if smooth and tuning.tuned and tuning.parameter_drift > HELD_RATIO * PARAM_DRIFT0:
