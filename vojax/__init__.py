@@ -18,8 +18,6 @@ from ._identify import Diagnostics as Diagnostics
 from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
 from ._identify import Identification as Identification
 from ._identify import identify as identify
-from .io import load_records as load_records
-from .io import write_results as write_results
 from ._integral import (
     fractional_integral as fractional_integral,
 )
@@ -66,6 +64,8 @@ from ._tune import Gains as Gains
 from ._tune import tune_gains as tune_gains
 from ._xla import use_compilation_cache as use_compilation_cache
 from ._xla import use_fast_cpu_loops as use_fast_cpu_loops
+from .io import load_records as load_records
+from .io import write_results as write_results
 
 try:
     __version__ = importlib.metadata.version("vojax")

@@ -344,7 +344,6 @@ def _select(records, args):
 
 
 def identify_command(args) -> int:
-    from ._data._paths import inside, record_folder
     from ._data._pipeline import check_finite, identify_record, make_provenance, write_outputs
 
     _law_options(args)

@@ -5,7 +5,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-
 from jax import lax
 
 from ._identify import DEFAULT_BOUNDS, assemble_law, check_options

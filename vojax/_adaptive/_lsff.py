@@ -6,6 +6,7 @@ from jaxtyping import Array, Float
 
 from .._linalg import cholesky_solve
 
+
 class LSFFState(eqx.Module):
     information: Float[Array, "n n"]  # R_k
     moment: Float[Array, " n"]  # Q_k

@@ -22,21 +22,28 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._adaptive._bands import law_covariance
-from .._identify import DEFAULT_BOUNDS, PAPER_LAM, assemble_law, auto_r0, law_identification, run_law
+from .._identify import (
+    DEFAULT_BOUNDS,
+    PAPER_LAM,
+    assemble_law,
+    auto_r0,
+    law_identification,
+    run_law,
+)
 from .._integral import make_memory
 from .._io import atomic_path
-from .._stats import noise_variance
 from .._plotting import warm_record_figure
+from .._stats import noise_variance
 from ._paths import inside, record_folder
 from ._pipeline import (
     adaptive_part,
     check_finite,
+    finish_outputs,
     identify_record,
     make_provenance,
     plan_buckets,
     record_header,
     regressors,
-    finish_outputs,
     write_table,
 )
 
