@@ -142,6 +142,11 @@ def test_an_undetermined_parameter_is_written_not_failed(tmp_path):
     assert main(args) == 0
     s = _summary(out)["refit"]
     assert s["order_lower"] < 0.1 and s["order_upper"] > 0.9
+    # the strain is constant over the window: both coefficients are 0 exactly (not ±1e-16 by
+    # the machine's rounding), so η = 1/p and k = −p₁/p₀ are undetermined, written as null
+    assert s["p"] == [0.0, 0.0]
+    assert s["parameters"] == {"eta": None, "k": None}
+    assert s["parameters_undetermined"] == ["eta", "k"]
     assert (out / "identification.png").is_file()
 
 

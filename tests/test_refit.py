@@ -214,3 +214,18 @@ def test_padding_with_a_mask_changes_nothing(order):
     for name in ("order", "order_stderr", "p", "p_stderr", "y_hat", "knot_times"):
         np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=1e-8, atol=1e-9)
     assert float(b.sigma) == pytest.approx(float(a.sigma), rel=1e-8)
+
+
+@pytest.mark.parametrize("order", ["constant", 0.4])
+def test_a_coefficient_fitted_to_rounding_is_exactly_zero(order):
+    """An output constant over the fit window, offset estimated: no coefficient explains anything. Least
+    squares leaves them at ±1e-16 (the sign set by the machine's rounding, and 1/p of a model
+    at ±1e16); the refit reports 0, and the offset is the constant."""
+    y = 0.2 * np.minimum(T / 10.0, 1.0)  # a ramp, then a hold: only the hold is fitted
+    fixed = order if isinstance(order, str) else np.full(T.size, order)
+    fit = vojax.refit(U, y, DT, order=fixed, window=(20.0, 80.0))
+    assert np.all(np.asarray(fit.p) == 0.0)
+    assert float(fit.x0) == pytest.approx(0.2, rel=1e-12)
+    # a real coefficient of the same size as the data is not touched
+    fit = vojax.refit(U, _data(0.62, seed=0), DT, x0=0.0)
+    assert np.all(np.asarray(fit.p) != 0.0)

@@ -174,6 +174,8 @@ def record_figure(columns, summary, inputs, path) -> None:
         # the refit's constant parameters with their ±2 SE (delta method) as shaded bands
         # (an infinite error, a parameter the data do not determine, draws no band)
         for i, (name, value) in enumerate(refit["parameters"].items()):
+            if value is None or not math.isfinite(value):  # undetermined: nothing to draw
+                continue
             se = refit["parameters_stderr"].get(name)
             finite = se is not None and math.isfinite(se)
             ax.axhline(value, color=f"C{i}", ls=":", lw=1.2, label=f"{name} (refit)")

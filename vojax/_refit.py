@@ -60,6 +60,9 @@ TRACES = {"fit": 0}
 # a direction of the column-scaled Jacobian whose singular value is below this fraction of the
 # largest is not determined by the data: the coefficients along it get an infinite variance
 UNDETERMINED_RCOND = 1e-10
+# a fitted coefficient whose contribution to the weighted fit (|p_j|·‖column j‖) is below this
+# fraction of ‖y‖ is reported as exactly 0: it is rounding, not a measurement
+ROUNDING = 1e-12
 
 
 def _gauss_newton(jac, free):
@@ -401,6 +404,12 @@ def _fit(
     raw = raw_of(theta)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
     pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
+    # a coefficient whose whole contribution to the fit is below rounding is 0, not the sign of
+    # a rounding error (which would differ between machines and make 1/p of a model ±1e16)
+    columns = design(phi_t) * sw[:, None]
+    size = jnp.linalg.norm(big_y * sw)
+    noise = jnp.abs(theta[num_knots:]) * jnp.linalg.norm(columns, axis=0) <= ROUNDING * size
+    theta = theta.at[num_knots:].set(jnp.where(noise, 0.0, theta[num_knots:]))
     return dict(
         order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
@@ -433,6 +442,10 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
         p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
         if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):
             break
+    noise = jnp.abs(p) * jnp.linalg.norm(full * sw[:, None], axis=0) <= ROUNDING * jnp.linalg.norm(
+        big_y * sw
+    )
+    p = jnp.where(noise, 0.0, p)  # below rounding: 0 (see `ROUNDING`)
     fit = full @ p
     residuals = big_y - fit
     inverse, loose = _gauss_newton(a * sw[:, None], jnp.asarray(active))

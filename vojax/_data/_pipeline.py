@@ -9,8 +9,8 @@ import numpy as np
 import optimistix as optx
 
 from .._io import atomic_path, write_json
-from .._stats import delta_stderr
 from .._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
+from .._stats import delta_stderr
 
 MODELS = {
     "springpot": Springpot(),
@@ -134,10 +134,18 @@ def check_finite(summary, columns):
                 k = int(np.argmax(~np.isfinite(values)))
                 raise ValueError(f"the identification diverged: {name} is not finite at sample {k}.")
     # an infinite standard error is a result (the data do not determine that quantity; JSON
-    # writes null), a non-finite estimate is not
-    bad = _non_finite(
-        {k: _without_errors(v) for k, v in summary.items() if k in ("adaptive", "refit")}
-    )
+    # writes null), a non-finite estimate is not; nor is a parameter the refit names as
+    # undetermined (1/p of a coefficient fitted as 0)
+    parts = {k: _without_errors(v) for k, v in summary.items() if k in ("adaptive", "refit")}
+    if "refit" in parts:
+        loose = set(parts["refit"].get("parameters_undetermined", ()))
+        parts["refit"] = {
+            **parts["refit"],
+            "parameters": {
+                k: v for k, v in parts["refit"].get("parameters", {}).items() if k not in loose
+            },
+        }
+    bad = _non_finite(parts)
     if bad is not None:
         raise ValueError(f"the identification diverged: {bad} is not finite.")
 
@@ -354,7 +362,11 @@ def identify_record(
         options = refit_options(record, model, area, length, origin, fit_from, fit_to)
         fit = _padded(refit, u, y, pad_to, **grid, **options)
         p = np.asarray(fit.p)
-        phys = {k: float(v) for k, v in physical(p).items()}
+        with np.errstate(divide="ignore", invalid="ignore"):
+            phys = {k: float(v) for k, v in physical(p).items()}
+        # η = 1/p with p = 0 (held at its sign's bound, or 0 to rounding): the data bound the
+        # coefficient, not the parameter; written as null and named, not a failure
+        undetermined = [k for k, v in phys.items() if not np.isfinite(v)]
         columns["refit_alpha"] = np.asarray(fit.order)
         columns["refit_alpha_lower"] = np.asarray(fit.order_lower)
         columns["refit_alpha_upper"] = np.asarray(fit.order_upper)
@@ -369,7 +381,11 @@ def identify_record(
             "p_stderr": np.asarray(fit.p_stderr).tolist(),
             "p_at_bound": list(fit.p_at_bound),
             "parameters": phys,
-            "parameters_stderr": delta_stderr(physical, p, np.asarray(fit.p_cov)),
+            "parameters_stderr": {
+                k: (float("inf") if k in undetermined else v)
+                for k, v in delta_stderr(physical, p, np.asarray(fit.p_cov)).items()
+            },
+            "parameters_undetermined": undetermined,
             "x0": float(fit.x0),
             "x0_stderr": float(fit.x0_stderr),
             "nrmse": nrmse(y, fit.y_hat),
