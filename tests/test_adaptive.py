@@ -132,23 +132,27 @@ def study():
 def test_study_34_accuracy(study):
     from vojax._study import study_errors
 
-    res = vojax.identify(
-        study["u"], study["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2)
-    )
-    errors = study_errors(study["t"], study["alpha"], study["p"], res)
-    # bounds at what the correct law reaches on this realisation (0.0202, 0.00458, 0.303),
-    # with about 10 % to spare. (The order law fed the a-priori error scores 0.0199 / 0.00474:
-    # accuracy alone cannot tell it from the right law; test_law_transcription does.)
-    assert errors["order_rms_t_gt_50"] <= 0.022
-    assert errors["order_rms_t_200_300"] <= 0.005
-    assert errors["p_rms_t_gt_50"] <= 0.33
+    def errors(data):
+        res = vojax.identify(
+            data["u"], data["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2)
+        )
+        return study_errors(data["t"], data["alpha"], data["p"], res)
+
+    # the correct law's accuracy as means over five noise realisations (measured 0.0207,
+    # 0.0043, 0.321), with 5–7 % to spare: one realisation alone spreads by ±10 % (0.0195–0.0215,
+    # 0.0035–0.0058, 0.31–0.33), the mean of five by 1–3 %
+    runs = [errors(study)] + [errors(vojax.simulate_study(0.05, seed=s)) for s in range(1, 5)]
+    mean = {k: np.mean([r[k] for r in runs]) for k in runs[0]}
+    assert mean["order_rms_t_gt_50"] <= 0.022
+    assert mean["order_rms_t_200_300"] <= 0.0046
+    assert mean["p_rms_t_gt_50"] <= 0.34
     # and a tracking law, not a constant: the best constant order after t = 50 scores 0.0307
     t, alpha = np.asarray(study["t"]), np.asarray(study["alpha"])
     late = t > 50
     best_constant = min(
         np.sqrt(np.mean((alpha[late] - c) ** 2)) for c in np.linspace(0.05, 0.95, 901)
     )
-    assert errors["order_rms_t_gt_50"] <= 0.7 * best_constant
+    assert mean["order_rms_t_gt_50"] <= 0.7 * best_constant
 
 
 @pytest.mark.slow

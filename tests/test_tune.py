@@ -141,8 +141,10 @@ def test_tune_gains_traces_once_per_padded_shape_and_padding_changes_nothing():
     assert again.gamma == padded.gamma and again.lam == padded.lam
     assert shorter.gamma != padded.gamma  # a different record, a different answer
     # padding itself changes nothing: on the padded record's memory (designed for 448
-    # samples), the unpadded record gives the same losses to rounding, on the whole grid and
-    # at the tuned gains (a function compared, not the digits of a solver's result)
+    # samples), the unpadded record gives the same losses, on the whole grid and at the tuned
+    # gains (a function compared, not the digits of a solver's result), to rounding as the
+    # law's recursion amplifies it (two compilations of one loss differ by up to 1e-9); a
+    # padded sample that counted, or a law that saw the padding, moves them by 1e-3 or more
     pad = _tune._prepare(u, y, dt, pad_to=448)
     same = eqx.tree_at(
         lambda s: (s.data.memory, s.data.r0), _tune._prepare(u, y, dt),
@@ -150,9 +152,10 @@ def test_tune_gains_traces_once_per_padded_shape_and_padding_changes_nothing():
     )
     grid_pad = np.asarray(_tune._grid_losses(pad.data, *pad.grid_arrays()))
     grid_same = np.asarray(_tune._grid_losses(same.data, *same.grid_arrays()))
-    np.testing.assert_allclose(grid_pad, grid_same, rtol=1e-12)
+    np.testing.assert_allclose(grid_pad, grid_same, rtol=1e-8)
     z = np.log([padded.gamma, padded.lam])
-    assert float(_tune._lagged_loss(*z, same.data)) == pytest.approx(padded.loss, rel=1e-12)
+    loss = eqx.filter_jit(_tune._lagged_loss)
+    assert float(loss(*z, same.data)) == pytest.approx(float(loss(*z, pad.data)), rel=1e-8)
     # end to end the memory's design differs too (448 against 400 samples): the tuned loss
     # agrees within BFGS's own tolerance (rtol 1e-4), not to its last digits
     assert padded.refined and plain.refined
