@@ -233,3 +233,14 @@ def test_identify_validation(short_study, kwargs, match):
 def test_simulate_validation():
     with pytest.raises(ValueError, match="`p` must have shape"):
         vojax.simulate(np.zeros((10, 2)), 0.5, np.zeros(3), 0.1)
+
+
+def test_the_law_never_claims_a_confidence_band():
+    """The law's ±2σ is its spread over the noise, without its tracking error: whatever its
+    width, it is not called identified, and the message says what to use instead."""
+    t = np.arange(400) * 0.1
+    u = np.sin(0.7 * t) + 0.5
+    y = np.asarray(vojax.simulate(u, np.full(t.size, 0.4), np.array([1.5]), 0.1))
+    res = vojax.identify(u, y + 0.001 * np.sin(3.1 * t), 0.1, warn=False)
+    assert res.method == "gradient" and res.diagnostics.band_halfwidth < 0.1
+    assert not res.diagnostics.identified and "method='kalman'" in res.diagnostics.message

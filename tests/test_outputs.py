@@ -295,3 +295,21 @@ def test_identification_table_round_trips_floats_and_leaves_non_finite_blank(tmp
                 assert cell == ""
     with pytest.raises(ValueError, match="png, svg or pdf"):
         write_table(tmp_path, columns, "jpg")
+
+
+def test_disjoint_bands_of_two_estimators_are_reported():
+    """`disagreement`: the median bands over the second half, the tracker's against the
+    refit's interval: disjoint gives one sentence naming both, overlapping gives ""."""
+    from vojax._data._pipeline import disagreement
+
+    n = 40
+    lower = np.r_[np.full(n // 2, 0.1), np.full(n // 2, 0.30)]  # the first half does not count
+    columns = {"alpha": np.full(n, 0.32), "alpha_lower": lower, "alpha_upper": lower + 0.04}
+    summary = {"adaptive": {"method": "kalman"}, "refit": {"order_lower": 0.36, "order_upper": 0.4}}
+    text = disagreement(columns, summary)
+    assert "the tracker ([0.3, 0.34]" in text and "refit ([0.36, 0.4])" in text
+    summary["refit"]["order_lower"] = 0.33
+    assert disagreement(columns, summary) == ""
+    summary["adaptive"]["method"] = "gradient"
+    summary["refit"].update(order_lower=0.1, order_upper=0.29)
+    assert disagreement(columns, summary).startswith("the paper's law")

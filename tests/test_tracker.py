@@ -633,3 +633,67 @@ def test_constant_fit_finds_the_least_squares_order_of_a_dense_scan():
     assert abs(alpha - alphas[k]) <= abs(alphas[k + 1] - alphas[k - 1])
     refit = _track._constant_profile(memory, u, y, mask, jnp.asarray(alpha))
     np.testing.assert_allclose(coef, refit[1], rtol=1e-10)
+
+
+def test_mixture_of_modes_is_the_evidence_weighted_spread():
+    """`mix_modes` by hand: weights exp(score), normalised; a run that reached the reported
+    run's mode counts once; the variance about the reported run is Σ w (var + Δβ²)."""
+    from vojax._tracker._smoother import mix_modes
+
+    n = 50
+    betas = np.stack([np.zeros(n), np.zeros(n) + 1e-3, np.full(n, 0.5), np.full(n, -2.0)])
+    variances = np.stack([np.full(n, 0.01), np.full(n, 0.01), np.full(n, 0.04), np.full(n, 0.09)])
+    scores = np.array([10.0, 10.5, 9.0, -np.inf])  # run 1 = run 0's mode; run 3 did not converge
+    var, w = mix_modes(betas, variances, scores, 0, n)
+    expected_w = np.array([1.0, 0.0, np.exp(-1.0), 0.0]) / (1 + np.exp(-1.0))
+    np.testing.assert_allclose(w, expected_w, rtol=1e-14)
+    np.testing.assert_allclose(var, expected_w[0] * 0.01 + expected_w[2] * (0.04 + 0.25), rtol=1e-14)
+    # a reported run that did not converge: its own variance, no mixture
+    var, w = mix_modes(betas, variances, np.array([-np.inf, 1.0, 2.0, 3.0]), 0, n)
+    np.testing.assert_array_equal(var, variances[0])
+    np.testing.assert_array_equal(w, [1.0, 0.0, 0.0, 0.0])
+
+
+def test_band_covers_the_other_modes_in_proportion_to_their_evidence():
+    """The tracker's reported band is the mixture's: at least as wide as the tuned run's own
+    Laplace band at every sample, and its weights sum to one with the tuned run first."""
+    from vojax._tracker import track
+    from vojax._integral import make_memory
+
+    t = np.arange(300) * 0.1
+    u = np.where(t < 5.0, t / 5.0, 1.0)
+    y = np.asarray(vojax.simulate(u, 0.3 + 0.3 * t / t[-1], np.array([1.0]), 0.1))
+    y = y + 0.01 * np.ptp(y) * np.random.default_rng(7).standard_normal(t.size)
+    mem = make_memory("exponential", 0.1, t.size, rule="trapezoid", order_range=(0.01, 0.99))
+    res = track(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99))
+    w = np.asarray(res.mixture_weights)
+    assert w.sum() == pytest.approx(1.0, rel=1e-12) and w[0] > 0
+    own = track(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99),
+                hyper=dict(order_drift=res.tuning.order_drift,
+                           parameter_drift=res.tuning.parameter_drift,
+                           noise_std=np.sqrt(res.tuning.noise) * np.std(y)))
+    assert np.all(np.asarray(res.alpha_std) >= np.asarray(own.alpha_std) * (1 - 1e-6))
+
+
+def test_correlated_prediction_errors_are_refused():
+    """AR(1) measurement noise (ρ = 0.9) on a record that white noise leaves identified: the
+    innovations' lag-1 autocorrelation exceeds 0.25 and the band is refused, with what to do;
+    with white noise of the same level it stays far below."""
+    from vojax._identify import MAX_CORRELATION, diagnose
+
+    alpha = np.full(100, 0.4)
+    d = diagnose(alpha, alpha - 0.01, alpha + 0.01, (0.01, 0.99), True, (), correlation=0.3)
+    assert not d.identified and "coarser clock" in d.message and d.innovation_correlation == 0.3
+    t = np.arange(600) * 0.05
+    u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
+    x = np.asarray(vojax.simulate(u, np.full(t.size, 0.45), np.array([1.0]), 0.05))
+    rng = np.random.default_rng(3)
+    white = rng.standard_normal(t.size)
+    ar = np.zeros(t.size)
+    for k in range(1, t.size):
+        ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
+    level = 0.01 * np.ptp(x)
+    clean = vojax.identify(u, x + level * white, 0.05, method="kalman", warn=False).diagnostics
+    assert clean.identified and abs(clean.innovation_correlation) < 0.1
+    coloured = vojax.identify(u, x + level * ar, 0.05, method="kalman", warn=False).diagnostics
+    assert coloured.innovation_correlation > MAX_CORRELATION and not coloured.identified

@@ -376,6 +376,8 @@ def identify_command(args) -> int:
                 f"refit q = {r['order']:.4f} [{r['order_lower']:.4f}, {r['order_upper']:.4f}]"
                 f"{flag}, NRMSE {r['nrmse']:.3g}"
             )
+        if summary.get("disagreement"):
+            print(f"vojax: warning: {record.name}: {summary['disagreement']}.", file=sys.stderr)
         print("; ".join(parts) + f" → {target}/")
     return 0
 

@@ -23,6 +23,19 @@ PAPER_LAM = 0.9
 
 IDENTIFIED_HALFWIDTH = 0.1  # median ±2σ half-width of the order band above which it is "not identified"
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
+# lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
+# white measurement noise, is not trusted (coloured noise, or a model that misses part of the
+# signal); on the calibration suite's records with white noise it stays below 0.23
+MAX_CORRELATION = 0.25
+
+
+# the law's band is its estimate's spread over the noise alone; on held-out simulations
+# (scripts/bench_calibration.py) the truth lies outside it at most samples, whatever its width
+LAW_BAND = (
+    "the paper's law gives no confidence band (its ±2σ is the spread over the measurement "
+    "noise, without its tracking error, and misses the truth on simulated records): use "
+    "method='kalman' for an order with a calibrated band"
+)
 
 
 class IdentifiabilityWarning(UserWarning):
@@ -38,10 +51,15 @@ class Diagnostics:
     - `at_bound_fraction`: fraction of samples whose order lies at a bound of `alpha_bounds`.
     - `converged`: the tracker's smoother (or the gain tuning) converged.
     - `at_edge`: names of automatically chosen settings that sit at the edge of their search box.
-    - `identified`: the band is narrower than ±0.1, the order is at a bound for < 5 % of
-      samples, the estimation converged, and the measurement noise was not tuned to the edge
-      of its range (where the band would not be a statement about the data).
+    - `identified`: the band is a calibrated confidence band (the tracker's; never the
+      paper's law's, whose band leaves out its tracking error), narrower than ±0.1, the order
+      is at a bound for < 5 % of samples, the estimation converged, and the measurement noise
+      was not tuned to the edge of its range (where the band would not be a statement about
+      the data).
     - `message`: one sentence when something is wrong, else ``""``.
+    - `innovation_correlation`: lag-1 autocorrelation of the one-step prediction errors
+      (innovations) over the fitted samples; white noise and a right model give about 0.
+      Above `MAX_CORRELATION` (0.25) the tracker's band is not trusted.
     """
 
     band_halfwidth: float
@@ -50,6 +68,7 @@ class Diagnostics:
     at_edge: tuple[str, ...]
     identified: bool
     message: str
+    innovation_correlation: float = float("nan")
 
 
 class Identification(eqx.Module):
@@ -246,9 +265,24 @@ def _first_bad(*arrays):
     return int(np.argmax(bad)) if bad.any() else None
 
 
-def diagnose(alpha, lower, upper, bounds, converged, at_edge, held_shift=None) -> Diagnostics:
+def lag1_correlation(e) -> float:
+    """Lag-1 autocorrelation of a sequence (its mean removed); NaN when it is constant."""
+    e = np.asarray(e, dtype=float)
+    e = e - np.mean(e)
+    power = float(np.sum(e * e))
+    return float(np.sum(e[1:] * e[:-1]) / power) if power > 0 else float("nan")
+
+
+def diagnose(
+    alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
+    correlation=float("nan"),
+) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
-    moves (median over the second half) when the tracker's drifting parameters are held."""
+    moves (median over the second half) when the tracker's drifting parameters are held.
+    ``calibrated=False``: the band is not a confidence band (the paper's law: the spread of its
+    estimate over the measurement noise, without its tracking error), so nothing is
+    identified by it. `correlation`: the innovations' lag-1 autocorrelation (see
+    `Diagnostics`)."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2
@@ -258,33 +292,55 @@ def diagnose(alpha, lower, upper, bounds, converged, at_edge, held_shift=None) -
     problems = []
     if width > IDENTIFIED_HALFWIDTH:
         problems.append(
-            f"the order band is ±{width:.2g} wide: these data do not determine the order"
+            f"the order band is ±{width:.2g} wide: these data do not determine the order "
+            "(a test with a longer hold or a second input would, or a refit with fewer free "
+            "parameters: a constant order or a few knots)"
         )
     if at_bound >= 0.05:
-        problems.append(f"the order sits at a bound of {bounds} for {100 * at_bound:.0f} % of samples")
+        problems.append(
+            f"the order sits at a bound of {bounds} for {100 * at_bound:.0f} % of samples "
+            "(widen `alpha_bounds`, or check that the model's inputs are the right ones)"
+        )
     if not converged:
-        problems.append("the estimation did not converge")
+        problems.append(
+            "the estimation did not converge (look for steps or outliers in the data, or give "
+            "`noise=` with the known noise level)"
+        )
     if "noise" in at_edge:
         problems.append(
             "the measurement noise was tuned to the edge of its range (an output almost free "
             "of noise, or drifting states that absorb the misfit): the band is not a "
-            "statement about the data"
+            "statement about the data; give `noise=` with the instrument's noise level"
         )
     traded = held_shift is not None and held_shift > width
     if traded:
         problems.append(
             f"the order trades off with the parameters' drift: with the parameters held it "
-            f"moves by {held_shift:.2g}, more than its band (±{width:.2g})"
+            f"moves by {held_shift:.2g}, more than its band (±{width:.2g}); a second input or "
+            "a test with another loading would separate them"
         )
     others = [name for name in at_edge if name != "noise"]
     if others:
         problems.append(f"{', '.join(others)} at the edge of the search box")
+    coloured = calibrated and correlation > MAX_CORRELATION
+    if coloured:
+        problems.append(
+            f"the prediction errors are correlated (lag-1 autocorrelation {correlation:.2f} > "
+            f"{MAX_CORRELATION}): the measurement noise is coloured or the model misses part of "
+            "the signal, and the band, which assumes white noise, is too narrow; resample to a "
+            "coarser clock, on which the noise decorrelates between samples, or give `noise=` "
+            "with the known noise level"
+        )
+    if not calibrated:
+        problems.append(LAW_BAND)
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
-        and "noise" not in at_edge and not traded
+        and "noise" not in at_edge and not traded and calibrated and not coloured
     )
     message = "; ".join(problems)
-    return Diagnostics(width, at_bound, bool(converged), tuple(at_edge), identified, message)
+    return Diagnostics(
+        width, at_bound, bool(converged), tuple(at_edge), identified, message, correlation
+    )
 
 
 def identify(
@@ -410,7 +466,7 @@ def identify(
     var_alpha, var_p = law_covariance(law, u2, y - x0, jnp.asarray(noise_variance(y - x0)))
     res = law_identification(
         out, var_alpha, var_p, x0, law.order.gamma, law.lsff.lam, law.order.alpha0,
-        law.lsff.dt, bounds, memory, at_edge,
+        law.lsff.dt, bounds, memory, at_edge, y=y,
     )
     if warn and res.diagnostics.message:
         warnings.warn(
@@ -420,10 +476,12 @@ def identify(
 
 
 def law_identification(
-    out, var_alpha, var_p, x0, gamma, lam, alpha0, dt, bounds, memory, at_edge=(), host=False
+    out, var_alpha, var_p, x0, gamma, lam, alpha0, dt, bounds, memory, at_edge=(), host=False,
+    y=None,
 ) -> Identification:
     """An `Identification` from the law's outputs (of ``y − x0``) and the variances of its
     estimates (`vojax._adaptive._bands.law_covariance`); shared by `identify` and the batch.
+    With the measured `y`, the diagnostics hold the correlation of its prediction errors.
     ``host=True`` keeps its arrays in NumPy (the batch: each new record length would compile
     the conversions to device arrays)."""
     # on the host, in NumPy: eager JAX operations would compile once per record length
@@ -432,7 +490,13 @@ def law_identification(
     lo, hi = bounds
     lower = np.clip(alpha - 2 * alpha_std, lo, hi)
     upper = np.clip(alpha + 2 * alpha_std, lo, hi)
-    diagnostics = diagnose(alpha, lower, upper, bounds, True, at_edge)
+    correlation = float("nan")
+    if y is not None:
+        pred = np.asarray(out.y_pred) + float(x0)
+        correlation = lag1_correlation((np.asarray(y)[: pred.shape[0]] - pred)[1:])
+    diagnostics = diagnose(
+        alpha, lower, upper, bounds, True, at_edge, calibrated=False, correlation=correlation
+    )
     dtype = alpha.dtype
     x0 = np.asarray(x0, dtype)
     put = (lambda a, dtype=None: np.asarray(a, dtype)) if host else jnp.asarray
@@ -490,8 +554,11 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     if res.alpha_held is not None:
         held = np.asarray(res.alpha_held)[:span]
         shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
+    y_np, pred = np.asarray(y)[:span], np.asarray(res.y_pred)[:span]
+    fitted = np.ones(span, bool) if mask is None else np.asarray(mask)[:span] > 0
     diagnostics = diagnose(
-        alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift
+        alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift,
+        correlation=lag1_correlation((y_np - pred)[fitted][1:]),
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)

@@ -192,7 +192,14 @@ def record_figure(columns, summary, inputs, path) -> None:
     )
     if ax.get_legend_handles_labels()[0]:
         ax.legend()
-    fig.suptitle(f"{summary['record']} — {summary['model']}")
+    verdict = []
+    part = summary.get("adaptive")
+    if part is not None and "identified" in part:
+        verdict.append("order identified" if part["identified"] else "order not identified")
+    if summary.get("disagreement"):
+        verdict.append("the estimators' bands are disjoint")
+    title = f"{summary['record']} — {summary['model']}"
+    fig.suptitle(title + (f" ({'; '.join(verdict)})" if verdict else ""))
     _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
 
 

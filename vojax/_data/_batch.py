@@ -38,6 +38,7 @@ from ._paths import inside, record_folder
 from ._pipeline import (
     adaptive_part,
     check_finite,
+    disagreement,
     finish_outputs,
     identify_record,
     make_provenance,
@@ -383,6 +384,7 @@ def run_batch(
                             for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
                                 columns[k] = refit_cols[k]
                             summary["refit"] = refit_summary["refit"]
+                            summary["disagreement"] = disagreement(columns, summary)
                     else:  # "refit" or "kalman": one record at a time
                         columns, summary = identify_record(
                             r, model=model, method=method, area=area, length=length,
@@ -531,7 +533,7 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
     out, var_alpha, var_p = jax.tree_util.tree_map(lambda a: a[i][:num], batch)
     res = law_identification(
         out, var_alpha, var_p, float(x0[i, 0]), gains[0], gains[1], 0.5, r.dt, DEFAULT_BOUNDS,
-        "exponential", host=True,
+        "exponential", host=True, y=y,
     )
     cols, part = adaptive_part(res, y, physical)
     columns = {"time": r.time, **cols, "y": y, "y_hat": np.asarray(res.y_hat)}
@@ -543,6 +545,8 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
 
 def _summary_row(summary):
     row = {"record": summary["record"], "source": summary["source"], "samples": summary["samples"]}
+    if "disagreement" in summary:
+        row["disagreement"] = summary["disagreement"]
     for part in ("adaptive", "refit"):
         if part not in summary:
             continue

@@ -121,7 +121,11 @@ def _non_finite(data, where=""):
 
 def _without_errors(data):
     if isinstance(data, dict):
-        return {k: _without_errors(v) for k, v in data.items() if "stderr" not in k}
+        # errors and diagnostic statistics may be undefined (null in JSON); estimates not
+        return {
+            k: _without_errors(v) for k, v in data.items()
+            if "stderr" not in k and k != "innovation_correlation"
+        }
     return data
 
 
@@ -392,7 +396,27 @@ def identify_record(
             "converged": bool(fit.result == optx.RESULTS.successful),
         }
     summary["parameter_names"] = names
+    if "adaptive" in summary and "refit" in summary:
+        summary["disagreement"] = disagreement(columns, summary)
     return columns, summary
+
+
+def disagreement(columns, summary) -> str:
+    """One sentence when the two estimators run on a record give disjoint order bands over
+    the second half of the fitted samples (median of each bound), else ``""``: at most one of
+    them can be right, and neither band says so alone."""
+    half = len(columns["alpha"]) // 2
+    lo_a = float(np.median(columns["alpha_lower"][half:]))
+    hi_a = float(np.median(columns["alpha_upper"][half:]))
+    lo_r, hi_r = summary["refit"]["order_lower"], summary["refit"]["order_upper"]
+    if hi_a < lo_r or hi_r < lo_a:
+        name = "the tracker" if summary["adaptive"]["method"] == "kalman" else "the paper's law"
+        return (
+            f"{name} ([{lo_a:.3g}, {hi_a:.3g}] over the second half) and the constant-order "
+            f"refit ([{lo_r:.3g}, {hi_r:.3g}]) disagree: their bands are disjoint, so at least one "
+            "model is wrong for these data; compare both fits in the figure"
+        )
+    return ""
 
 
 def write_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):

@@ -180,3 +180,60 @@ def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0
     of the noise intensities (differentiable: one filter scan)."""
     q = hyper.process(steps, horizon, jac.shape[1] - 2)
     return kalman_filter(jac, z, hyper.r, q, m0, p0, mask).log_likelihood
+
+
+@eqx.filter_jit
+def smoother_modes(
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int
+):
+    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
+    the constant trajectory of its row of `starts` (C, d), one after the other in one compiled
+    program. Returns, per run, only what a mixture of them needs: the order coordinate β of
+    the mode (C, N), its smoothed variance (C, N) and the run's `score` (C,)."""
+    num = u.shape[0]
+
+    def one(item):
+        h, start = item
+        nominal = jnp.broadcast_to(start, (num, start.shape[0]))
+        sm = _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, max_iter)
+        return sm.theta[:, 0], sm.cov[:, 0, 0], score(sm)
+
+    return lax.map(one, (hyper, starts))
+
+
+def mix_modes(betas, variances, scores, best, span, same=0.25):
+    """An evidence-weighted mixture of smoothing runs, on the order's β scale (NumPy).
+
+    `betas`, `variances` (C, N): each run's mode and smoothed variance; `scores` (C,): its
+    Laplace evidence (−∞ where it did not converge); `best`: the index of the reported run.
+    Runs that reached the same mode as a run of higher evidence (their β within `same` of its
+    standard deviation, median over the first `span` samples) are dropped, so that a mode
+    found from several starts counts once. Weights ``w_c ∝ exp(score_c)``; the mixture's
+    variance about the reported run is ``Σ w_c (var_c + (β_c − β_best)²)``: its band covers
+    the other modes and intensities in proportion to their evidence.
+
+    **Returns:** ``(variance (N,), weights (C,))``, the weights 0 for dropped runs."""
+    import numpy as np
+
+    betas, variances, scores = (np.asarray(a, float) for a in (betas, variances, scores))
+    if not np.isfinite(scores[best]):  # the reported run did not converge: no mixture
+        weights = np.zeros(scores.shape)
+        weights[best] = 1.0
+        return variances[best], weights
+    order = [int(best)] + [
+        int(i) for i in np.argsort(-scores) if int(i) != int(best) and np.isfinite(scores[i])
+    ]
+    kept = []
+    for i in order:
+        sd = np.sqrt(np.maximum(variances[i, :span], 0.0))
+        if all(
+            np.median(np.abs(betas[i, :span] - betas[j, :span]) / np.maximum(sd, 1e-300)) >= same
+            for j in kept
+        ):
+            kept.append(i)
+    weights = np.zeros(scores.shape)
+    top = scores[kept].max()
+    weights[kept] = np.exp(scores[kept] - top)
+    weights /= weights.sum()
+    spread = (betas - betas[best]) ** 2 + variances
+    return np.einsum("c,cn->n", weights, spread), weights

@@ -13,7 +13,14 @@ from jax import lax
 from .._stats import noise_variance
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of, order_of
-from ._smoother import iterated_smoother, linearised_log_likelihood, score, smoother_batch
+from ._smoother import (
+    iterated_smoother,
+    linearised_log_likelihood,
+    mix_modes,
+    score,
+    smoother_batch,
+    smoother_modes,
+)
 
 PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
 PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
@@ -41,6 +48,12 @@ MISFIT_RATIO = 10.0
 # tuned parameter drift above this many times `PARAM_DRIFT0`: the order is smoothed again
 # with the parameters held, and the diagnostics compare the two (`held_order`)
 HELD_RATIO = 2.0
+# the band integrates over what the data do not settle: besides the tuned smoothing, the
+# modes reached from every start at the tuned intensities, and the tuned intensities with the
+# order's or the parameters' drift set to each of these levels, all weighted by evidence
+ALT_ORDER_DRIFT = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift, or × 1e-3 if smaller
+ORDER_DRIFT_BASE = 1e-3  # (an order tuned to be constant still has its variable alternatives)
+ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's change
 
 
 @dataclasses.dataclass(frozen=True)
@@ -275,6 +288,35 @@ def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds
     )
 
 
+def mixture(memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, span):
+    """The order's variance (N,) on the β scale from an evidence-weighted mixture (see
+    `mix_modes`) of the tuned smoothing `sm` and of smoothings at the tuned intensities
+    (`tuning`) from every constant start, and at those intensities with the order's drift
+    scaled by each of `ALT_ORDER_DRIFT` (from at least `ORDER_DRIFT_BASE`), the parameters'
+    set to each of `ALT_PARAM_DRIFT`, and the order held with the parameters drifting at
+    those levels (from the time average of the tuned mode). Returns ``(variance, weights)``, the tuned run first."""
+    qo, qp, r = tuning.order_drift, tuning.parameter_drift, tuning.noise
+    mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
+    rows = [(qo, qp, r)] * len(starts)
+    rows += [(qo, alt, r) for alt in ALT_PARAM_DRIFT]
+    # the other explanation a single input allows: the order (nearly) constant, the
+    # parameters drifting
+    rows += [(float(np.exp(BOX["order_drift"][0])), alt, r) for alt in ALT_PARAM_DRIFT]
+    base = max(qo, ORDER_DRIFT_BASE)
+    rows += [(float(np.clip(base * f, *np.exp(BOX["order_drift"]))), qp, r) for f in ALT_ORDER_DRIFT]
+    firsts = np.concatenate(
+        [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
+    )
+    betas, variances, scores = smoother_modes(
+        memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0,
+        jnp.asarray(firsts, u.dtype), bounds, MAX_ITER,
+    )
+    betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
+    variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
+    scores = np.concatenate([[float(score(sm))], np.asarray(scores)])
+    return mix_modes(betas, variances, scores, 0, span)
+
+
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
     """The online iterated EKF over the whole record in one scan."""
     tracker = KalmanTracker(
@@ -320,6 +362,8 @@ class TrackResult(eqx.Module):
     constant_order: float = eqx.field(static=True)
     # the order smoothed again with the parameters held (see `held_order`), or None
     alpha_held: jax.Array | None = None
+    # the evidence weights of the band's mixture (see `mixture`), the tuned run first
+    mixture_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
 
 
 def track(
@@ -382,9 +426,16 @@ def track(
         alpha_held = held_order(
             memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds, misfit
         )
+    weights = None
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
+        beta_var = cov[:, 0, 0]
+        if tuning.tuned:
+            beta_var, weights = mixture(
+                memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, last + 1
+            )
+            beta_var = jnp.asarray(beta_var)
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
@@ -394,9 +445,10 @@ def track(
         )
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
         converged = True
+        beta_var = cov[:, 0, 0]
     if y_hat_n is None:
         y_hat_n = theta[:, -1] + jnp.sum(theta[:, 1 : 1 + n] * sm.phi, axis=1)
-    beta_sd = jnp.sqrt(jnp.maximum(cov[:, 0, 0], 0.0))
+    beta_sd = jnp.sqrt(jnp.maximum(beta_var, 0.0))
     alpha, dalpha = order_of(theta[:, 0], bounds)
     scale = jnp.asarray(p_scale)
     var = jnp.maximum(jnp.diagonal(cov, axis1=1, axis2=2), 0.0)
@@ -415,4 +467,5 @@ def track(
         tuning=tuning,
         constant_order=alpha_c,
         alpha_held=alpha_held,
+        mixture_weights=None if weights is None else tuple(float(w) for w in weights),
     )
