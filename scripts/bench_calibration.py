@@ -149,7 +149,8 @@ def draw_order(shape, s, u, rng):
         ell = rng.uniform(0.15, 0.4)
         cov = np.exp(-0.5 * ((s[:, None] - s[None, :]) / ell) ** 2)
         idx = np.linspace(0, s.size - 1, min(s.size, 200)).astype(int)
-        g = rng.multivariate_normal(np.zeros(idx.size), cov[np.ix_(idx, idx)] + 1e-9 * np.eye(idx.size))
+        jitter = 1e-9 * np.eye(idx.size)
+        g = rng.multivariate_normal(np.zeros(idx.size), cov[np.ix_(idx, idx)] + jitter)
         g = np.interp(s, s[idx], g)
         return rng.uniform(0.35, 0.65) + 0.22 * np.tanh(g / 1.5)
     if shape == "step":
@@ -224,7 +225,7 @@ def draw_case(family, index, signals):
         y = np.round(y / q) * q
     return dict(
         family=family, index=index, input=name, shape=shape, samples=n, noise=level, rho=rho,
-        drift=drift, t=t, u=u, y=y, alpha=alpha, p=p, irregular=irregular,
+        drift=drift, t=t, u=u, x=x, y=y, alpha=alpha, p=p, irregular=irregular,
     )
 
 

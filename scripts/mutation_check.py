@@ -296,6 +296,48 @@ MUTATIONS = {
           "        noises = (misfit,)")],
         ["tests/test_tracker.py::test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch"],
     ),
+    "refit keeps coefficients that are rounding": (
+        "vojax/_refit.py",
+        [("ROUNDING = 1e-12\n", "ROUNDING = 0.0\n")],
+        ["tests/test_refit.py::test_a_coefficient_fitted_to_rounding_is_exactly_zero",
+         "tests/test_cli_recordings.py::test_an_undetermined_parameter_is_written_not_failed"],
+    ),
+    "an undetermined physical parameter fails the record": (
+        "vojax/_data/_pipeline.py",
+        [("    if \"refit\" in parts:\n", "    if False:\n")],
+        ["tests/test_cli_recordings.py::test_an_undetermined_parameter_is_written_not_failed"],
+    ),
+    "mixture weights ignore the evidence": (
+        "vojax/_tracker/_smoother.py",
+        [("    weights[kept] = np.exp(scores[kept] - top)", "    weights[kept] = 1.0")],
+        ["tests/test_tracker.py::test_mixture_of_modes_is_the_evidence_weighted_spread"],
+    ),
+    "mixture counts a mode found twice": (
+        "vojax/_tracker/_smoother.py",
+        [(") >= same\n", ") >= -1.0\n")],
+        ["tests/test_tracker.py::test_mixture_of_modes_is_the_evidence_weighted_spread"],
+    ),
+    "tracker's band not mixed": (
+        "vojax/_tracker/_track.py",
+        [("        if tuning.tuned:\n            beta_var, weights = mixture(",
+          "        if False:\n            beta_var, weights = mixture(")],
+        ["tests/test_tracker.py::test_band_covers_the_other_modes_in_proportion_to_their_evidence"],
+    ),
+    "correlated prediction errors not refused": (
+        "vojax/_identify.py",
+        [("and calibrated and not coloured", "and calibrated")],
+        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused"],
+    ),
+    "the law claims identified": (
+        "vojax/_identify.py",
+        [("and not traded and calibrated and not coloured", "and not traded and not coloured")],
+        ["tests/test_adaptive.py::test_the_law_never_claims_a_confidence_band"],
+    ),
+    "disagreement reported for overlapping bands": (
+        "vojax/_data/_pipeline.py",
+        [("    if hi_a < lo_r or hi_r < lo_a:", "    if True:")],
+        ["tests/test_outputs.py::test_disjoint_bands_of_two_estimators_are_reported"],
+    ),
 }
 
 

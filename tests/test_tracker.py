@@ -647,7 +647,8 @@ def test_mixture_of_modes_is_the_evidence_weighted_spread():
     var, w = mix_modes(betas, variances, scores, 0, n)
     expected_w = np.array([1.0, 0.0, np.exp(-1.0), 0.0]) / (1 + np.exp(-1.0))
     np.testing.assert_allclose(w, expected_w, rtol=1e-14)
-    np.testing.assert_allclose(var, expected_w[0] * 0.01 + expected_w[2] * (0.04 + 0.25), rtol=1e-14)
+    expected = expected_w[0] * 0.01 + expected_w[2] * (0.04 + 0.25)
+    np.testing.assert_allclose(var, expected, rtol=1e-14)
     # a reported run that did not converge: its own variance, no mixture
     var, w = mix_modes(betas, variances, np.array([-np.inf, 1.0, 2.0, 3.0]), 0, n)
     np.testing.assert_array_equal(var, variances[0])

@@ -217,7 +217,7 @@ def _data_options(p, *, many: bool):
         choices=("adaptive", "kalman", "refit", "both"),
         default="kalman",
         help="kalman (default): the Bayesian tracker — smoother, offset estimated, noise "
-        "intensities by likelihood; the most accurate, with calibrated bands "
+        "intensities by likelihood; the most accurate, with bands and a verdict "
         "(scripts/bench_identifiability.py); adaptive: the paper's law; refit: "
         "constant-order least squares; both: adaptive and refit",
     )

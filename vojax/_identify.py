@@ -34,7 +34,7 @@ MAX_CORRELATION = 0.25
 LAW_BAND = (
     "the paper's law gives no confidence band (its ±2σ is the spread over the measurement "
     "noise, without its tracking error, and misses the truth on simulated records): use "
-    "method='kalman' for an order with a calibrated band"
+    "method='kalman' for an order with a confidence band"
 )
 
 
@@ -51,8 +51,8 @@ class Diagnostics:
     - `at_bound_fraction`: fraction of samples whose order lies at a bound of `alpha_bounds`.
     - `converged`: the tracker's smoother (or the gain tuning) converged.
     - `at_edge`: names of automatically chosen settings that sit at the edge of their search box.
-    - `identified`: the band is a calibrated confidence band (the tracker's; never the
-      paper's law's, whose band leaves out its tracking error), narrower than ±0.1, the order
+    - `identified`: the band is a confidence band (the tracker's; never the paper's
+      law's, whose band leaves out its tracking error), narrower than ±0.1, the order
       is at a bound for < 5 % of samples, the estimation converged, and the measurement noise
       was not tuned to the edge of its range (where the band would not be a statement about
       the data).

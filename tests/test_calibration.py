@@ -1,0 +1,78 @@
+"""The calibration suite of `scripts/bench_calibration.py`, reduced to what the slow tier can
+afford: its truth is independent of the code under test and inside the model's class, the
+tracker's bands hold on its first white-noise and noisy draws, and the paper's law never
+claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vojax
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data is not present"),
+]
+
+
+@pytest.fixture(scope="module")
+def suite():
+    spec = importlib.util.spec_from_file_location(
+        "bench_calibration", ROOT / "scripts" / "bench_calibration.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module, module.real_signals(DATA)
+
+
+def test_every_dataset_gives_inputs(suite):
+    module, signals = suite
+    names = " ".join(name for name, *_ in signals)
+    for word in ("beef", "silicone", "AFM", "adhesive", "myocardium", "CreepDataPP",
+                 "rheometer", "LAOS"):
+        assert word in names
+
+
+@pytest.mark.parametrize("family, index", [("white", 0), ("drift", 2), ("irregular", 1)])
+def test_truth_is_inside_the_model_to_well_below_the_noise(suite, family, index):
+    """The truth (the reference's direct sums on a grid twice as fine, p inside the integral)
+    and vojax's own memory on the record's samples, at the true order: they differ by far
+    less than the drawn noise, so the suite measures the estimators, not the quadrature."""
+    module, signals = suite
+    case = module.draw_case(family, index, signals)
+    grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
+    model = np.asarray(vojax.fractional_integral(case["u"] * case["p"], case["alpha"], **grid))
+    sd = case["noise"] * np.ptp(case["x"])
+    assert np.sqrt(np.mean((case["x"] - model) ** 2)) < 0.2 * sd
+
+
+def test_tracker_bands_hold_on_the_first_white_and_noisy_draws(suite):
+    """Draws 0–5 of the white (0.5–2 %) and noisy (5–10 %, quantised) families: most are
+    identified, the identified bands hold the truth at ≥ 85 % of the second halves' samples,
+    and none is confidently wrong (identified, the truth outside at most samples)."""
+    module, signals = suite
+    rows = [
+        module.score(case, module.run_method("tracker", case))
+        for case in (module.draw_case(f, i, signals) for f in ("white", "noisy") for i in range(6))
+    ]
+    identified = [r for r in rows if r["identified"]]
+    assert len(identified) >= 8
+    coverage = sum(r["inside"] for r in identified) / sum(r["count"] for r in identified)
+    assert coverage >= 0.85
+    assert not any(r["wrong"] for r in identified)
+
+
+def test_the_law_is_never_identified_and_its_band_misses(suite):
+    """The paper's law on draws 0–5 of the white family: never identified, and its band (the
+    spread over the noise alone) misses the truth at most samples of nearly every draw."""
+    module, signals = suite
+    rows = [
+        module.score(case, module.run_method("law", case))
+        for case in (module.draw_case("white", i, signals) for i in range(6))
+    ]
+    assert not any(r["identified"] for r in rows)
+    assert sum(r["coverage"] < 0.5 for r in rows) >= 5
