@@ -338,6 +338,12 @@ MUTATIONS = {
         [("    if hi_a < lo_r or hi_r < lo_a:", "    if True:")],
         ["tests/test_outputs.py::test_disjoint_bands_of_two_estimators_are_reported"],
     ),
+    "tables keep spreadsheet formulas": (
+        "vojax/_data/_batch.py",
+        [("    if isinstance(value, str) and value.startswith(FORMULA_START):",
+          "    if False:")],
+        ["tests/test_outputs.py::test_tables_do_not_carry_spreadsheet_formulas"],
+    ),
 }
 
 

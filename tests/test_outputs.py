@@ -313,3 +313,20 @@ def test_disjoint_bands_of_two_estimators_are_reported():
     summary["adaptive"]["method"] = "gradient"
     summary["refit"].update(order_lower=0.1, order_upper=0.29)
     assert disagreement(columns, summary).startswith("the paper's law")
+
+
+def test_tables_do_not_carry_spreadsheet_formulas(tmp_path):
+    """A record named like a formula is written after a "'" in summary.csv (a spreadsheet
+    would otherwise run it); numbers, negative ones included, are written as they are."""
+    import csv
+
+    from vojax._data._batch import _write_table
+
+    rows = [{"record": "=HYPERLINK(\"http://x\")", "source": "@a", "value": -1.5},
+            {"record": "plain-name", "source": "+b", "value": 2.0}]
+    _write_table(tmp_path / "summary.csv", rows)
+    with open(tmp_path / "summary.csv", newline="") as f:
+        back = list(csv.DictReader(f))
+    assert back[0]["record"] == "'=HYPERLINK(\"http://x\")" and back[0]["source"] == "'@a"
+    assert back[0]["value"] == "-1.5" and back[1]["record"] == "plain-name"
+    assert back[1]["source"] == "'+b"

@@ -581,12 +581,24 @@ def _write_summary_table(out_dir, records, folders, provenance, cache=None):
     return rows
 
 
+# a text cell starting with one of these is a formula to a spreadsheet (a record named
+# "=HYPERLINK(…)" would run as one when the table is opened): it is written after a "'"
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _text_cell(value):
+    if isinstance(value, str) and value.startswith(FORMULA_START):
+        return "'" + value
+    return value
+
+
 def _write_table(path, rows):
-    """Writes a CSV table atomically (an empty table is written as its header only)."""
+    """Writes a CSV table atomically (an empty table is written as its header only); text
+    that a spreadsheet would run as a formula is written after a ``'``."""
     fields = list(dict.fromkeys(k for row in rows for k in row)) or ["record"]
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=fields)
+    writer = csv.DictWriter(buffer, fieldnames=[_text_cell(f) for f in fields])
     writer.writeheader()
-    writer.writerows(rows)
+    writer.writerows({_text_cell(k): _text_cell(v) for k, v in row.items()} for row in rows)
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
         f.write(buffer.getvalue())
