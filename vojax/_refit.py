@@ -326,6 +326,15 @@ def _hold_worst(active, signs, coefficients, scale) -> bool:
     return True
 
 
+def _zero_rounding(p, columns, big_y, sw):
+    """``p`` with 0 for each coefficient whose whole contribution to the weighted fit,
+    ``|p_j|·‖column j‖``, is below `ROUNDING` of ``‖y‖``: the sign of a rounding error differs
+    between machines, and 1/p of a model would be ±1e16 on one and a failure on another."""
+    size = jnp.linalg.norm(big_y * sw)
+    noise = jnp.abs(p) * jnp.linalg.norm(columns * sw[:, None], axis=0) <= ROUNDING * size
+    return jnp.where(noise, 0.0, p)
+
+
 def _direct_regressors(direct, num):
     if direct is None:
         return np.zeros((num, 0))
@@ -404,12 +413,7 @@ def _fit(
     raw = raw_of(theta)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
     pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
-    # a coefficient whose whole contribution to the fit is below rounding is 0, not the sign of
-    # a rounding error (which would differ between machines and make 1/p of a model ±1e16)
-    columns = design(phi_t) * sw[:, None]
-    size = jnp.linalg.norm(big_y * sw)
-    noise = jnp.abs(theta[num_knots:]) * jnp.linalg.norm(columns, axis=0) <= ROUNDING * size
-    theta = theta.at[num_knots:].set(jnp.where(noise, 0.0, theta[num_knots:]))
+    theta = theta.at[num_knots:].set(_zero_rounding(theta[num_knots:], design(phi_t), big_y, sw))
     return dict(
         order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
@@ -442,10 +446,7 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
         p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
         if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):
             break
-    noise = jnp.abs(p) * jnp.linalg.norm(full * sw[:, None], axis=0) <= ROUNDING * jnp.linalg.norm(
-        big_y * sw
-    )
-    p = jnp.where(noise, 0.0, p)  # below rounding: 0 (see `ROUNDING`)
+    p = _zero_rounding(p, full, big_y, sw)
     fit = full @ p
     residuals = big_y - fit
     inverse, loose = _gauss_newton(a * sw[:, None], jnp.asarray(active))

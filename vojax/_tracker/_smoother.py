@@ -13,6 +13,7 @@ tune the noise intensities.
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int
 
@@ -71,11 +72,8 @@ def smoother_batch(
     only the scores and the index of the best by objective (for when none converges), so that
     memory does not grow with B. Returns ``(best, its index, index of the best by objective,
     scores (B,), iterations (B,))``; an index is −1 where no run qualifies."""
-    num = u.shape[0]
-
     def one(h, start):
-        nominal = jnp.broadcast_to(start, (num, start.shape[0]))
-        return _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, max_iter)
+        return _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
 
     # one after the other (a scan), not vmapped: each run stops at its own convergence, where
     # a vmapped loop runs every member until the slowest is done
@@ -100,6 +98,12 @@ def smoother_batch(
         body, (blank, none, minus, none, minus), (jnp.arange(starts.shape[0]), hyper, starts)
     )
     return best, i_best, i_alt, scores, iterations
+
+
+def _from_start(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, max_iter):
+    """`_iterate` from the constant trajectory `start` (d,)."""
+    nominal = jnp.broadcast_to(start, (u.shape[0], start.shape[0]))
+    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
 
 
 def score(sm):
@@ -190,12 +194,9 @@ def smoother_modes(
     the constant trajectory of its row of `starts` (C, d), one after the other in one compiled
     program. Returns, per run, only what a mixture of them needs: the order coordinate β of
     the mode (C, N), its smoothed variance (C, N) and the run's `score` (C,)."""
-    num = u.shape[0]
-
     def one(item):
         h, start = item
-        nominal = jnp.broadcast_to(start, (num, start.shape[0]))
-        sm = _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, max_iter)
+        sm = _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
         return sm.theta[:, 0], sm.cov[:, 0, 0], score(sm)
 
     return lax.map(one, (hyper, starts))
@@ -213,8 +214,6 @@ def mix_modes(betas, variances, scores, best, span, same=0.25):
     the other modes and intensities in proportion to their evidence.
 
     **Returns:** ``(variance (N,), weights (C,))``, the weights 0 for dropped runs."""
-    import numpy as np
-
     betas, variances, scores = (np.asarray(a, float) for a in (betas, variances, scores))
     if not np.isfinite(scores[best]):  # the reported run did not converge: no mixture
         weights = np.zeros(scores.shape)

@@ -294,7 +294,8 @@ def mixture(memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, boun
     (`tuning`) from every constant start, and at those intensities with the order's drift
     scaled by each of `ALT_ORDER_DRIFT` (from at least `ORDER_DRIFT_BASE`), the parameters'
     set to each of `ALT_PARAM_DRIFT`, and the order held with the parameters drifting at
-    those levels (from the time average of the tuned mode). Returns ``(variance, weights)``, the tuned run first."""
+    those levels (from the time average of the tuned mode). Returns ``(variance, weights)``,
+    the tuned run first."""
     qo, qp, r = tuning.order_drift, tuning.parameter_drift, tuning.noise
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
     rows = [(qo, qp, r)] * len(starts)
@@ -303,7 +304,8 @@ def mixture(memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, boun
     # parameters drifting
     rows += [(float(np.exp(BOX["order_drift"][0])), alt, r) for alt in ALT_PARAM_DRIFT]
     base = max(qo, ORDER_DRIFT_BASE)
-    rows += [(float(np.clip(base * f, *np.exp(BOX["order_drift"]))), qp, r) for f in ALT_ORDER_DRIFT]
+    drifts = np.clip(base * np.asarray(ALT_ORDER_DRIFT), *np.exp(BOX["order_drift"]))
+    rows += [(float(q), qp, r) for q in drifts]
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
@@ -433,7 +435,8 @@ def track(
         beta_var = cov[:, 0, 0]
         if tuning.tuned:
             beta_var, weights = mixture(
-                memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, last + 1
+                memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
+                last + 1,
             )
             beta_var = jnp.asarray(beta_var)
     else:
