@@ -302,6 +302,24 @@ MUTATIONS = {
         ["tests/test_refit.py::test_a_coefficient_fitted_to_rounding_is_exactly_zero",
          "tests/test_cli_recordings.py::test_an_undetermined_parameter_is_written_not_failed"],
     ),
+    "parameter check compares the recursion with itself": (
+        "vojax/testing.py",
+        [('_compare("p", "recursion vs batch sums (23)", p, p_batch, rtol)',
+          '_compare("p", "recursion vs batch sums (23)", p, p, rtol)')],
+        ["tests/test_checks_io.py::test_check_parameter_sensitivity_fails_on_a_recursion_that_is_not_23"],
+    ),
+    "refit's active set ranks sign violations by magnitude": (
+        "vojax/_refit.py",
+        [("        if not _hold_worst(active, signs, np.asarray(out[\"p\"]), se):",
+          "        if not _hold_worst(active, signs, np.asarray(out[\"p\"]), 1.0):")],
+        ["tests/test_refit.py::test_sign_constraints_do_not_depend_on_the_units_of_the_inputs"],
+    ),
+    "fixed-order refit's active set ranks by magnitude": (
+        "vojax/_refit.py",
+        [("        if not _hold_worst(active, signs, np.asarray(p[:count]), scale):",
+          "        if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):")],
+        ["tests/test_refit.py::test_sign_constraints_do_not_depend_on_the_units_of_the_inputs"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

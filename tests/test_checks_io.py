@@ -64,6 +64,22 @@ def test_check_parameter_sensitivity_passes_and_catches_the_printed_misprint():
         vt.check_parameter_sensitivity(U, y, 0.6, 0.02, lam=0.9, closed_form=printed)
 
 
+
+def test_check_parameter_sensitivity_fails_on_a_recursion_that_is_not_23(monkeypatch):
+    """The check's first row compares the recursion's p with the explicit sums of (23), an
+    independent computation: a recursion off by 1e-6 of p (a constant, so that its
+    derivative, and the rows that check it, are unchanged) fails that row alone."""
+    y = U @ np.array([1.5, -0.5]) + 0.05 * T
+    exact = vt._lsff_p
+    monkeypatch.setattr(vt, "_lsff_p", lambda *a: exact(*a) + 1e-6)
+    report = vt.check_parameter_sensitivity(U, y, 0.6, 0.02, raise_on_failure=False)
+    assert not report.passed
+    assert report.rows[0].compared.startswith("recursion vs batch")
+    assert report.rows[0].relative > 1e-7 and report.rows[1].relative < 1e-10
+    with pytest.raises(vt.GradientCheckError, match="recursion vs batch"):
+        vt.check_parameter_sensitivity(U, y, 0.6, 0.02)
+
+
 @pytest.mark.parametrize(
     "call, match",
     [

@@ -229,3 +229,27 @@ def test_a_coefficient_fitted_to_rounding_is_exactly_zero(order):
     # a real coefficient of the same size as the data is not touched
     fit = vojax.refit(U, _data(0.62, seed=0), DT, x0=0.0)
     assert np.all(np.asarray(fit.p) != 0.0)
+
+
+@pytest.mark.parametrize("order", ["constant", 0.5])
+def test_sign_constraints_do_not_depend_on_the_units_of_the_inputs(order):
+    """Two coefficients break their signs in the free fit; which one the active set holds
+    first decides the answer (here: the first held, the second positive, or both held).
+    Ranked in standard errors the choice is unit-free: the second input in other units
+    (×1e-4, ×1e4) gives the same physical coefficients. Ranked by magnitude, ×1e-4 makes the
+    second coefficient 1e4 times larger and holds it first, and both end at 0."""
+    n, dt = 300, 0.01
+    t = dt * np.arange(n)
+    u1 = np.sin(2 * np.pi * t) + 1.0
+    u2 = -0.8 * u1 + 0.3 * np.cos(5 * t)
+    fixed = order if isinstance(order, str) else np.full(n, order)
+    phi = np.asarray(vojax.fractional_integral(np.stack([u1, u2], 1), np.full(n, 0.5), dt))
+    y = -phi[:, 0] - 0.6 * phi[:, 1] + 0.01 * np.random.default_rng(0).standard_normal(n)
+    fits = {}
+    for c in (1.0, 1e-4, 1e4):
+        fit = vojax.refit(np.stack([u1, c * u2], 1), y, dt, order=fixed, p_signs=[1, 1], x0=0.0)
+        fits[c] = (np.asarray(fit.p) * [1.0, c], fit.p_at_bound)
+    assert fits[1.0][1] == (True, False) and fits[1.0][0][1] > 0.5
+    for c in (1e-4, 1e4):
+        assert fits[c][1] == fits[1.0][1]
+        np.testing.assert_allclose(fits[c][0], fits[1.0][0], rtol=1e-6)

@@ -444,7 +444,11 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
     while True:
         a = full * jnp.asarray(active)
         p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
-        if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):
+        # ranked in standard errors (σ² is common to all and drops out): in magnitudes the
+        # choice would depend on each input's unit
+        inverse, _ = _gauss_newton(a * sw[:, None], jnp.asarray(active))
+        scale = np.sqrt(np.maximum(np.diag(np.asarray(inverse))[:count], np.finfo(float).tiny))
+        if not _hold_worst(active, signs, np.asarray(p[:count]), scale):
             break
     p = _zero_rounding(p, full, big_y, sw)
     fit = full @ p
