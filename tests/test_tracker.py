@@ -698,3 +698,35 @@ def test_correlated_prediction_errors_are_refused():
     assert clean.identified and abs(clean.innovation_correlation) < 0.1
     coloured = vojax.identify(u, x + level * ar, 0.05, method="kalman", warn=False).diagnostics
     assert coloured.innovation_correlation > MAX_CORRELATION and not coloured.identified
+
+
+def test_an_unstable_law_reports_an_infinite_band_with_its_reason(monkeypatch):
+    """At γ = 0.05 on this noise-free record the law is unstable: a change of 1e-9 in the data
+    moves its order by more than 1e-3 within 10,000 samples (checked here, by running it
+    twice), and the delta-method spread grows geometrically (1e55 at sample 20,000, beyond
+    the float range by 57,500). It must come out as inf (never NaN) with the reason in the
+    message; and the rescaled
+    recursion gives the plain one's numbers where both are finite."""
+    from vojax._adaptive import _bands
+
+    dt, n = 0.01, 60_000
+    t = dt * np.arange(n)
+    u = (np.sin(0.5 * t) + 1.5)[:, None]
+    y = np.asarray(vojax.simulate(u, 0.6, np.array([2.0]), dt, memory="exponential"))
+    res = vojax.identify(u, y, dt, gamma=0.05, lam=0.9, warn=False)
+    nudged = y.copy()
+    nudged[100:] += 1e-9
+    other = vojax.identify(u, nudged, dt, gamma=0.05, lam=0.9, warn=False)
+    assert np.max(np.abs(np.asarray(other.alpha) - np.asarray(res.alpha))[:10_000]) > 1e-3
+    std = np.asarray(res.alpha_std)
+    assert not np.any(np.isnan(std)) and not np.any(np.isnan(np.asarray(res.p_std)))
+    # (where the order is clipped at a bound the linearised spread is 0: the clip's derivative)
+    assert np.isinf(std).any() and np.all(np.isfinite(np.asarray(res.alpha_lower)))
+    assert "unstable at these gains" in res.diagnostics.message
+    assert not res.diagnostics.identified
+    # renormalising at every step (a threshold of 1e-30) changes nothing but rounding
+    short = vojax.identify(u[:3001], y[:3001], dt, gamma=0.05, lam=0.9, warn=False)
+    monkeypatch.setattr(_bands, "RESCALE", 1e-30)
+    again = vojax.identify(u[:3001], y[:3001], dt, gamma=0.05, lam=0.9, warn=False)
+    np.testing.assert_allclose(again.alpha_std, short.alpha_std, rtol=1e-9)
+    np.testing.assert_allclose(again.p_std, short.p_std, rtol=1e-9)

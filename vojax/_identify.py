@@ -275,14 +275,15 @@ def lag1_correlation(e) -> float:
 
 def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
-    correlation=float("nan"),
+    correlation=float("nan"), unstable_from=None,
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
     ``calibrated=False``: the band is not a confidence band (the paper's law: the spread of its
     estimate over the measurement noise, without its tracking error), so nothing is
     identified by it. `correlation`: the innovations' lag-1 autocorrelation (see
-    `Diagnostics`)."""
+    `Diagnostics`). `unstable_from`: the first sample at which the law's spread passes the
+    order's range (its linearisation is unstable), or None."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2
@@ -331,11 +332,18 @@ def diagnose(
             "coarser clock, on which the noise decorrelates between samples, or give `noise=` "
             "with the known noise level"
         )
+    if unstable_from is not None:
+        problems.append(
+            f"the law is unstable at these gains: from sample {unstable_from} its spread over the "
+            "measurement noise is wider than the order's range (a change of the data in their "
+            "last digits moves the order); use a smaller `gamma`"
+        )
     if not calibrated:
         problems.append(LAW_BAND)
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
         and "noise" not in at_edge and not traded and calibrated and not coloured
+        and unstable_from is None
     )
     message = "; ".join(problems)
     return Diagnostics(
@@ -494,8 +502,11 @@ def law_identification(
     if y is not None:
         pred = np.asarray(out.y_pred) + float(x0)
         correlation = lag1_correlation((np.asarray(y)[: pred.shape[0]] - pred)[1:])
+    # the law's sampling spread passes the order's whole range: its linearisation is unstable
+    wild = np.flatnonzero(~(alpha_std <= hi - lo))
     diagnostics = diagnose(
-        alpha, lower, upper, bounds, True, at_edge, calibrated=False, correlation=correlation
+        alpha, lower, upper, bounds, True, at_edge, calibrated=False, correlation=correlation,
+        unstable_from=int(wild[0]) if wild.size else None,
     )
     dtype = alpha.dtype
     x0 = np.asarray(x0, dtype)
