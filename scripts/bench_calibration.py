@@ -10,8 +10,12 @@ time over a common base (white noise of 0.5–2 % of the output's range, p const
 
 - ``white``: the base; ``noisy``: white noise of 5–10 % with 12-bit quantisation;
 - ``coloured``: AR(1) noise, ρ in 0.5–0.95, of the base's marginal level;
-- ``drift``: p drifting smoothly by ±10–40 % over the record; ``drift-constant``: the same
-  with a constant order (the trade-off a single input cannot resolve);
+- ``drift``: p drifting smoothly by ±10–40 % over the record inside the integral
+  (``D^α x = p(t)·u``); ``drift-constant``: the same with a constant order (the trade-off a
+  single input cannot resolve);
+- ``gain-drift``, ``gain-drift-constant``: the same drifts as a gain on the memory term,
+  ``y = p(t)·I^α u`` (a tissue stiffening: ``σ = η(t)·D^q ε``), the tracker's own model of a
+  drifting parameter;
 - ``irregular``: samples at irregular times (gaps of 1–7 fine steps), run with ``t=``;
 - ``lengths``: 100–4,800 samples (the other families use 300–1,200).
 
@@ -41,7 +45,10 @@ from pathlib import Path
 import numpy as np
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-FAMILIES = ("white", "noisy", "coloured", "drift", "drift-constant", "irregular", "lengths")
+FAMILIES = (
+    "white", "noisy", "coloured", "drift", "drift-constant", "gain-drift", "gain-drift-constant",
+    "irregular", "lengths",
+)
 SHAPES = ("constant", "smooth", "step", "decay", "load")
 LENGTHS = (300, 600, 1200)  # few lengths: each compiles once per worker
 LONG_LENGTHS = (100, 2400, 4800)
@@ -176,7 +183,7 @@ def draw_case(family, index, signals):
 
     rng = np.random.default_rng(zlib.crc32(f"calibration/{family}/{index}".encode()))
     name, t_raw, v_raw = signals[int(rng.integers(len(signals)))]
-    shape = SHAPES[index % len(SHAPES)] if family != "drift-constant" else "constant"
+    shape = SHAPES[index % len(SHAPES)] if not family.endswith("-constant") else "constant"
     n = int(rng.choice(LONG_LENGTHS if family == "lengths" else LENGTHS))
     # a window of at least half the recording, resampled onto a fine uniform grid (2 per sample)
     span = t_raw[-1] - t_raw[0]
@@ -202,11 +209,15 @@ def draw_case(family, index, signals):
     alpha_fine = draw_order(shape, s_fine, u_fine, rng)
     p_fine = np.ones(fine_n)
     drift = 0.0
-    if family in ("drift", "drift-constant"):
+    gain = family.startswith("gain-drift")
+    if "drift" in family:
         drift = rng.choice([-1, 1]) * rng.uniform(0.1, 0.4)
         centre, w = rng.uniform(0.3, 0.7), rng.uniform(0.1, 0.3)
         p_fine = 1.0 + drift * (1 + np.tanh((s_fine - centre) / w)) / 2
-    x = np.asarray(reference.fractional_integral(p_fine * u_fine, alpha_fine, h))[picks]
+    if gain:  # the gain of the memory term drifts: y = p(t)·I^α(t) u (σ = η(t)·D^q ε)
+        x = (p_fine * np.asarray(reference.fractional_integral(u_fine, alpha_fine, h)))[picks]
+    else:  # eq. (12): D^α x = p(t)·u, p inside the integral
+        x = np.asarray(reference.fractional_integral(p_fine * u_fine, alpha_fine, h))[picks]
     u, alpha, p = u_fine[picks], alpha_fine[picks], p_fine[picks]
     spread = float(np.ptp(x)) or 1.0
     level = rng.uniform(0.05, 0.10) if family == "noisy" else rng.uniform(0.005, 0.02)

@@ -162,3 +162,18 @@ def test_tune_gains_traces_once_per_padded_shape_and_padding_changes_nothing():
     assert padded.loss == pytest.approx(plain.loss, rel=1e-4)
     with pytest.raises(ValueError, match="pad_to"):
         vojax.tune_gains(u, y, dt, pad_to=300)
+
+
+def test_the_gain_search_box_does_not_depend_on_the_units():
+    """The box of (γ, λ) follows the units: time in other units (×1e-3, ×3600) divides both
+    axes by the factor, the output ×1e3 divides γ by 1e6 (γ Λ e moves a dimensionless order
+    per unit time; Λ and e carry the output's unit). Fixed in seconds, a record in
+    milliseconds was searched over γ 1e3 times too small."""
+    t = np.arange(400) * 0.05
+    u = np.sin(0.4 * t) + np.sin(1.3 * t)
+    y = np.asarray(vojax.simulate(u, 0.3 + 0.4 * t / t[-1], np.array([1.5]), 0.05))
+    a = vojax.tune_gains(u, y, 0.05, refine_steps=0)
+    for c in (1e-3, 3600.0):
+        b = vojax.tune_gains(u, 1e3 * y, 0.05 * c, refine_steps=0)
+        np.testing.assert_allclose(b.grid_gamma * c * 1e6, a.grid_gamma, rtol=1e-12)
+        np.testing.assert_allclose(b.grid_lam * c, a.grid_lam, rtol=1e-12)

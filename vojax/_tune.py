@@ -14,6 +14,7 @@ TRACES = {"tune": 0}
 # the refinement differentiates through the law in blocks of samples, each block checkpointed:
 # reverse mode keeps one law state per block and the states of one block, not one per sample
 BLOCK = 1024
+GAMMA_DECADES = (-2.0, 4.0)  # the γ grid: 10^-2…10^4 of 1/(mean((y−x0)²)·T), T the record's span
 
 
 def _block(num: int) -> int:
@@ -174,7 +175,7 @@ def tune_gains(
     tol: float = 1e-10,
     burn_in: float = 0.1,
     lag: float = 0.1,
-    num_gamma: int = 11,
+    num_gamma: int = 13,
     num_lam: int = 8,
     refine_steps: int = 20,
     pad_to: int | None = None,
@@ -186,8 +187,9 @@ def tune_gains(
     of the record (10 % by default). Each sample is predicted with parameters that have not seen
     it, so fitting the noise is not rewarded; and the lag matters: with fast forgetting, p̂ moves
     to absorb a wrong order (order and parameters compensate), which a one-step prediction
-    cannot see but a prediction ``D`` samples ahead can. A coarse grid comes first (``γ`` over five decades around
-    ``1/mean((y−x0)²)``, the scale at which ``γ Λ e`` is O(1) per unit time; ``λ`` from
+    cannot see but a prediction ``D`` samples ahead can. A coarse grid comes first (``γ`` over six decades,
+    1e-2 to 1e4 of ``1/(mean((y−x0)²)·T)``, the scale at which ``γ Λ e`` moves the order by
+    O(1) over the record's span ``T``, so that the search is the same in any units; ``λ`` from
     ``0.3/T`` to ``0.3/dt`` (the median step on a grid `t`), or the given `lam` alone), all runs in one vmapped scan. From the best grid point,
     BFGS on ``(log γ, log λ)`` with ``jax.grad`` through the checkpointed scan refines it; the
     refinement is kept only when it lowers the loss. Starting from the grid keeps the search out
@@ -274,7 +276,7 @@ class _Search(eqx.Module):
 def _prepare(
     u, y, dt, *, t=None, alpha0=0.5, alpha_bounds=DEFAULT_BOUNDS, memory="exponential",
     rule="trapezoid", x0=None, r0="auto", lam=None, tol=1e-10, burn_in=0.1, lag=0.1,
-    num_gamma=11, num_lam=8, pad_to=None,
+    num_gamma=13, num_lam=8, pad_to=None,
 ) -> _Search:
     """Validates a record and lays out its search (host side, in NumPy)."""
     from ._identify import nominal_step
@@ -324,8 +326,10 @@ def _prepare(
         bounds=bounds,
         ring=max(int(np.ceil(lag * size)), _block(size)),
     )
-    gammas = scale * np.logspace(-3, 2, num_gamma)
+    # γ Λ e moves the order by O(γ·mean((y−x0)²)·T) over the record's span T: the box is
+    # 1e-2…1e4 of that, so it does not depend on the units of y or of time
+    gammas = scale / horizon * np.logspace(*GAMMA_DECADES, num_gamma)
     # forgetting horizons from 3 records (no forgetting) to 3 samples
     lams = np.geomspace(0.3 / horizon, 0.3 / step, num_lam) if lam is None else np.array([float(lam)])
     g, lm = np.meshgrid(np.log(gammas), np.log(lams), indexing="ij")
-    return _Search(data, g, lm, gammas, lams, scale, lam is not None)
+    return _Search(data, g, lm, gammas, lams, scale / horizon, lam is not None)
