@@ -253,7 +253,7 @@ def run_method(method, case):
         if method == "tracker":
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid)
         elif method == "law":
-            res = vojax.identify(case["u"], case["y"], warn=False, **grid)
+            res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
         else:
             raise ValueError(method)
     d = res.diagnostics

@@ -87,7 +87,7 @@ def main():
     parser.add_argument("--methods", nargs="*", help="methods to run (default: all)")
     args = parser.parse_args()
     methods = {
-        "law (auto gains)": lambda u, y, dt: vojax.identify(u, y, dt, warn=False),
+        "law (auto gains)": lambda u, y, dt: vojax.identify(u, y, dt, warn=False, method="gradient"),
         "tracker filter": lambda u, y, dt: vojax.identify(
             u, y, dt, method="kalman", smooth=False, warn=False
         ),

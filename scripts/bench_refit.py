@@ -79,11 +79,11 @@ if case == "creep-curve_fit":
     result.update(warm=float(np.median(times)), order=float(popt[0]),
                   order_stderr=float(np.sqrt(pcov[0, 0])))
 elif case == "creep-identify":
-    t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False); res.alpha.block_until_ready()
+    t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False, method="gradient"); res.alpha.block_until_ready()
     cold = time.perf_counter() - t0
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False); res.alpha.block_until_ready()
+        t0 = time.perf_counter(); res = vojax.identify(u, y, **grid, warn=False, method="gradient"); res.alpha.block_until_ready()
         times.append(time.perf_counter() - t0)
     result.update(cold=cold, warm=float(np.median(times)), order=float(res.alpha[-1]))
 else:  # refit

@@ -6,7 +6,7 @@ Each case runs in a fresh process (its peak resident memory is its own), on a re
 paper's two inputs with a slowly varying order and 1 % noise, dt = 0.01, with
 `vojax.use_fast_cpu_loops()`. Cases:
 
-- `identify`: `vojax.identify(u, y, dt, gamma=0.5)` (fixed gains: the law and its band);
+- `identify`: `vojax.identify(u, y, dt, gamma=0.5, method="gradient")` (fixed gains: the law and its band);
 - `tune_gains`: `vojax.tune_gains(u, y, dt)` (the 11 × 8 grid and the BFGS refinement);
 - `tracker`: `vojax.identify(..., method="kalman")`, a smoother over the whole record
   iterated to convergence, whose noise intensities are tuned by likelihood (18 smoothings
@@ -41,7 +41,7 @@ y = x + 0.01 * np.std(x) * np.random.default_rng(0).standard_normal(n)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 start = time.perf_counter()
 if case == "identify":
-    out = vojax.identify(u, y, dt, gamma=0.5, warn=False).alpha.block_until_ready()
+    out = vojax.identify(u, y, dt, gamma=0.5, warn=False, method="gradient").alpha.block_until_ready()
 elif case == "tune_gains":
     g = vojax.tune_gains(u, y, dt)
 else:

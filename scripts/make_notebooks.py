@@ -51,7 +51,7 @@ print("max relative difference:", float(np.max(np.abs(ad - closed)) / np.max(np.
     ("md", "## 3. Identify with the paper's gains"),
     (
         "code",
-        """res = vojax.identify(u, y, 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2))
+        """res = vojax.identify(u, y, 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2), method="gradient")
 e = np.asarray(res.alpha) - data["alpha"]
 print("order RMS error, t > 50 s:   %.4f" % np.sqrt(np.mean(e[t > 50] ** 2)))
 print("order RMS error, last 100 s: %.4f" % np.sqrt(np.mean(e[t > 200] ** 2)))
@@ -76,7 +76,7 @@ closed form and not the printed one.""",
 alpha = np.asarray(res.alpha[:m])
 phi = vojax.fractional_integral(u[:m], alpha, 0.05)
 dphi = vojax.order_sensitivity(u[:m], alpha, 0.05)
-law = vojax.identify(u[:m], y[:m], 0.05, gamma=0.01, lam=0.9, x0=0.0, r0=np.eye(2), memory="direct")
+law = vojax.identify(u[:m], y[:m], 0.05, gamma=0.01, lam=0.9, x0=0.0, r0=np.eye(2), memory="direct", method="gradient")
 corrected = reference.lsff_sensitivity(phi, dphi, y[:m], 0.05, 0.9)
 printed = reference.lsff_sensitivity(phi, dphi, y[:m], 0.05, 0.9, printed=True)
 scale = np.max(np.abs(corrected))
@@ -112,11 +112,11 @@ The paper gives no rule for $\\gamma$: at 0.04 the order chatters between the bo
     (
         "code",
         """for gamma in (0.003, 0.01, 0.04):
-    r = vojax.identify(u, y, 0.05, gamma=gamma, x0=0.0, r0=np.eye(2))
+    r = vojax.identify(u, y, 0.05, gamma=gamma, x0=0.0, r0=np.eye(2), method="gradient")
     print("gamma = %.3f: order RMS error (t > 50 s) = %.4f"
           % (gamma, np.sqrt(np.mean((np.asarray(r.alpha) - data["alpha"])[t > 50] ** 2))))
 gains = vojax.tune_gains(u, y, 0.05)
-r = vojax.identify(u, y, 0.05, gamma=gains.gamma, lam=gains.lam, x0=0.0)
+r = vojax.identify(u, y, 0.05, gamma=gains.gamma, lam=gains.lam, x0=0.0, method="gradient")
 print("tuned gamma = %.4g, lam = %.3g: order RMS error = %.4f"
       % (gains.gamma, gains.lam, np.sqrt(np.mean((np.asarray(r.alpha) - data["alpha"])[t > 50] ** 2))))""",
     ),

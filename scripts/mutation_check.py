@@ -320,6 +320,67 @@ MUTATIONS = {
           "        if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):")],
         ["tests/test_refit.py::test_sign_constraints_do_not_depend_on_the_units_of_the_inputs"],
     ),
+    "law's band covariance never renormalised": (
+        "vojax/_adaptive/_bands.py",
+        [("renorm = jnp.isfinite(big) & (big > RESCALE)", "renorm = big < 0.0")],
+        ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
+    ),
+    "law's band rescaled with the wrong sign": (
+        "vojax/_adaptive/_bands.py",
+        [("jnp.log(jnp.where(v > 0, v, 1.0)) + log_scale", "jnp.log(jnp.where(v > 0, v, 1.0)) - log_scale")],
+        ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
+    ),
+    "an unstable law not named in the diagnostics": (
+        "vojax/_identify.py",
+        [("unstable_from=int(wild[0]) if wild.size else None,", "unstable_from=None,")],
+        ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
+    ),
+    "gain box per second": (
+        "vojax/_tune.py",
+        [("gammas = scale / horizon * np.logspace", "gammas = scale * np.logspace")],
+        ["tests/test_tune.py::test_the_gain_search_box_does_not_depend_on_the_units"],
+    ),
+    "identify defaults to the law": (
+        "vojax/_identify.py",
+        [('    method: str = "kalman",\n    smooth: bool = True,', '    method: str = "gradient",\n    smooth: bool = True,')],
+        ["tests/test_data_cli.py::test_one_default_and_one_name_per_estimator"],
+    ),
+    "the law's settings silently ignored by the tracker": (
+        "vojax/_identify.py",
+        [("        if given:\n            raise ValueError(\n                f\"{', '.join(given)} set the paper's law",
+          "        if False:\n            raise ValueError(\n                f\"{', '.join(given)} set the paper's law")],
+        ["tests/test_tracker.py::test_identify_kalman_validation"],
+    ),
+    "--out may hold the input": (
+        "vojax/_data/_paths.py",
+        [("        if path == root or root in path.parents:", "        if False:")],
+        ["tests/test_outputs.py::test_out_never_holds_the_inputs_and_follows_no_link"],
+    ),
+    "the batch's lock follows a link": (
+        "vojax/_data/_batch.py",
+        [('os.O_APPEND | getattr(os, "O_NOFOLLOW", 0)', "os.O_APPEND")],
+        ["tests/test_outputs.py::test_out_never_holds_the_inputs_and_follows_no_link"],
+    ),
+    "NPZ of complex numbers read as their real part": (
+        "vojax/_data/_records.py",
+        [('    if dtype.kind not in "biuf":', '    if dtype.kind not in "biufcMmUSOV":')],
+        ["tests/test_data_cli.py::test_hostile_npz_files_fail_alone_with_one_sentence"],
+    ),
+    "NPZ of many dimensions flattened": (
+        "vojax/_data/_records.py",
+        [("    if sum(1 for n in shape if n != 1) > 1:", "    if False:")],
+        ["tests/test_data_cli.py::test_hostile_npz_files_fail_alone_with_one_sentence"],
+    ),
+    "NPZ header's sample count trusted": (
+        "vojax/_data/_records.py",
+        [("    if size > MAX_SAMPLES:", "    if False:")],
+        ["tests/test_data_cli.py::test_hostile_npz_files_fail_alone_with_one_sentence"],
+    ),
+    "a non-finite --area accepted": (
+        "vojax/_cli.py",
+        [("    if not (1.0 / BIG <= value <= BIG):", "    if not value > 0:")],
+        ["tests/test_notebooks_cli.py::test_cli_errors_are_one_sentence"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -41,7 +41,7 @@ def short_study():
 @pytest.mark.parametrize("memory", [pytest.param("direct", marks=pytest.mark.slow), "exponential"])
 def test_recursion_equals_batch_and_sensitivities(short_study, memory):
     t, u, y, _, _ = short_study
-    res = vojax.identify(u, y, H, gamma=0.05, memory=memory, x0=0.0, r0=np.eye(2))
+    res = vojax.identify(u, y, H, gamma=0.05, memory=memory, x0=0.0, r0=np.eye(2), method="gradient")
     alpha = np.asarray(res.alpha)
     assert np.ptp(alpha[50:]) > 1e-3  # a genuinely variable α̂ trajectory
     phi = vojax.fractional_integral(u, alpha, H, memory=memory, order_range=(0.05, 0.95))
@@ -119,7 +119,7 @@ def test_constant_order_noise_free_converges():
     t = np.arange(n) * dt
     u = np.stack([np.sin(0.9 * t) + 0.5 * np.sin(2.3 * t), np.cos(0.3 * t)], axis=1)
     x = vojax.simulate(u, 0.63, np.array([2.0, -1.5]), dt)
-    res = vojax.identify(u, x, dt, gamma=0.01, lam=0.2, alpha0=0.5, x0=0.0)
+    res = vojax.identify(u, x, dt, gamma=0.01, lam=0.2, alpha0=0.5, x0=0.0, method="gradient")
     assert abs(float(res.alpha[-1]) - 0.63) < 1e-3
     assert np.max(np.abs(np.asarray(res.p[-1]) - [2.0, -1.5])) < 1e-2
 
@@ -134,7 +134,7 @@ def test_study_34_accuracy(study):
 
     def errors(data):
         res = vojax.identify(
-            data["u"], data["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2)
+            data["u"], data["y"], 0.05, lam=0.9, gamma=0.01, alpha0=0.5, x0=0.0, r0=np.eye(2), method="gradient"
         )
         return study_errors(data["t"], data["alpha"], data["p"], res)
 
@@ -159,8 +159,8 @@ def test_study_34_accuracy(study):
 def test_exponential_and_direct_identify_alike():
     t, u, alpha, p = vojax.study_signals(0.1, 120.0)
     y = np.asarray(vojax.simulate(u, alpha, p, 0.1)) + 0.2 * np.sin(7.0 * t)
-    a = vojax.identify(u, y, 0.1, gamma=0.01, memory="direct", x0=0.0)
-    b = vojax.identify(u, y, 0.1, gamma=0.01, memory="exponential", x0=0.0)
+    a = vojax.identify(u, y, 0.1, gamma=0.01, memory="direct", x0=0.0, method="gradient")
+    b = vojax.identify(u, y, 0.1, gamma=0.01, memory="exponential", x0=0.0, method="gradient")
     assert np.max(np.abs(np.asarray(a.alpha) - np.asarray(b.alpha))) < 1e-8
     assert rel_max(b.p, a.p) < 1e-8
 
@@ -169,8 +169,8 @@ def test_exponential_and_direct_identify_alike():
 def test_remark4_initial_output():
     t, u, alpha, p = vojax.study_signals(0.1, 60.0)
     x = np.asarray(vojax.simulate(u, alpha, p, 0.1))
-    a = vojax.identify(u, x, 0.1, gamma=0.01, x0=0.0)
-    b = vojax.identify(u, x + 7.5, 0.1, gamma=0.01)  # x0 = y[0] = 7.5
+    a = vojax.identify(u, x, 0.1, gamma=0.01, x0=0.0, method="gradient")
+    b = vojax.identify(u, x + 7.5, 0.1, gamma=0.01, method="gradient")  # x0 = y[0] = 7.5
     assert np.max(np.abs(np.asarray(a.alpha) - np.asarray(b.alpha))) < 1e-12
     assert np.max(np.abs(np.asarray(b.y_hat) - np.asarray(a.y_hat) - 7.5)) < 1e-9
 
@@ -195,15 +195,15 @@ def test_streaming_by_hand_equals_identify(short_study):
     for k in range(n):
         state, out = step(state, jnp.asarray(u[k]), jnp.asarray(y[k]))
         alphas.append(float(out.alpha))
-    res = vojax.identify(u[:n], y[:n], H, gamma=0.02, x0=0.0, r0=np.eye(2))
+    res = vojax.identify(u[:n], y[:n], H, gamma=0.02, x0=0.0, r0=np.eye(2), method="gradient")
     assert np.max(np.abs(np.array(alphas) - np.asarray(res.alpha))) < 1e-13
 
 
 def test_one_trace_for_repeated_identify(short_study):
     t, u, y, _, _ = short_study
-    vojax.identify(u, y, H, gamma=0.01)
+    vojax.identify(u, y, H, gamma=0.01, method="gradient")
     before = TRACES["scan"]
-    vojax.identify(u, y * 1.1, H, gamma=0.02, lam=0.5, alpha0=0.4)
+    vojax.identify(u, y * 1.1, H, gamma=0.02, lam=0.5, alpha0=0.4, method="gradient")
     assert TRACES["scan"] == before
 
 
@@ -227,7 +227,7 @@ def test_identify_validation(short_study, kwargs, match):
     args = dict(y=y)
     args.update(kwargs)
     with pytest.raises((ValueError, TypeError), match=match):
-        vojax.identify(u, args.pop("y"), H, **args)
+        vojax.identify(u, args.pop("y"), H, **args, method="gradient")
 
 
 def test_simulate_validation():
@@ -241,6 +241,6 @@ def test_the_law_never_claims_a_confidence_band():
     t = np.arange(400) * 0.1
     u = np.sin(0.7 * t) + 0.5
     y = np.asarray(vojax.simulate(u, np.full(t.size, 0.4), np.array([1.5]), 0.1))
-    res = vojax.identify(u, y + 0.001 * np.sin(3.1 * t), 0.1, warn=False)
+    res = vojax.identify(u, y + 0.001 * np.sin(3.1 * t), 0.1, warn=False, method="gradient")
     assert res.method == "gradient" and res.diagnostics.band_halfwidth < 0.1
     assert not res.diagnostics.identified and "method='kalman'" in res.diagnostics.message

@@ -44,7 +44,7 @@ def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
         "--gamma",
         "0.5",
         "--method",
-        "both",
+        "gradient+refit",
         "--quiet",
     ]
     proc = _cli(*args, cwd=tmp_path)
@@ -99,7 +99,7 @@ def test_sharded_batch_equals_single_device():
         mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
         (a, va, _), _ = adaptive_batch(us, ys, dt, g, lam, mesh=mesh)
         (b, vb, _), _ = adaptive_batch(us, ys, dt, g, lam, mesh=None)
-        single = vojax.identify(us[2], ys[2], dt, gamma=0.05, lam=0.9, warn=False)
+        single = vojax.identify(us[2], ys[2], dt, gamma=0.05, lam=0.9, warn=False, method="gradient")
         print(np.max(np.abs(a.alpha - b.alpha)), np.max(np.abs(a.p - b.p)),
               np.max(np.abs(b.alpha[2] - np.asarray(single.alpha))),
               np.max(np.abs(np.sqrt(vb[2]) - np.asarray(single.alpha_std))) / np.max(np.asarray(single.alpha_std)),
@@ -128,7 +128,7 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
         series[name] = _springpot_csv(data / f"{name}.csv", n=90, q=q)
     proc = _cli(
         "batch", *sorted(str(p) for p in data.glob("*.csv")), "--time", "time_s", "--input",
-        "stress", "--output", "strain", "--out", "out", "--method", "adaptive", "--gamma", "0.5",
+        "stress", "--output", "strain", "--out", "out", "--method", "gradient", "--gamma", "0.5",
         "--lam", "0.9", "--quiet", cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr
@@ -137,7 +137,7 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
         with open(tmp_path / "out" / name / "identification.csv", newline="") as f:
             rows = list(csv.DictReader(f))
         alpha = np.array([float(r["alpha"]) for r in rows])
-        ref = vojax.identify(stress, strain, 0.1, gamma=0.5, lam=0.9, warn=False)
+        ref = vojax.identify(stress, strain, 0.1, gamma=0.5, lam=0.9, warn=False, method="gradient")
         np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-12)
         finals.append(alpha[-1])
     assert len(set(np.round(finals, 6))) == 3  # three different records, three answers
@@ -161,14 +161,14 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
         series[name] = _springpot_csv(data / f"{name}.csv", n=n, q=q)
     law, tune = _batch.TRACES["law_batch"], _tune.TRACES["tune"]
     args = ["batch", *sorted(str(p) for p in data.glob("*.csv")), "--time", "time_s", "--input",
-            "stress", "--output", "strain", "--method", "adaptive", "--quiet"]
+            "stress", "--output", "strain", "--method", "gradient", "--quiet"]
     assert main([*args, "--out", str(tmp_path / "out")]) == 0
     assert _batch.TRACES["law_batch"] - law == 1
     assert _tune.TRACES["tune"] - tune == 2  # the grid and the refinement, once each
     for name, (t, stress, strain) in series.items():
         with open(tmp_path / "out" / name / "identification.csv", newline="") as f:
             alpha = np.array([float(r["alpha"]) for r in csv.DictReader(f)])
-        ref = vojax.identify(stress, strain, 0.1, warn=False)
+        ref = vojax.identify(stress, strain, 0.1, warn=False, method="gradient")
         assert alpha.shape == (t.size,)
         np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-10)
     # the progress line announces the bucket's compilation, then counts records and failures

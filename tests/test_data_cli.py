@@ -3,6 +3,7 @@
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -144,8 +145,9 @@ def test_npz_records(tmp_path):
 
 @pytest.mark.parametrize(
     "method",
-    ["adaptive", pytest.param("kalman", marks=pytest.mark.slow), "refit",
-     pytest.param("both", marks=pytest.mark.slow)],
+    ["gradient", pytest.param("kalman", marks=pytest.mark.slow), "refit",
+     pytest.param("gradient+refit", marks=pytest.mark.slow),
+     pytest.param("kalman+refit", marks=pytest.mark.slow)],
 )
 def test_cli_identify_end_to_end(tmp_path, method):
     _springpot_csv(tmp_path / "test.csv")
@@ -162,7 +164,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
         "out",
         "--method",
         method,
-        *(["--gamma", "0.5"] if method in ("adaptive", "both") else []),
+        *(["--gamma", "0.5"] if method.startswith("gradient") else []),
         cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr
@@ -172,14 +174,17 @@ def test_cli_identify_end_to_end(tmp_path, method):
     band = ["alpha", "alpha_lower", "alpha_upper", "eta"]
     expected = ["time"] + (band if method != "refit" else []) + ["y"]
     expected += ["y_hat"] if method != "refit" else []
-    if method in ("refit", "both"):
+    if method.endswith("refit"):
         expected += ["refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"]
     assert rows[0] == expected and len(rows) == 151
     values = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
     assert np.all(np.isfinite(values[1:]))  # η is undefined (empty) only at sample 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["samples"] == 150 and summary["model"] == "springpot"
-    if method in ("refit", "both"):
+    # one name per estimator: the summary's blocks are named as --method names them
+    assert set(summary) & {"kalman", "gradient", "refit"} == set(method.split("+"))
+    assert summary["method"] == method
+    if method.endswith("refit"):
         r = summary["refit"]
         assert r["converged"] and not r["at_bound"]
         assert abs(r["order"] - 0.35) < 1e-6
@@ -189,8 +194,8 @@ def test_cli_identify_end_to_end(tmp_path, method):
         # η = 1/p: its error by the delta method is p's relative error times η
         rel = r["p_stderr"][0] / r["p"][0]
         assert r["parameters_stderr"]["eta"] == pytest.approx(rel * r["parameters"]["eta"], rel=1e-9)
-    if method == "kalman":
-        a = summary["adaptive"]
+    if method.startswith("kalman"):
+        a = summary["kalman"]
         assert a["method"] == "kalman" and a["converged"]
         assert abs(a["alpha_final"] - 0.35) < max(3 * a["alpha_final_std"], 1e-3)
         assert abs(a["parameters_final"]["eta"] - 4.0) < 0.05
@@ -230,7 +235,7 @@ def test_cli_compilation_cache_is_used_and_changes_nothing(tmp_path):
     "args, message",
     [
         (["missing.csv"], "no such file"),
-        (["test.csv", "--area", "-1"], "--area must be positive"),
+        (["test.csv", "--area", "-1"], "argument --area: expected a positive number"),
         (["test.csv", "--trim-column", "stress"], "--trim-column and --trim-below go together"),
         (["test.csv", "--model", "kelvin-voigt", "--input", "strain"], "takes one --input"),
     ],
@@ -257,7 +262,107 @@ def test_real_adhesive_record_identifies(tmp_path):
         )[0]
     from vojax._data._pipeline import identify_record
 
-    columns, summary = identify_record(rec, method="both")
+    columns, summary = identify_record(rec, method="gradient+refit")
     # a springpot describes the adhesive's staircase to a few per cent of its strain range
-    assert summary["adaptive"]["nrmse"] < 0.05 and summary["refit"]["nrmse"] < 0.05
+    assert summary["gradient"]["nrmse"] < 0.05 and summary["refit"]["nrmse"] < 0.05
     assert 0.05 < summary["refit"]["order"] < 0.95 and summary["refit"]["converged"]
+
+
+def test_one_default_and_one_name_per_estimator(capsys):
+    """`vojax.identify`, `vojax.io.identify_record` and the CLI's identify and batch default to
+    the same method, named alike; the earlier CLI names still parse, with a note saying what
+    they mean now, and an unknown name is refused naming the choices."""
+    import inspect
+
+    from vojax._cli import build_parser
+    from vojax._data._pipeline import METHODS, canonical_method
+
+    default = inspect.signature(vojax.identify).parameters["method"].default
+    assert default == "kalman"
+    assert inspect.signature(vojax.io.identify_record).parameters["method"].default == default
+    parser = build_parser()
+    base = ["f.csv", "--time", "t", "--input", "u", "--output", "y", "--out", "o"]
+    for command in ("identify", "batch"):
+        assert parser.parse_args([command, *base]).method == default
+        for name in METHODS:
+            assert parser.parse_args([command, *base, "--method", name]).method == name
+    assert parser.parse_args(["identify", *base, "--method", "adaptive"]).method == "gradient"
+    assert parser.parse_args(["batch", *base, "--method", "both"]).method == "gradient+refit"
+    assert "--method adaptive is now called gradient" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        parser.parse_args(["identify", *base, "--method", "law"])
+    assert "--method must be one of kalman, gradient" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="`method` must be one of"):
+        canonical_method("tracker")
+
+
+def _hostile_npz(folder):
+    """NPZ files a loader meets in the wild, each with what its error must say."""
+    t = np.arange(50) * 0.1
+    cases = {}
+
+    def save(name, **arrays):
+        np.savez(folder / f"{name}.npz", **{"t": t, "F": np.sin(t), "d": np.cos(t), **arrays})
+
+    (folder / "empty.npz").write_bytes(b"")
+    cases["empty"] = "not a readable NPZ file"
+    save("good")
+    data = (folder / "good.npz").read_bytes()
+    (folder / "cut.npz").write_bytes(data[: len(data) // 2])
+    cases["cut"] = "not a readable NPZ file"
+    save("complex", F=np.sin(t) + 1j)
+    cases["complex"] = "holds complex values"
+    save("dates", t=np.arange(50).astype("datetime64[s]"))
+    cases["dates"] = "holds date-time values"
+    save("cube", d=np.zeros((5, 5, 2)))
+    cases["cube"] = "has shape (5, 5, 2)"
+    save("text", F=np.array(["a"] * 50))
+    cases["text"] = "holds text values"
+    # a header that declares 2^40 samples over a few bytes of data
+    import io
+    import zipfile
+
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buffer, {"descr": "<f8", "fortran_order": False, "shape": (2**40,)}
+    )
+    with zipfile.ZipFile(folder / "huge.npz", "w") as z:
+        z.writestr("t.npy", buffer.getvalue() + b"\0" * 64)
+        for name in ("F", "d"):
+            out = io.BytesIO()
+            np.save(out, np.zeros(50))
+            z.writestr(f"{name}.npy", out.getvalue())
+    cases["huge"] = "declares 1099511627776 samples"
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buffer, {"descr": "<f8", "fortran_order": False, "shape": (1000,)}
+    )
+    with zipfile.ZipFile(folder / "short.npz", "w") as z:
+        z.writestr("t.npy", buffer.getvalue() + b"\0" * 64)
+        for name in ("F", "d"):
+            out = io.BytesIO()
+            np.save(out, np.zeros(50))
+            z.writestr(f"{name}.npy", out.getvalue())
+    cases["short"] = "is truncated"
+    return cases
+
+
+def test_hostile_npz_files_fail_alone_with_one_sentence(tmp_path):
+    """Each bad NPZ is a `DataError` naming the file and what is wrong, read no further than
+    its headers (the 2^40-sample one allocates nothing); in a batch, each fails alone and the
+    good file is identified."""
+    cases = _hostile_npz(tmp_path)
+    for name, message in cases.items():
+        with pytest.raises(DataError, match=re.escape(message)) as info:
+            load_records(tmp_path / f"{name}.npz", time="t", inputs=["F"], output="d")
+        assert str(tmp_path / f"{name}.npz") in str(info.value) and "\n" not in str(info.value)
+    files = sorted(p.name for p in tmp_path.glob("*.npz"))
+    proc = _cli(
+        "batch", *files, "--time", "t", "--input", "F", "--output", "d", "--method", "refit",
+        "--out", "out", "--quiet", cwd=tmp_path,
+    )
+    assert proc.returncode == 2, proc.stderr
+    with open(tmp_path / "out" / "failures.csv", newline="") as f:
+        failed = {Path(r["file"]).stem for r in csv.DictReader(f)}
+    assert failed == set(cases)
+    assert (tmp_path / "out" / "good" / "summary.json").is_file()

@@ -22,7 +22,7 @@ def _records():
         {
             "record": "a", "model": "springpot", "output_column": "displacement_mm",
             "input_columns": ["force_N"], "parameter_names": ["eta"], "time_column": "time_s",
-            "adaptive": {"method": "gradient"},
+            "gradient": {"method": "gradient"},
             "refit": {"parameters": {"eta": 2.05}, "parameters_stderr": {"eta": 0.02}},
         },
         np.tanh(t1)[:, None],
@@ -51,7 +51,7 @@ def _records():
         },
         {
             "record": "c", "model": "linear", "output_column": "x", "input_columns": ["u1", "u2"],
-            "parameter_names": ["p_u1", "p_u2"], "adaptive": {"method": "kalman"},
+            "parameter_names": ["p_u1", "p_u2"], "kalman": {"method": "kalman"},
         },
         np.c_[np.sin(3 * t3), np.cos(3 * t3)],
     )
@@ -93,9 +93,9 @@ def test_figures_leave_pyplot_alone(tmp_path):
     before, backend = plt.get_fignums(), matplotlib.get_backend()
     columns, summary, inputs = _records()["a"]
     _plotting.record_figure(columns, summary, inputs, tmp_path / "r.png")
-    row = {"record": "a", "adaptive_alpha_final": 0.4, "adaptive_alpha_final_std": 0.01,
+    row = {"record": "a", "kalman_alpha_final": 0.4, "kalman_alpha_final_std": 0.01,
            "refit_order": 0.41, "refit_order_lower": 0.39, "refit_order_upper": 0.43,
-           "adaptive_nrmse": 0.01, "refit_nrmse": 0.02}
+           "kalman_nrmse": 0.01, "refit_nrmse": 0.02}
     _plotting.overview_figure([row, dict(row, record="b")], tmp_path / "o.png")
     t = np.linspace(0.0, 1.0, 20)
     result = types.SimpleNamespace(alpha=t, y_hat=t, p=np.c_[t, t])

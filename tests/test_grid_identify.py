@@ -27,8 +27,8 @@ def _uniform_record(n=400, order=0.45, noise=0.01, seed=0):
 @pytest.mark.parametrize(
     "kwargs",
     [
-        dict(gamma=0.5, lam=0.9),
-        pytest.param(dict(), marks=pytest.mark.slow),
+        dict(method="gradient", gamma=0.5, lam=0.9),
+        pytest.param(dict(method="gradient"), marks=pytest.mark.slow),
         pytest.param(dict(method="kalman"), marks=pytest.mark.slow),
     ],
 )
@@ -38,11 +38,11 @@ def test_uniform_times_equal_the_step(kwargs):
     t, u, y = _uniform_record()
     a = vojax.identify(u, y, DT, warn=False, **kwargs)
     b = vojax.identify(u, y, t=t, warn=False, **kwargs)
-    tol = 1e-9 if kwargs.get("method") == "kalman" else 1e-11
+    tol = 1e-9 if kwargs["method"] == "kalman" else 1e-11
     np.testing.assert_allclose(b.alpha, a.alpha, rtol=0, atol=tol)
     np.testing.assert_allclose(b.p, a.p, rtol=0, atol=tol * np.max(np.abs(a.p)))
     np.testing.assert_allclose(b.alpha_std, a.alpha_std, rtol=0, atol=tol)
-    if "method" not in kwargs:
+    if kwargs["method"] == "gradient":
         assert float(b.gamma) == pytest.approx(float(a.gamma), rel=1e-9)
         assert float(b.lam) == pytest.approx(float(a.lam), rel=1e-9)
     assert float(b.dt) == pytest.approx(DT, rel=1e-12)
@@ -65,14 +65,14 @@ def test_law_on_an_irregular_clock_recovers_the_order():
     (and 0.01) of the true order, p within 1 %; the same samples read as uniform at the median
     step (the clock ignored) miss the order and p by ten times more."""
     t, u, y = _irregular_record()
-    res = vojax.identify(u, y, t=t, warn=False)
+    res = vojax.identify(u, y, t=t, warn=False, method="gradient")
     last = slice(-50, None)
     err = np.abs(np.asarray(res.alpha)[last] - 0.45)
     assert np.max(err) < 0.01
     assert np.all(err < 3 * np.asarray(res.alpha_std)[last])
     p_err = np.max(np.abs(np.asarray(res.p)[-1] - P))
     assert p_err < 0.01 * np.max(np.abs(P))
-    wrong = vojax.identify(u, y, float(np.median(np.diff(t))), warn=False)
+    wrong = vojax.identify(u, y, float(np.median(np.diff(t))), warn=False, method="gradient")
     assert np.max(np.abs(np.asarray(wrong.alpha)[last] - 0.45)) > 10 * np.max(err)
     assert np.max(np.abs(np.asarray(wrong.p)[-1] - P)) > 10 * p_err
 
@@ -94,4 +94,4 @@ def test_tune_gains_with_times_refuses_padding():
     with pytest.raises(ValueError, match="`pad_to` pads a uniform record"):
         vojax.tune_gains(u, y, t=t, pad_to=128)
     with pytest.raises(TypeError, match="exactly one of `dt`"):
-        vojax.identify(u, y, DT, t=t)
+        vojax.identify(u, y, DT, t=t, method="gradient")

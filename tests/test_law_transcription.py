@@ -62,7 +62,7 @@ def test_identify_equals_the_transcription_at_every_sample(rule, memory):
     settings = dict(gamma=40.0, lam=0.7, alpha0=0.3, r0=r0)
     want = transcription(u, y, rule=rule, memory=memory, **settings)
     got = vojax.identify(
-        u, y, DT, x0=0.0, alpha_bounds=BOUNDS, rule=rule, memory=memory, warn=False, **settings
+        u, y, DT, x0=0.0, alpha_bounds=BOUNDS, rule=rule, memory=memory, warn=False, **settings, method="gradient"
     )
     # the gain drives α̂ onto a bound and off it again: the projection is exercised
     at_bound = (want["alpha"] <= BOUNDS[0] + 1e-12) | (want["alpha"] >= BOUNDS[1] - 1e-12)

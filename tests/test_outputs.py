@@ -93,10 +93,10 @@ def _strict(text):
     return json.loads(text, parse_constant=refuse)
 
 
-def _batch(work, *extra, method="adaptive"):
+def _batch(work, *extra, method="gradient"):
     return _cli(
         "batch", *sorted(p.name for p in work.glob("*.csv")), *BASE, "--out", "out",
-        *(["--gamma", "0.5"] if method == "adaptive" else []), "--method", method, *extra,
+        *(["--gamma", "0.5"] if method == "gradient" else []), "--method", method, *extra,
         cwd=work,
     )
 
@@ -196,6 +196,37 @@ def test_a_second_batch_on_the_same_out_is_refused(tmp_path):
     assert not (work / "out" / "r").exists()
 
 
+def test_out_never_holds_the_inputs_and_follows_no_link(tmp_path):
+    """--out equal to the input's folder (or above it, or the input itself) is refused before
+    anything is written, and the input is left as it was; a lock file in --out that is a
+    link is not followed (it would create a file elsewhere)."""
+    work = tmp_path / "w"
+    work.mkdir()
+    _springpot_csv(work / "summary.csv", n=40)  # an input named like an output
+    before = (work / "summary.csv").read_bytes()
+    for command, out in (("identify", "."), ("batch", "."), ("identify", ".."),
+                         ("batch", "summary.csv")):
+        proc = _cli(command, "summary.csv", *BASE[:-1], "--out", out, cwd=work)
+        assert proc.returncode == 1, (command, out, proc.stderr)
+        assert "choose a new folder for --out" in proc.stderr
+        assert proc.stderr.count("\n") == 1
+    assert (work / "summary.csv").read_bytes() == before
+    assert sorted(p.name for p in work.iterdir()) == ["summary.csv"]
+    from vojax._data._batch import run_batch
+    from vojax._data._records import load_records
+
+    records = load_records(work / "summary.csv", time="time_s", inputs=["stress"], output="strain")
+    with pytest.raises(ValueError, match="holds the input"):
+        run_batch(records, work, model="springpot", method="refit", gamma=None, lam=None)
+    # the lock: a link to a file outside --out is refused, and nothing is created there
+    (work / "out").mkdir()
+    elsewhere = tmp_path / "elsewhere.txt"
+    os.symlink(elsewhere, work / "out" / ".vojax-batch.lock")
+    proc = _batch(work, method="refit")
+    assert proc.returncode == 1 and "symbolic link" in proc.stderr
+    assert not elsewhere.exists()
+
+
 @pytest.mark.slow
 def test_failure_is_never_a_result(tmp_path):
     """A record whose estimates are not finite exits non-zero and writes no result."""
@@ -207,7 +238,7 @@ def test_failure_is_never_a_result(tmp_path):
         f.write("t,a,b,y\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r},{float(d)!r}\n" for a, b, c, d in zip(t, u[:, 0], u[:, 1], y)))
     proc = _cli(
         "identify", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
-        "--model", "linear", "--method", "adaptive", "--gamma", "0.01", "--lam", "0.9",
+        "--model", "linear", "--method", "gradient", "--gamma", "0.01", "--lam", "0.9",
         "--out", "o", cwd=tmp_path,
     )
     assert proc.returncode == 1, proc.stdout
@@ -216,7 +247,7 @@ def test_failure_is_never_a_result(tmp_path):
     # the batch: the record fails with its reason, exit 2, and no row in summary.csv
     proc = _cli(
         "batch", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
-        "--model", "linear", "--method", "adaptive", "--gamma", "0.01", "--lam", "0.9",
+        "--model", "linear", "--method", "gradient", "--gamma", "0.01", "--lam", "0.9",
         "--out", "b", "--quiet", cwd=tmp_path,
     )
     assert proc.returncode == 2
@@ -305,12 +336,12 @@ def test_disjoint_bands_of_two_estimators_are_reported():
     n = 40
     lower = np.r_[np.full(n // 2, 0.1), np.full(n // 2, 0.30)]  # the first half does not count
     columns = {"alpha": np.full(n, 0.32), "alpha_lower": lower, "alpha_upper": lower + 0.04}
-    summary = {"adaptive": {"method": "kalman"}, "refit": {"order_lower": 0.36, "order_upper": 0.4}}
+    summary = {"kalman": {"method": "kalman"}, "refit": {"order_lower": 0.36, "order_upper": 0.4}}
     text = disagreement(columns, summary)
     assert "the tracker ([0.3, 0.34]" in text and "refit ([0.36, 0.4])" in text
     summary["refit"]["order_lower"] = 0.33
     assert disagreement(columns, summary) == ""
-    summary["adaptive"]["method"] = "gradient"
+    summary["gradient"] = summary.pop("kalman")
     summary["refit"].update(order_lower=0.1, order_upper=0.29)
     assert disagreement(columns, summary).startswith("the paper's law")
 

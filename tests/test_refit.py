@@ -253,3 +253,18 @@ def test_sign_constraints_do_not_depend_on_the_units_of_the_inputs(order):
     for c in (1e-4, 1e4):
         assert fits[c][1] == fits[1.0][1]
         np.testing.assert_allclose(fits[c][0], fits[1.0][0], rtol=1e-6)
+
+
+def test_a_constant_order_does_not_depend_on_the_unit_of_time():
+    """φ in another time unit is φ·c^α, which the coefficient absorbs at a constant order: the
+    same order (to the solver's tolerance) and p·c^α, with the times in s, ms, h, ×1e12 and
+    ×1e-12. (A variable order is another matter: "p constant" means another model in
+    another unit, docs/choices.md.)"""
+    y = _data(0.42, seed=3)[:400]
+    t = T[:400]
+    a = vojax.refit(U[:400], y, t=t)
+    for c in (1e-3, 1 / 3600, 1e12, 1e-12):
+        b = vojax.refit(U[:400], y, t=t * c)
+        assert float(b.order[0]) == pytest.approx(float(a.order[0]), abs=1e-8)
+        np.testing.assert_allclose(np.asarray(b.p) * c ** float(a.order[0]), a.p, rtol=1e-6)
+        assert float(b.order_stderr[0]) == pytest.approx(float(a.order_stderr[0]), rel=1e-5)

@@ -55,9 +55,9 @@ def test_identify_with_given_gains_traces_once(monkeypatch):
     band = _once(monkeypatch, _bands, "law_covariance")
     scan = _once(monkeypatch, _identify, "scan_memory")  # the automatic R₀
     u, y = _record(130, 0.4, 4)
-    vojax.identify(u, y, 0.1, gamma=0.5, warn=False)
+    vojax.identify(u, y, 0.1, gamma=0.5, warn=False, method="gradient")
     u2, y2 = _record(130, 0.6, 5)
-    vojax.identify(u2, y2, 0.1 * 1.01, gamma=2.0, lam=0.3, alpha0=0.4, warn=False)
+    vojax.identify(u2, y2, 0.1 * 1.01, gamma=2.0, lam=0.3, alpha0=0.4, warn=False, method="gradient")
     assert [eqx.debug.get_num_traces(f) for f in (law, band, scan)] == [1, 1, 1]
 
 

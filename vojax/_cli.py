@@ -28,6 +28,78 @@ def _new_dir(out: str | None) -> Path:
     return path
 
 
+def _out_apart(out, files):
+    """--out must not be, or hold, an input file (see `check_out_holds_no_input`)."""
+    from ._data._paths import check_out_holds_no_input
+
+    try:
+        check_out_holds_no_input(out, files)
+    except ValueError as e:
+        raise CLIError(str(e)) from None
+
+
+class _Parser(argparse.ArgumentParser):
+    """An unknown option or a bad value: one line, exit 1, as every other bad input (argparse
+    would print its usage and exit 2, the code of a batch with failed records)."""
+
+    def error(self, message):
+        self.exit(1, f"vojax: error: {message} (see {self.prog} --help).\n")
+
+
+BIG = 1e300  # numbers beyond this (or below its inverse, for sizes) overflow in arithmetic
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _positive(text: str):
+    """A size (area, length, step, tolerance): finite, > 0, within 1e-300…1e300."""
+    value = _number(text)
+    if not (1.0 / BIG <= value <= BIG):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number between 1e-300 and 1e300, got {text!r}"
+        )
+    return value
+
+
+def _finite(text: str):
+    """A time or a threshold: finite, within ±1e300."""
+    value = _number(text)
+    if not abs(value) <= BIG:
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _fraction(text: str):
+    """A relative tolerance: in (0, 1)."""
+    value = _number(text)
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number between 0 and 1, got {text!r}")
+    return value
+
+
+def _order(text: str):
+    value = _number(text)
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected an order between 0 and 1, got {text!r}")
+    return value
+
+
+def _count(text: str):
+    """A non-negative integer below 2^63 (a seed, a number of samples)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"expected a whole number from 0 to 2^63 - 1, got {text!r}")
+    return value
+
+
 def _rate(text: str):
     return None if text == "auto" else _gain(text)
 
@@ -67,6 +139,7 @@ def demo(args) -> int:
         data["u"],
         data["y"],
         args.dt,
+        method="gradient",  # the paper's study is the paper's law
         lam=args.lam,
         gamma=args.gamma,
         alpha0=args.alpha0,
@@ -143,13 +216,13 @@ def _column_options(p):
     )
     p.add_argument(
         "--area",
-        type=float,
+        type=_positive,
         help="contact area a of eq. (35): σ = F/a, in the units that make σ your stress unit "
         "(default: none, the input column is the stress)",
     )
     p.add_argument(
         "--length",
-        type=float,
+        type=_positive,
         help="specimen length l of eq. (35): ε = d/l, in the displacement column's unit "
         "(default: none, the output column is the strain)",
     )
@@ -165,14 +238,14 @@ def _column_options(p):
     )
     p.add_argument(
         "--resample",
-        type=float,
+        type=_positive,
         metavar="STEP",
         help="resample every record linearly onto a uniform grid of this step (default: no); "
         "refused above 1,000,000 samples or where the file has steps 4 times shorter",
     )
     p.add_argument(
         "--origin",
-        type=float,
+        type=_finite,
         metavar="T0",
         help="the time (in the time column's unit) at which the test started, before the first "
         "sample: the inputs are taken as held at their first values from T0 (a step load) and "
@@ -180,14 +253,14 @@ def _column_options(p):
     )
     p.add_argument(
         "--fit-from",
-        type=float,
+        type=_finite,
         metavar="T",
         help="the refit fits samples from this time on (the whole record still drives the "
         "model; default: the first sample)",
     )
     p.add_argument(
         "--fit-to",
-        type=float,
+        type=_finite,
         metavar="T",
         help="the refit fits samples up to this time (default: the last sample)",
     )
@@ -198,7 +271,7 @@ def _column_options(p):
     )
     p.add_argument(
         "--trim-below",
-        type=float,
+        type=_finite,
         help="the threshold of --trim-column, in that column's unit",
     )
 
@@ -214,19 +287,20 @@ def _data_options(p, *, many: bool):
     )
     p.add_argument(
         "--method",
-        choices=("adaptive", "kalman", "refit", "both"),
+        type=_method,
         default="kalman",
-        help="kalman (default): the Bayesian tracker — smoother, offset estimated, noise "
-        "intensities by likelihood; the most accurate, with bands and a verdict "
-        "(scripts/bench_identifiability.py); adaptive: the paper's law; refit: "
-        "constant-order least squares; both: adaptive and refit",
+        metavar="{kalman,gradient,refit,kalman+refit,gradient+refit}",
+        help="kalman (default, as vojax.identify): the Bayesian tracker, with an order band "
+        "and a verdict; gradient: the paper's adaptive law (its band is not a confidence "
+        "band); refit: constant-order least squares; kalman+refit, gradient+refit: one of "
+        "the first two and the refit, with a warning where their bands are disjoint",
     )
     p.add_argument(
         "--gamma",
         type=_gain,
         default=None,
         help="the law's order gain γ (1/time unit) or 'auto' (default); for --method "
-        "adaptive|both only",
+        "gradient|gradient+refit only",
     )
     p.add_argument(
         "--lam",
@@ -234,18 +308,31 @@ def _data_options(p, *, many: bool):
         default=None,
         help="forgetting factor λ in 1/(time unit) (default: tuned with γ when --gamma auto, "
         "else 0.9); a number with --gamma auto tunes γ alone at that λ; for --method "
-        "adaptive|both only",
+        "gradient|gradient+refit only",
     )
+
+
+def _method(text):
+    """``--method``: a name of `METHODS`, or an earlier name (a note says which it means)."""
+    from ._data._pipeline import ALIASES, canonical_method
+
+    try:
+        method = canonical_method(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).replace("`method`", "--method")) from None
+    if text in ALIASES:
+        print(f"vojax: note: --method {text} is now called {method}.", file=sys.stderr)
+    return method
 
 
 def _law_options(args):
     """``--gamma``/``--lam`` apply to the paper's law only: refused with another method."""
-    if args.method not in ("adaptive", "both"):
+    if not args.method.startswith("gradient"):
         given = [f"--{k}" for k in ("gamma", "lam") if getattr(args, k) is not None]
         if given:
             raise CLIError(
                 f"{' and '.join(given)} set the paper's law, which --method {args.method} does "
-                "not use; add --method adaptive (or both), or leave them out."
+                "not use; add --method gradient (or gradient+refit), or leave them out."
             )
     if args.gamma is None:
         args.gamma = "auto"
@@ -255,10 +342,10 @@ def _law_options(args):
             "tracker do not take; add --method refit."
         )
     fit = [f"--{k.replace('_', '-')}" for k in FIT_OPTIONS if getattr(args, k) is not None]
-    if fit and args.method not in ("refit", "both"):
+    if fit and not args.method.endswith("refit"):
         raise CLIError(
             f"{' and '.join(fit)} set the refit, which --method {args.method} does not run; "
-            "add --method refit (or both)."
+            f"add --method refit (or {args.method}+refit)."
         )
     if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
         raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
@@ -347,6 +434,7 @@ def identify_command(args) -> int:
     from ._data._pipeline import check_finite, identify_record, make_provenance, write_outputs
 
     _law_options(args)
+    _out_apart(args.out, [args.file])
     records = _select(_load(args.file, args), args)
     out = _new_dir(args.out)
     for record in records:
@@ -361,8 +449,10 @@ def identify_command(args) -> int:
         )
         write_outputs(target, columns, summary, record.inputs, args.format)
         parts = [f"{record.name}: {record.time.size} samples"]
-        if "adaptive" in summary:
-            a = summary["adaptive"]
+        for key in ("kalman", "gradient"):
+            if key not in summary:
+                continue
+            a = summary[key]
             parts.append(
                 f"{a['method']} q ∈ [{a['alpha_min']:.3f}, {a['alpha_max']:.3f}] "
                 f"(band ±{a['band_halfwidth']:.2g}), NRMSE {a['nrmse']:.3g}"
@@ -387,6 +477,7 @@ def batch_command(args) -> int:
     from ._data._batch import run_batch
 
     _law_options(args)
+    _out_apart(args.out, args.files)
     out = _new_dir(args.out)
     records, failures = [], []
     for path in args.files:
@@ -504,22 +595,22 @@ def example_command(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    parser = argparse.ArgumentParser(prog="vojax", description=__doc__)
+    parser = _Parser(prog="vojax", description=__doc__)
     parser.add_argument("--version", action="version", version=f"vojax {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser(
         "demo", help="simulate and identify the paper's study (34); write Figs. 2–4 and a summary"
     )
     d.add_argument("--out", help="output folder (default: a new vojax-demo-<time> folder here)")
-    d.add_argument("--dt", type=float, default=0.05, help="sampling step h in s (default 0.05)")
-    d.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    d.add_argument("--dt", type=_positive, default=0.05, help="sampling step h in s (default 0.05)")
+    d.add_argument("--seed", type=_count, default=0, help="noise seed (default 0)")
     d.add_argument(
         "--gamma", type=_gain, default=0.01, help="order gain γ or 'auto' (default 0.01)"
     )
     d.add_argument(
         "--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9, the paper's)"
     )
-    d.add_argument("--alpha0", type=float, default=0.5, help="initial order estimate (default 0.5)")
+    d.add_argument("--alpha0", type=_order, default=0.5, help="initial order estimate (default 0.5)")
     d.add_argument(
         "--memory",
         choices=("exponential", "direct"),
@@ -568,20 +659,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument(
         "--max-samples",
-        type=int,
+        type=_count,
         default=2000,
         help="check the first this many samples of each record: the closed forms are O(N²) "
         "(default 2000)",
     )
     c.add_argument(
         "--rtol",
-        type=float,
+        type=_fraction,
         default=1e-8,
         help="tolerance of autodiff vs closed form, relative to the largest value (default 1e-8)",
     )
     c.add_argument(
         "--fd-rtol",
-        type=float,
+        type=_fraction,
         default=1e-6,
         help="tolerance of central finite differences (order step 1e-5), relative (default 1e-6)",
     )

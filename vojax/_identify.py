@@ -357,16 +357,16 @@ def identify(
     dt=None,
     *,
     t=None,
-    method: str = "gradient",
+    method: str = "kalman",
     smooth: bool = True,
     lam=None,
-    gamma="auto",
-    alpha0=0.5,
+    gamma=None,
+    alpha0=None,
     alpha_bounds=None,
     memory: str = "exponential",
     rule: str = "trapezoid",
     x0=None,
-    r0="auto",
+    r0=None,
     noise=None,
     mask=None,
     tol: float = 1e-10,
@@ -374,18 +374,21 @@ def identify(
 ) -> Identification:
     """Identifies the order α(t) and parameters p of ``D^{α(t)} x = pᵀu`` with a band for each.
 
-    Two methods over the same memory kernels:
+    Two methods over the same memory kernels (the same names as the CLI's ``--method`` and
+    the keys of its ``summary.json``):
 
-    - ``method="gradient"`` (default): the paper's adaptive law (Theorem 1) in the exact
-      discrete form, one jit-compiled `lax.scan` — LSFF with forgetting ``λ`` for ``p``, the
-      order-gradient law with gain ``γ`` and projection onto `alpha_bounds`, ``∂p/∂β`` (26) by
-      forward-mode autodiff. The law sees ``y − x0`` with ``x0 = y[0]`` unless given (Remark 4).
-    - ``method="kalman"``: a joint Bayesian tracker of ``(α, p, x0)`` — order (through a
-      logistic map of `alpha_bounds`) and parameters as random walks, the offset estimated —
-      whose noise intensities are chosen by maximising the innovation likelihood, started from
-      a constant-order least-squares fit. ``smooth=True`` returns the posterior mode of the
-      whole trajectory (iterated extended Kalman smoother: Gauss–Newton) with its Laplace
-      bands; ``smooth=False`` the online iterated EKF's causal estimates.
+    - ``method="kalman"`` (default): a joint Bayesian tracker of ``(α, p, x0)`` — order
+      (through a logistic map of `alpha_bounds`) and parameters as random walks, the offset
+      estimated — whose noise intensities are chosen by maximising the innovation likelihood,
+      started from a constant-order least-squares fit. ``smooth=True`` returns the posterior
+      mode of the whole trajectory (iterated extended Kalman smoother: Gauss–Newton) with its
+      Laplace bands; ``smooth=False`` the online iterated EKF's causal estimates.
+    - ``method="gradient"``: the paper's adaptive law (Theorem 1) in the exact discrete form,
+      one jit-compiled `lax.scan` — LSFF with forgetting ``λ`` for ``p``, the order-gradient
+      law with gain ``γ`` and projection onto `alpha_bounds`, ``∂p/∂β`` (26) by forward-mode
+      autodiff. The law sees ``y − x0`` with ``x0 = y[0]`` unless given (Remark 4). Its band
+      is its spread over the measurement noise, not a confidence band: it never reports
+      the order identified.
 
     With one input a variable order is not determined by the data alone: a rescaled ``p`` has
     an order trajectory that fits as well, and what settles it is the regularity assumed (the
@@ -402,16 +405,19 @@ def identify(
       integrates over the local step ``t_k − t_{k−1}`` (LSFF's forgetting ``e^{−λh_k}``, the
       order law's ``h_k γ``); gains and forgetting keep their units (1/time).
     - `method`, `smooth`: see above.
-    - `gamma`: the law's order gain γ > 0, or ``"auto"`` (default) to choose it by `tune_gains`
-      from normalised signals (unit-free). A number is taken literally, as the paper's 0.01.
+    - `gamma`, `lam`, `alpha0`, `r0`, `x0`: the law's settings (``method="gradient"`` only;
+      given with the tracker they are an error, never ignored).
+    - `gamma`: the law's order gain γ > 0, or ``"auto"`` (the default, None) to choose it by
+      `tune_gains` from normalised signals (unit-free). A number is taken literally, as the
+      paper's 0.01.
     - `lam`: forgetting factor λ > 0; ``None`` (default): tuned with γ when ``gamma="auto"``,
       the paper's 0.9 otherwise. A number with ``gamma="auto"`` tunes γ alone at that λ.
-    - `alpha0`: α̂(0) of the law, inside `alpha_bounds`.
+    - `alpha0`: α̂(0) of the law, inside `alpha_bounds` (default 0.5).
     - `alpha_bounds`: the order range ⊂ (0, 1); default (0.05, 0.95) for the law (its
       projection), (0.01, 0.99) for the tracker.
     - `memory`: ``"exponential"`` (O(1) per sample) or ``"direct"``; `rule`: the quadrature.
     - `x0`: the law's initial output (default ``y[0]``); the tracker estimates it (pass None).
-    - `r0`: the law's initial information ``R_0``: ``"auto"`` (default: one sample's worth at
+    - `r0`: the law's initial information ``R_0``: ``"auto"`` (the default, None: one sample's worth at
       α̂(0), scaled to the inputs), or an ``(n, n)`` matrix taken literally (the paper's
       ``P(0) = I`` is ``np.eye(n)``).
     - `noise`: the tracker's noise intensities, instead of tuning them: a dict with
@@ -427,17 +433,32 @@ def identify(
     **Returns:** an `Identification`. **Raises:** `ValueError` for bad input and when the
     estimate is not finite (the law diverged), naming the sample.
     """
-    check.choice(method, ("gradient", "kalman"), "method")
+    check.choice(method, ("kalman", "gradient"), "method")
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
     if method == "kalman":
         if x0 is not None:
             raise ValueError("`x0` is estimated by method='kalman'; leave it None.")
+        law = dict(gamma=gamma, lam=lam, alpha0=alpha0, r0=r0)
+        given = [f"`{k}`" for k, v in law.items() if v is not None]
+        if given:
+            raise ValueError(
+                f"{', '.join(given)} set the paper's law, which method='kalman' (the default) "
+                "does not use; add method='gradient', or leave them out."
+            )
         return _identify_kalman(
             u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn
         )
     if mask is not None:
         raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
+    if noise is not None or not smooth:
+        name = "`noise`" if noise is not None else "`smooth=False`"
+        raise ValueError(
+            f"{name} sets the tracker (method='kalman'); the paper's law does not use it."
+        )
+    gamma = "auto" if gamma is None else gamma
+    alpha0 = 0.5 if alpha0 is None else alpha0
+    r0 = "auto" if r0 is None else r0
     if isinstance(gamma, str) and gamma != "auto":
         raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
     if isinstance(lam, str):

@@ -127,8 +127,8 @@ def record_figure(columns, summary, inputs, path) -> None:
     """The layout of the paper's Figs. 7–8: output and identified output, input, order with
     its ±2σ band, parameters; axes labelled with the file's column names (their units)."""
     t = columns["time"]
-    kind = (summary.get("adaptive") or {}).get("method", summary.get("method", "identified"))
-    kind = {"gradient": "paper's law", "kalman": "tracker"}.get(kind, kind)
+    tracker = "kalman" if "kalman" in summary else "gradient" if "gradient" in summary else None
+    kind = {"gradient": "paper's law", "kalman": "tracker"}.get(tracker, "identified")
     time_label = f"time ({summary.get('time_column', 't')}, from the first sample)"
     fig, axes = _record_axes()
     ax = axes[0, 0]
@@ -193,7 +193,7 @@ def record_figure(columns, summary, inputs, path) -> None:
     if ax.get_legend_handles_labels()[0]:
         ax.legend()
     verdict = []
-    part = summary.get("adaptive")
+    part = summary.get(tracker) if tracker else None
     if part is not None and "identified" in part:
         verdict.append("order identified" if part["identified"] else "order not identified")
     if summary.get("disagreement"):
@@ -218,8 +218,11 @@ def overview_figure(rows, path) -> None:
     axes = fig.subplots(1, 3)
     ax = axes[0]
     series = []
-    if any("adaptive_alpha_final" in r for r in rows):
-        a, sd = column("adaptive_alpha_final"), column("adaptive_alpha_final_std")
+    tracker = next(
+        (m for m in ("kalman", "gradient") if any(f"{m}_alpha_final" in r for r in rows)), None
+    )
+    if tracker is not None:
+        a, sd = column(f"{tracker}_alpha_final"), column(f"{tracker}_alpha_final_std")
         ax.errorbar(index - 0.15, a, yerr=2 * sd, fmt="o", ms=3, color="C3", label="final order ±2σ")
         series.append(("final order", a, "C3"))
     if any("refit_order" in r for r in rows):
@@ -239,7 +242,7 @@ def overview_figure(rows, path) -> None:
         ax.legend(fontsize=8)
     ax = axes[2]
     fits = [(column(k), label, c) for k, label, c in (
-        ("adaptive_nrmse", "order tracking", "C3"), ("refit_nrmse", "refit", "C0"),
+        (f"{tracker}_nrmse", "order tracking", "C3"), ("refit_nrmse", "refit", "C0"),
     ) if any(k in r for r in rows)]
     top = max([float(np.nanmax(v)) for v, _, _ in fits if np.any(np.isfinite(v))] or [1.0])
     for values, label, color in fits:

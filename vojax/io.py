@@ -20,7 +20,7 @@ writes: ``identification.csv``, ``summary.json`` and the figure, each atomically
 from pathlib import Path
 
 from ._data._pipeline import identify_record as _identify_record
-from ._data._pipeline import make_provenance, write_outputs
+from ._data._pipeline import canonical_method, make_provenance, write_outputs
 from ._data._records import DataError, Record, load_records
 
 __all__ = [
@@ -67,9 +67,10 @@ def identify_record(
     - `model`: ``"springpot"`` (σ = η D^q ε: u = σ, p = 1/η), ``"kelvin-voigt"``
       (σ = kε + η D^q ε: u = [σ, ε], p = [1/η, −k/η]) or ``"linear"`` (the input columns as
       given).
-    - `method`: ``"kalman"`` (the tracker, default), ``"adaptive"`` (the paper's law, with
-      `gamma` and `lam`), ``"refit"`` (constant-order least squares) or ``"both"`` (adaptive
-      and refit).
+    - `method`: ``"kalman"`` (the tracker, default), ``"gradient"`` (the paper's law, with
+      `gamma` and `lam`), ``"refit"`` (constant-order least squares), or ``"kalman+refit"``
+      / ``"gradient+refit"`` (one of the first two and the refit). The same names as
+      `vojax.identify`'s `method` and the keys of the summary.
     - `area`, `length`: eq. (35): σ = F/a and ε = d/l.
 
     `columns` holds the per-sample series (``time``, ``alpha`` and its band, the physical
@@ -78,8 +79,7 @@ def identify_record(
     """
     if model not in ("springpot", "kelvin-voigt", "linear"):
         raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
-    if method not in ("kalman", "adaptive", "refit", "both"):
-        raise ValueError(f"`method` must be kalman, adaptive, refit or both, got {method!r}.")
+    method = canonical_method(method)
     for key, value in (("area", area), ("length", length)):
         if value is not None and not float(value) > 0:
             raise ValueError(f"`{key}` must be positive, got {value}.")

@@ -12,6 +12,7 @@ import csv
 import dataclasses
 import io
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,16 +35,19 @@ from .._integral import make_memory
 from .._io import atomic_path
 from .._plotting import warm_record_figure
 from .._stats import noise_variance
-from ._paths import inside, record_folder
+from ._paths import check_out_holds_no_input, inside, record_folder
 from ._pipeline import (
     adaptive_part,
+    canonical_method,
     check_finite,
     disagreement,
     finish_outputs,
     identify_record,
     make_provenance,
     plan_buckets,
+    estimator,
     record_header,
+    runs_refit,
     regressors,
     write_table,
 )
@@ -122,7 +126,15 @@ def _locked(out_dir: Path):
     """An exclusive, non-blocking lock on ``out_dir`` for the whole run (POSIX ``flock``;
     released by the OS if the process dies)."""
     path = out_dir / LOCK_NAME
-    f = open(path, "a")
+    try:  # never through a link: the lock would create or touch a file elsewhere
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | getattr(os, "O_NOFOLLOW", 0))
+    except OSError as e:
+        if path.is_symlink():
+            raise BatchBusy(
+                f"{path} is a symbolic link; vojax does not follow links in --out: remove it."
+            ) from None
+        raise
+    f = os.fdopen(fd, "a")
     try:
         try:
             import fcntl
@@ -214,7 +226,10 @@ def run_batch(
     """
     from .._tune import tune_gains
 
+    method = canonical_method(method)
+    law = estimator(method) == "gradient"
     out_dir = Path(out_dir)
+    check_out_holds_no_input(out_dir, [r.source for r in records] + [f[0] for f in failures])
     out_dir.mkdir(parents=True, exist_ok=True)
     fit = {k: v for k, v in dict(origin=origin, fit_from=fit_from, fit_to=fit_to).items() if v is not None}
     settings = dict(
@@ -329,7 +344,7 @@ def run_batch(
                 except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
                     fail(r, e)
                     finished(r, state, False)
-            if num is None or method not in ("adaptive", "both"):
+            if num is None or not law:
                 gains = [(np.nan, np.nan)] * len(prepared)  # not run here
             elif gamma == "auto":
                 # one record at a time, one compiled program per bucket (a vmapped search
@@ -350,7 +365,7 @@ def run_batch(
                 gains = [(float(gamma), PAPER_LAM if lam is None else float(lam))] * len(prepared)
             if not prepared:
                 continue
-            if num is not None and method in ("adaptive", "both"):
+            if num is not None and law:
                 # padded after each record's end (inputs 0, output held): causal, so unseen
                 us = np.stack([_pad_to(p[2], num, 0.0) for p in prepared])
                 ys = np.stack([_pad_to(p[3], num, p[3][-1]) for p in prepared])
@@ -372,11 +387,11 @@ def run_batch(
                             r, model=model, method=method, gamma=gamma, lam=lam, area=area,
                             length=length, **fit,
                         )
-                    elif method in ("adaptive", "both"):
+                    elif law:
                         columns, summary = _columns_from_batch(
                             r, y, names, physical, out, x0, i, g[i], model, method, area, length
                         )
-                        if method == "both":
+                        if runs_refit(method):
                             refit_cols, refit_summary = identify_record(
                                 r, model=model, method="refit", area=area, length=length,
                                 pad_to=pad(r), **fit,
@@ -385,7 +400,7 @@ def run_batch(
                                 columns[k] = refit_cols[k]
                             summary["refit"] = refit_summary["refit"]
                             summary["disagreement"] = disagreement(columns, summary)
-                    else:  # "refit" or "kalman": one record at a time
+                    else:  # the tracker and/or the refit: one record at a time
                         columns, summary = identify_record(
                             r, model=model, method=method, area=area, length=length,
                             pad_to=pad(r), **fit,
@@ -539,7 +554,7 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
     columns = {"time": r.time, **cols, "y": y, "y_hat": np.asarray(res.y_hat)}
     summary = record_header(r, model, method, area, length)
     summary["parameter_names"] = names
-    summary["adaptive"] = part
+    summary["gradient"] = part
     return columns, summary
 
 
@@ -547,7 +562,7 @@ def _summary_row(summary):
     row = {"record": summary["record"], "source": summary["source"], "samples": summary["samples"]}
     if "disagreement" in summary:
         row["disagreement"] = summary["disagreement"]
-    for part in ("adaptive", "refit"):
+    for part in ("kalman", "gradient", "refit"):
         if part not in summary:
             continue
         for k, v in summary[part].items():

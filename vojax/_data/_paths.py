@@ -73,3 +73,21 @@ def inside(root: Path, component: str) -> Path:
     if target.parent != root:
         raise ValueError(f"record folder {component!r} would leave the output folder {root}.")
     return target
+
+
+def check_out_holds_no_input(out, inputs) -> None:
+    """`ValueError` when the output folder `out` is an input file, or holds one of `inputs`
+    (in it or below it): vojax would write its tables and folders beside the data, and a
+    file of the same name as an output (``summary.csv``, ``identification.csv``…) would be
+    overwritten. Paths are compared resolved (links followed)."""
+    root = Path(out).resolve()
+    for source in inputs:
+        if not source:
+            continue
+        path = Path(source).resolve()
+        if path == root or root in path.parents:
+            where = "is" if path == root else "holds"
+            raise ValueError(
+                f"the output folder {str(out)!r} {where} the input {str(source)!r}: vojax "
+                "would write beside (or over) your data; choose a new folder for --out."
+            )

@@ -21,6 +21,31 @@ MODELS = {
 # models with an order-0 regressor: the refit takes them, the adaptive law and the tracker not
 REFIT_ONLY = ("maxwell", "zener")
 
+# the estimators by one name each, as `vojax.identify`'s `method` and `summary.json`'s keys:
+# "kalman" the tracker, "gradient" the paper's law, "refit" the constant-order refit; a
+# record runs one of them or one of the first two with the refit
+METHODS = ("kalman", "gradient", "refit", "kalman+refit", "gradient+refit")
+# earlier names, still accepted: "adaptive" was the law, "both" the law with the refit
+ALIASES = {"adaptive": "gradient", "both": "gradient+refit"}
+
+
+def canonical_method(method) -> str:
+    """The method's name in `METHODS` (an alias replaced); `ValueError` naming the choices."""
+    method = ALIASES.get(method, method)
+    if method not in METHODS:
+        raise ValueError(f"`method` must be one of {', '.join(METHODS)}, got {method!r}.")
+    return method
+
+
+def estimator(method) -> str | None:
+    """The order tracker a method runs, "kalman" or "gradient", or None (the refit alone)."""
+    first = method.split("+")[0]
+    return first if first in ("kalman", "gradient") else None
+
+
+def runs_refit(method) -> bool:
+    return method.endswith("refit")
+
 
 class _Columns:
     """``p ↦ {name: p[..., i]}``: the linear model's parameters, named by their columns;
@@ -140,7 +165,9 @@ def check_finite(summary, columns):
     # an infinite standard error is a result (the data do not determine that quantity; JSON
     # writes null), a non-finite estimate is not; nor is a parameter the refit names as
     # undetermined (1/p of a coefficient fitted as 0)
-    parts = {k: _without_errors(v) for k, v in summary.items() if k in ("adaptive", "refit")}
+    parts = {
+        k: _without_errors(v) for k, v in summary.items() if k in ("kalman", "gradient", "refit")
+    }
     if "refit" in parts:
         loose = set(parts["refit"].get("parameters_undetermined", ()))
         parts["refit"] = {
@@ -328,10 +355,11 @@ def _padded(fn, u, y, pad_to, **kwargs):
 
 
 def identify_record(
-    record, *, model="springpot", method="adaptive", gamma="auto", lam=None, area=None,
+    record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None,
 ):
-    """Runs the adaptive law and/or the refit on one record; returns ``(columns, summary)``.
+    """Runs the tracker or the law and/or the refit on one record (`method`: one of
+    `METHODS`); returns ``(columns, summary)``.
     With `pad_to`, the tracker and the refit of a record on a uniform clock run on it padded
     to that length and masked (results equal to the unpadded run within the solvers'
     tolerances). `origin` (the test's start, before the first sample) and the fit window
@@ -340,29 +368,34 @@ def identify_record(
     from .._identify import identify
     from .._refit import refit
 
-    if model in REFIT_ONLY and method != "refit":
+    method = canonical_method(method)
+    if model in REFIT_ONLY and estimator(method) is not None:
         raise ValueError(
             f"--model {model} has a spring (an order-0 term) that the adaptive law and the "
             "tracker do not take; use --method refit."
         )
-    if method not in ("refit", "both") and not (origin is None and fit_from is None and fit_to is None):
-        raise ValueError("--origin, --fit-from and --fit-to set the refit; use --method refit or both.")
+    if not runs_refit(method) and not (origin is None and fit_from is None and fit_to is None):
+        raise ValueError(
+            "--origin, --fit-from and --fit-to set the refit; use --method refit or "
+            f"{method}+refit."
+        )
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
     columns = {"time": record.time}
     summary = record_header(record, model, method, area, length)
-    if method in ("adaptive", "both", "kalman"):
-        if method == "kalman":
-            res = _padded(identify, u, y, pad_to, **grid, method="kalman", warn=False)
-        else:
-            res = identify(u, y, **grid, gamma=gamma, lam=lam, warn=False)
-        cols, summary["adaptive"] = adaptive_part(res, y, physical)
+    tracker = estimator(method)
+    if tracker == "kalman":
+        res = _padded(identify, u, y, pad_to, **grid, method="kalman", warn=False)
+    elif tracker == "gradient":
+        res = identify(u, y, **grid, method="gradient", gamma=gamma, lam=lam, warn=False)
+    if tracker is not None:
+        cols, summary[tracker] = adaptive_part(res, y, physical)
         columns.update(cols)
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
-    if method in ("refit", "both"):
+    if runs_refit(method):
         options = refit_options(record, model, area, length, origin, fit_from, fit_to)
         fit = _padded(refit, u, y, pad_to, **grid, **options)
         p = np.asarray(fit.p)
@@ -396,7 +429,7 @@ def identify_record(
             "converged": bool(fit.result == optx.RESULTS.successful),
         }
     summary["parameter_names"] = names
-    if "adaptive" in summary and "refit" in summary:
+    if tracker is not None and "refit" in summary:
         summary["disagreement"] = disagreement(columns, summary)
     return columns, summary
 
@@ -410,7 +443,7 @@ def disagreement(columns, summary) -> str:
     hi_a = float(np.median(columns["alpha_upper"][half:]))
     lo_r, hi_r = summary["refit"]["order_lower"], summary["refit"]["order_upper"]
     if hi_a < lo_r or hi_r < lo_a:
-        name = "the tracker" if summary["adaptive"]["method"] == "kalman" else "the paper's law"
+        name = "the tracker" if "kalman" in summary else "the paper's law"
         return (
             f"{name} ([{lo_a:.3g}, {hi_a:.3g}] over the second half) and the constant-order "
             f"refit ([{lo_r:.3g}, {hi_r:.3g}]) disagree: their bands are disjoint, so at least one "

@@ -49,6 +49,38 @@ class Record:
         return {"dt": self.dt} if self.uniform else {"t": self.time}
 
 
+MAX_SAMPLES = 100_000_000  # a column longer than this is refused before it is read
+
+
+def _npz_column(path, data, name):
+    """One array of an NPZ file as float64 (N,), its header checked before its data are read:
+    real numbers (bool, integer or float), one dimension (or (N, 1)), at most `MAX_SAMPLES`,
+    and as many bytes as the header declares."""
+    member = f"{name}.npy"
+    with data.zip.open(member) as f:
+        version = np.lib.format.read_magic(f)
+        read = (
+            np.lib.format.read_array_header_1_0 if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
+        shape, _, dtype = read(f)
+        offset = f.tell()
+    size = int(np.prod(shape, dtype=object)) if shape else 1
+    if dtype.kind not in "biuf":
+        what = {"c": "complex", "M": "date-time", "m": "time-delta", "U": "text", "S": "bytes",
+                "O": "object", "V": "structured"}.get(dtype.kind, dtype.kind)
+        raise DataError(f"{path}: array {name!r} holds {what} values ({dtype}); it must be real numbers.")
+    if sum(1 for n in shape if n != 1) > 1:
+        raise DataError(f"{path}: array {name!r} has shape {shape}; it must be one column of samples.")
+    if size > MAX_SAMPLES:
+        raise DataError(f"{path}: array {name!r} declares {size} samples, more than {MAX_SAMPLES}.")
+    if offset + size * dtype.itemsize > data.zip.getinfo(member).file_size:
+        raise DataError(
+            f"{path}: array {name!r} is truncated (its header declares {size} samples)."
+        )
+    return np.asarray(data[name], dtype=float).ravel()
+
+
 def _read_csv(path: Path):
     """Header and rows of a CSV file. Blank lines, and lines starting with ``#`` before the
     header, are skipped; a UTF-8 byte-order mark is removed. Errors name the file and line."""
@@ -212,17 +244,19 @@ def load_records(
         if group_by:
             raise DataError(f"{path}: --group-by is for long-format CSV files, not NPZ.")
         try:
-            with np.load(path, allow_pickle=False) as data:
+            # opened here: np.load leaves its own handle open when the zip is unreadable
+            with open(path, "rb") as handle, np.load(handle, allow_pickle=False) as data:
                 missing = [c for c in wanted if c not in data.files]
                 if missing:
                     raise DataError(
                         f"{path}: no array {missing[0]!r} (arrays: {', '.join(data.files)})."
                     )
-                cols = {c: np.asarray(data[c], dtype=float).ravel() for c in wanted}
-        except (OSError, ValueError) as e:
-            if isinstance(e, DataError):
-                raise
-            raise DataError(f"{path}: not a readable NPZ file ({e}).") from None
+                cols = {c: _npz_column(path, data, c) for c in dict.fromkeys(wanted)}
+        except DataError:
+            raise
+        except Exception as e:  # noqa: BLE001 - truncated, not a zip, a bad header: one line
+            text = str(e).splitlines()[0] if str(e) else type(e).__name__
+            raise DataError(f"{path}: not a readable NPZ file ({text}).") from None
         lengths = {len(v) for v in cols.values()}
         if len(lengths) != 1:
             raise DataError(f"{path}: arrays {', '.join(wanted)} have different lengths.")
