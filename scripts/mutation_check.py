@@ -381,6 +381,17 @@ MUTATIONS = {
         [("    if not (1.0 / BIG <= value <= BIG):", "    if not value > 0:")],
         ["tests/test_notebooks_cli.py::test_cli_errors_are_one_sentence"],
     ),
+    "a killed figure worker fails its records": (
+        "vojax/_data/_batch.py",
+        [("                except concurrent.futures.BrokenExecutor:\n                    # a worker was killed",
+          "                except ZeroDivisionError:\n                    # a worker was killed")],
+        ["tests/test_figures.py::test_a_killed_figure_worker_costs_no_record"],
+    ),
+    "figure workers outlive a killed batch": (
+        "vojax/_data/_batch.py",
+        [("initializer=_figure_worker_init, initargs=(os.getpid(),),", "")],
+        ["tests/test_outputs.py::test_a_killed_batch_leaves_no_process_behind"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -135,3 +135,43 @@ def test_the_figure_queue_reports_every_record_once_with_its_error(tmp_path):
     for key in keys:
         has = (tmp_path / key / "identification.png").is_file(), (tmp_path / key / "summary.json").is_file()
         assert has == ((False, False) if key == "r5" else (True, True))
+
+
+@pytest.mark.slow
+def test_a_killed_figure_worker_costs_no_record(tmp_path):
+    """Two workers, one killed (SIGKILL, as the out-of-memory killer does) while it holds
+    records: the pool breaks, and every record it held or would have held is drawn in this
+    process instead; each key comes back once, with no error. Before, every record then
+    failed with BrokenProcessPool."""
+    import os
+    import signal
+    import time
+
+    from vojax._data._batch import _Figures
+
+    columns, summary, inputs = _records()["a"]
+    figures = _Figures(2, 8)
+    try:
+        for _, future, _ in list(figures.running):  # the workers are up
+            future.result(timeout=60)
+        keys = [f"r{i}" for i in range(8)]
+        for key in keys[:4]:
+            (tmp_path / key).mkdir()
+            figures.add(key, tmp_path / key, columns, summary, inputs, "png")
+        victim = next(iter(figures.pool._processes))
+        os.kill(victim, signal.SIGKILL)
+        time.sleep(0.5)
+        for key in keys[4:]:
+            (tmp_path / key).mkdir()
+            figures.add(key, tmp_path / key, columns, summary, inputs, "png")
+        got = list(figures.collect())
+        for _ in figures.drain():
+            got += figures.collect()
+        got += figures.collect()
+    finally:
+        figures.close()
+    assert sorted(k for k, _ in got) == keys
+    assert all(e is None for _, e in got), got
+    for key in keys:
+        assert (tmp_path / key / "identification.png").is_file()
+        assert (tmp_path / key / "summary.json").is_file()

@@ -182,6 +182,59 @@ def test_killed_batches_lose_no_rows(tmp_path):
     assert not list((work / "out").rglob("*.tmp"))
 
 
+def _children(pid):
+    """Process ids whose parent is `pid` (Linux /proc)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                out.append(int(entry))
+    return out
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads the process table from /proc")
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
+def test_a_killed_batch_leaves_no_process_behind(tmp_path, how):
+    """The batch's figure workers (and multiprocessing's helper) end with the batch however
+    it ends: 10 s after SIGKILL, SIGTERM or SIGINT of the main process, none is running, and
+    SIGINT prints at most one line."""
+    work = tmp_path / "w"
+    work.mkdir()
+    for k in range(6):
+        _springpot_csv(work / f"r{k}.csv", n=40 + 8 * k, q=0.3 + 0.05 * k)
+    args = [sys.executable, "-m", "vojax", "batch", *sorted(p.name for p in work.glob("*.csv")),
+            *BASE, "--out", "out", "--method", "refit"]
+    proc = subprocess.Popen(args, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline, children = time.monotonic() + 60, []
+    while proc.poll() is None and time.monotonic() < deadline and len(children) < 2:
+        time.sleep(0.2)
+        children = _children(proc.pid)
+    assert proc.poll() is None and children, "the batch ended before its workers started"
+    proc.send_signal(how)
+    _, err = proc.communicate(timeout=60)
+    deadline = time.monotonic() + 10
+    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not [c for c in children if _alive(c)]
+    if how == signal.SIGINT:
+        assert len(err.strip().splitlines()) <= 1 and "Traceback" not in err, err
+
+
 def test_a_second_batch_on_the_same_out_is_refused(tmp_path):
     fcntl = pytest.importorskip("fcntl")
     work = tmp_path / "w"

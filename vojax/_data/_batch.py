@@ -7,6 +7,7 @@ files (the outputs are per record, so hosts do not collide).
 """
 
 import collections
+import concurrent.futures
 import contextlib
 import csv
 import dataclasses
@@ -462,11 +463,12 @@ class _Figures:
             import multiprocessing
 
             self.pool = concurrent.futures.ProcessPoolExecutor(
-                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=_figure_worker_init, initargs=(os.getpid(),),
             )
             self.limit = 2 * workers
             for _ in range(workers):
-                self.running.append((None, self.pool.submit(warm_record_figure)))
+                self.running.append((None, self.pool.submit(warm_record_figure), None))
 
     def add(self, key, *arguments):
         """Queues `finish_outputs(*arguments)` for the record `key`."""
@@ -486,23 +488,47 @@ class _Figures:
 
     def _hand_over(self):
         self._poll()
-        while self.waiting and len(self.running) < self.limit:
+        while self.pool is not None and self.waiting and len(self.running) < self.limit:
             key, arguments = self.waiting.popleft()
-            self.running.append((key, self.pool.submit(finish_outputs, *arguments)))
+            try:
+                future = self.pool.submit(finish_outputs, *arguments)
+            except concurrent.futures.BrokenExecutor:  # a worker died: draw here from now on
+                self.waiting.appendleft((key, arguments))
+                self._lost()
+                return
+            self.running.append((key, future, arguments))
 
     def _poll(self, wait=False):
         for item in list(self.running):
-            key, future = item
+            key, future, arguments = item
             if wait or future.done():
                 self.running.remove(item)
                 try:
                     future.result()
+                except concurrent.futures.BrokenExecutor:
+                    # a worker was killed (out of memory, a signal): the record loses nothing,
+                    # its figure and summary are drawn here
+                    if key is not None:
+                        self.waiting.append((key, arguments))
+                    self._lost()
+                    return
                 except Exception as e:  # noqa: BLE001 - a bad figure fails its record only
                     if key is not None:  # a failed warm-up only costs time
                         self.ready.append((key, e))
                 else:
                     if key is not None:
                         self.ready.append((key, None))
+
+    def _lost(self):
+        """The pool is broken: every record it held goes back to the queue, drawn here."""
+        if self.pool is None:
+            return
+        for key, _, arguments in self.running:
+            if key is not None:
+                self.waiting.append((key, arguments))
+        self.running = []
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        self.pool = None
 
     def collect(self):
         """``(key, error or None)`` of the records finished since the last call."""
@@ -513,17 +539,47 @@ class _Figures:
 
     def drain(self):
         """Draws the records not handed over here, alongside the workers, yielding after each
-        (for `collect`); returns when all are written."""
-        while self.waiting:
-            self._here(*self.waiting.popleft())
-            self._hand_over()
+        (for `collect`); returns when all are written (a worker lost on the way: its records
+        are drawn here too)."""
+        while self.waiting or self.running:
+            if self.waiting:
+                self._here(*self.waiting.popleft())
+                self._hand_over()
+            elif self.pool is not None:
+                self._poll(wait=True)
             yield
-        if self.pool is not None:
-            self._poll(wait=True)
 
     def close(self):
         if self.pool is not None:
             self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _figure_worker_init(parent):
+    """A figure worker: Ctrl-C is its parent's to handle (the terminal sends it to the whole
+    group; the parent stops the pool), and it exits as soon as its parent is gone, however
+    the parent ended (SIGKILL included), so that nothing keeps running or holds the
+    terminal's output. Linux asks the kernel for a signal at the parent's death; elsewhere a
+    thread watches the parent's id."""
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(0)
+
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(0)
+    threading.Thread(target=watch, daemon=True).start()
 
 
 @dataclasses.dataclass
