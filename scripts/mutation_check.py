@@ -392,6 +392,16 @@ MUTATIONS = {
         [("initializer=_figure_worker_init, initargs=(os.getpid(),),", "")],
         ["tests/test_outputs.py::test_a_killed_batch_leaves_no_process_behind"],
     ),
+    "a summary.json holding NaN taken as current": (
+        "vojax/_data/_batch.py",
+        [("        old = strict_json(summary.read_text())", "        old = json.loads(summary.read_text())")],
+        ["tests/test_outputs.py::test_reruns_redo_what_changed_and_only_that"],
+    ),
+    "--no-overwrite drops the rows it did not redo": (
+        "vojax/_data/_batch.py",
+        [("    if not overwrite:  # a row of the table", "    if False:  # a row of the table")],
+        ["tests/test_outputs.py::test_reruns_redo_what_changed_and_only_that"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -129,6 +129,15 @@ def test_reruns_redo_what_changed_and_only_that(tmp_path):
     with open(out / "failures.csv") as f:
         reasons = [r["reason"] for r in csv.DictReader(f)]
     assert len(reasons) == 3 and all("--no-overwrite" in r for r in reasons)
+    with open(out / "summary.csv") as f:  # and it rewrote no row it did not redo
+        kept = {r["record"]: r for r in csv.DictReader(f)}
+    assert kept == rows
+    # a summary.json holding NaN (not vojax's: it writes null) is not a current result
+    path = out / "r2" / "summary.json"
+    path.write_text(path.read_text().replace('"nrmse": ', '"nrmse": NaN, "was": ', 1))
+    nan = _batch(work)
+    assert "2 up to date (skipped), 1 redone" in nan.stdout, nan.stdout
+    _strict(path.read_text())
     redo = _batch(work, method="refit")
     assert redo.returncode == 0 and "3 redone" in redo.stdout
     assert not (out / "failures.csv").exists()  # a clean run leaves no stale failures

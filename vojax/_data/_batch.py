@@ -159,6 +159,16 @@ def _remove_orphans(out_dir: Path):
             tmp.unlink()
 
 
+def strict_json(text):
+    """`json.loads` refusing NaN and ±Infinity (vojax writes them as null): a summary that
+    holds them was not written by this vojax, and is not taken as a result."""
+
+    def refuse(constant):
+        raise ValueError(f"a non-standard JSON number: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
 def _state(folder: Path, provenance: dict, figure_format: str = "png", figure=True) -> str:
     """``"missing"``, ``"current"`` (complete, same provenance, with its figure when `figure`)
     or ``"stale"``."""
@@ -166,7 +176,7 @@ def _state(folder: Path, provenance: dict, figure_format: str = "png", figure=Tr
     if not summary.is_file():
         return "missing" if not folder.exists() else "stale"
     try:
-        old = json.loads(summary.read_text())
+        old = strict_json(summary.read_text())
         with open(folder / "identification.csv", newline="") as f:
             lines = sum(1 for _ in csv.reader(f))
     except (OSError, ValueError):
@@ -276,7 +286,9 @@ def run_batch(
                 # at the end; a killed run loses nothing: each record's summary.json is written
                 # before it counts as done, and the next run rebuilds the table from them
                 if time.perf_counter() - last_table[0] >= TABLE_EVERY_S:
-                    _write_summary_table(out_dir, records, folders, provenance, rows_cache)
+                    _write_summary_table(
+                        out_dir, records, folders, provenance, rows_cache, failed, overwrite
+                    )
                     last_table[0] = time.perf_counter()
             else:
                 report.failed += 1
@@ -420,7 +432,9 @@ def run_batch(
         settled()
         if progress:
             print(file=sys.stderr)
-        rows = _write_summary_table(out_dir, records, folders, provenance, rows_cache)
+        rows = _write_summary_table(
+            out_dir, records, folders, provenance, rows_cache, failed, overwrite
+        )
         if rows:
             from .._plotting import overview_figure
 
@@ -630,26 +644,58 @@ def _summary_row(summary):
     return row
 
 
-def _write_summary_table(out_dir, records, folders, provenance, cache=None):
-    """``summary.csv``: one row per record of this run whose outputs are current, by name.
-    `cache` (a dict kept over a run) holds the rows of summaries already read, by path and
-    modification time, so that rebuilding the table after every record reads only new files."""
+def _write_summary_table(
+    out_dir, records, folders, provenance, cache=None, failed=(), overwrite=True
+):
+    """``summary.csv``: one row per record of this run whose outputs are current and that
+    has not failed in this run, by name. `cache` (a dict kept over a run) holds the rows of
+    summaries already read, by path and modification time, so that rebuilding the table
+    after every record reads only new files. ``overwrite=False`` keeps every row of the
+    table already there that this run did not replace (it rewrites nothing it would not
+    redo: a record it refused to redo keeps its row)."""
     rows = []
     cache = {} if cache is None else cache
+    lost = {name for _, name, _ in failed}
     for r in sorted(records, key=lambda r: r.name):
+        if r.name in lost:
+            continue
         path = folders[r.name] / "summary.json"
         try:
             stamp = path.stat().st_mtime_ns
             if cache.get(path, (None,))[0] != stamp:
-                summary = json.loads(path.read_text())
+                summary = strict_json(path.read_text())
                 current = summary.get("provenance", {}).get("hash") == provenance[r.name]["hash"]
                 cache[path] = (stamp, _summary_row(summary) if current else None)
         except (OSError, ValueError):
             continue
         if cache[path][1] is not None:
             rows.append(cache[path][1])
+    if not overwrite:  # a row of the table already there stays unless this run replaced it
+        new = {row["record"] for row in rows}
+        kept = [row for row in _read_table(out_dir / "summary.csv") if row["record"] not in new]
+        rows = sorted(rows + kept, key=lambda row: row["record"])
     _write_table(out_dir / "summary.csv", rows)
     return rows
+
+
+def _read_table(path):
+    """The rows of a table `_write_table` wrote (text cells unquoted), or [] if none."""
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+
+    def plain(value):
+        if isinstance(value, str) and value.startswith("'") and value[1:].startswith(FORMULA_START):
+            return value[1:]
+        return value
+
+    return [
+        {plain(k): (None if v == "" else plain(v)) for k, v in row.items()}
+        for row in rows
+        if row.get("record")
+    ]
 
 
 # a text cell starting with one of these is a formula to a spreadsheet (a record named
