@@ -402,6 +402,11 @@ MUTATIONS = {
         [("    if not overwrite:  # a row of the table", "    if False:  # a row of the table")],
         ["tests/test_outputs.py::test_reruns_redo_what_changed_and_only_that"],
     ),
+    "a new table left under the old summary": (
+        "vojax/_data/_pipeline.py",
+        [("    if summary.is_file() or summary.is_symlink():\n        summary.unlink()", "    pass")],
+        ["tests/test_outputs.py::test_a_folder_is_current_only_with_the_summary_of_its_own_run"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -423,3 +423,23 @@ def test_tables_do_not_carry_spreadsheet_formulas(tmp_path):
     assert back[0]["record"] == "'=HYPERLINK(\"http://x\")" and back[0]["source"] == "'@a"
     assert back[0]["value"] == "-1.5" and back[1]["record"] == "plain-name"
     assert back[1]["source"] == "'+b"
+
+
+def test_a_folder_is_current_only_with_the_summary_of_its_own_run(tmp_path):
+    """A run killed between a record's new table and its new summary: the folder must not
+    pair the new table with the old summary (the old run's settings would then take it as
+    current). Writing the table removes the old summary first, so the folder is stale until
+    its summary is written; and a complete folder is current again."""
+    from vojax._data._batch import _state
+    from vojax._data._pipeline import finish_outputs, write_table
+
+    folder = tmp_path / "r"
+    columns = {"time": np.arange(5.0), "y": np.ones(5)}
+    provenance = {"hash": "old"}
+    summary = {"samples": 5, "provenance": provenance}
+    write_table(folder, columns)
+    finish_outputs(folder, columns, summary, None, "png")
+    assert _state(folder, provenance, figure=False) == "current"
+    write_table(folder, {"time": np.arange(5.0), "y": np.zeros(5)})  # the new run, then killed
+    assert not (folder / "summary.json").exists()
+    assert _state(folder, provenance, figure=False) == "stale"

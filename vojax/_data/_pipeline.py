@@ -460,7 +460,8 @@ def write_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
 
 
 def write_table(out_dir, columns, figure_format="png"):
-    """``identification.csv`` in ``out_dir``, atomically: the per-sample columns."""
+    """``identification.csv`` in ``out_dir``, atomically: the per-sample columns. An older
+    ``summary.json`` there is removed first (it is written last, by `finish_outputs`)."""
     if figure_format not in ("png", "svg", "pdf"):
         raise ValueError(f"`figure_format` must be png, svg or pdf, got {figure_format!r}.")
     out_dir = Path(out_dir)
@@ -477,6 +478,12 @@ def write_table(out_dir, columns, figure_format="png"):
         [repr(v) if ok else "" for v, ok in zip(row, oks)]
         for row, oks in zip(data.tolist(), finite)
     )
+    # summary.json is written last and certifies the folder: the old one goes first, so that
+    # a run killed between this table and its summary never leaves this table under the
+    # summary of another run (which the same settings as that run would take as current)
+    summary = out_dir / "summary.json"
+    if summary.is_file() or summary.is_symlink():
+        summary.unlink()
     with atomic_path(out_dir / "identification.csv") as tmp, open(tmp, "w") as f:
         f.write(buffer.getvalue())
 
