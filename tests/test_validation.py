@@ -78,3 +78,22 @@ def test_float32_is_refused_and_version_printed(tmp_path):
     assert "vojax needs float64" in proc.stdout, proc.stderr
     proc = subprocess.run([sys.executable, "-m", "vojax", "--version"], capture_output=True, text=True)
     assert proc.returncode == 0 and proc.stdout.strip() == f"vojax {vojax.__version__}"
+
+
+@pytest.mark.slow
+def test_the_cli_fuzz_corpus_is_clean(capsys):
+    """`scripts/fuzz_cli.py`: about 1,950 hostile files and options through the command,
+    every outcome clean (status 0, 1 with one line, or 2 with failures.csv; nothing written
+    outside --out; no NaN in what is written)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_cli.py"
+    spec = importlib.util.spec_from_file_location("fuzz_cli", path)
+    fuzz = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fuzz)
+    status = fuzz.main([])
+    text = capsys.readouterr().out
+    assert status == 0, text
+    total = int(text.split(" cases")[0].split()[-1])
+    assert total >= 500 and f"clean: {total}/{total}" in text

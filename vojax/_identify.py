@@ -226,7 +226,13 @@ def auto_r0(u2, dt, alpha0, memory, rule, tol, bounds, *, num=None, mem=None, ti
             order_range=bounds, times=times,
         )
     phi = np.asarray(scan_memory(mem, jnp.asarray(u2), jnp.full((size,), float(alpha0)), False))
-    power = np.mean(phi[:num] ** 2, axis=0)
+    with np.errstate(over="ignore"):
+        power = np.mean(phi[:num] ** 2, axis=0)
+    if not np.all(np.isfinite(power)):
+        raise ValueError(
+            "the inputs' fractional integrals overflow float64 when squared (values near "
+            "1e154 or beyond): rescale the inputs (another unit) or give `r0`."
+        )
     if not np.all(power > 0):
         j = int(np.argmin(power))
         raise ValueError(f"input column {j} of `u` is zero everywhere: its parameter is undefined.")

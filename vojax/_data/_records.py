@@ -106,8 +106,18 @@ def _read_csv(path: Path):
         lines.append((i + 1, line))
     if not lines:
         raise DataError(f"{path}: no header row (the file is empty or only comments).")
-    reader = csv.reader([line for _, line in lines])
-    header = next(reader)
+    # a long field (a note, an embedded trace) in a column vojax does not read is no error:
+    # the csv module's limit (128 kB by default) is raised while this file is read
+    limit = csv.field_size_limit()
+    csv.field_size_limit(max(limit, len(text) + 1))
+    try:
+        reader = csv.reader([line for _, line in lines])
+        header = next(reader)
+        rows = list(reader)
+    except csv.Error as e:
+        raise DataError(f"{path}: not a readable CSV file ({e}).") from None
+    finally:
+        csv.field_size_limit(limit)
     seen = set()
     for name in header:
         if name in seen:
@@ -115,7 +125,6 @@ def _read_csv(path: Path):
                 f"{path}, line {lines[0][0]}: the column name {name!r} appears twice in the header."
             )
         seen.add(name)
-    rows = list(reader)
     return header, rows, [n for n, _ in lines[1:]]
 
 

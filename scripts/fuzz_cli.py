@@ -1,0 +1,331 @@
+"""Replays hostile files and options through the ``vojax`` command and counts clean outcomes.
+
+A case is clean when:
+
+- the exit status is 0 (done), 1 (bad input, said in one line: no traceback, no "internal
+  error") or 2 (a batch with failed records, listed in ``failures.csv``);
+- nothing outside ``--out`` was created, changed or removed (the inputs are untouched);
+- with status 0, every ``summary.json`` written is strict JSON (no NaN) and every number of
+  ``identification.csv`` is finite or empty.
+
+The corpus is deterministic: bad files (empty, header only, short, text and NaN cells,
+decreasing or repeated times, duplicate columns, a 200 kB field, binary bytes, Latin-1, a
+folder named like a file, NPZ files with complex, date-time, 3-D, truncated or
+2^40-sample arrays, formula-like record names), each with option sets that are valid or
+not (non-finite and absurd numbers, unknown names, an --out that holds the input), and the
+demo's and check's options. The command runs in this process (``vojax._cli.main``), so a
+case that fails fast costs milliseconds.
+
+    python scripts/fuzz_cli.py [--limit N] [--show-dirty] [--out results.txt]
+"""
+
+import argparse
+import contextlib
+import csv
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+
+def _csv(path, t, u, y, header="time_s,stress,strain", extra=None):
+    rows = [header + ("" if extra is None else ",note")]
+    for k, (a, b, c) in enumerate(zip(t, u, y)):
+        rows.append(f"{a!r},{b!r},{c!r}" + ("" if extra is None else f",{extra(k)}"))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def _good(n=40):
+    t = np.arange(n) * 0.1
+    u = np.minimum(t, 1.0) + 0.1
+    y = np.cumsum(u) * 0.05
+    return [float(v) for v in t], [float(v) for v in u], [float(v) for v in y]
+
+
+def _npz_header(path, shape, real=50):
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buffer, {"descr": "<f8", "fortran_order": False, "shape": shape}
+    )
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("time_s.npy", buffer.getvalue() + b"\0" * 64)
+        for name in ("stress", "strain"):
+            out = io.BytesIO()
+            np.save(out, np.zeros(real))
+            z.writestr(f"{name}.npy", out.getvalue())
+
+
+def make_files(folder: Path) -> list[str]:
+    """The hostile (and a few good) input files; returns their names."""
+    t, u, y = _good()
+    files = {}
+
+    def add(name, writer):
+        writer(folder / name)
+        files[name] = None
+
+    add("good.csv", lambda p: _csv(p, t, u, y))
+    add("good_long_format.csv", lambda p: p.write_text(
+        "specimen,time_s,stress,strain\n" + "".join(
+            f"{s},{a!r},{b!r},{c!r}\n" for s in ("=HYPERLINK(1)", "+cmd", "a") for a, b, c in zip(t, u, y)
+        )))
+    add("empty.csv", lambda p: p.write_text(""))
+    add("header_only.csv", lambda p: p.write_text("time_s,stress,strain\n"))
+    add("one_row.csv", lambda p: _csv(p, t[:1], u[:1], y[:1]))
+    add("two_rows.csv", lambda p: _csv(p, t[:2], u[:2], y[:2]))
+    add("text_cell.csv", lambda p: p.write_text(
+        "time_s,stress,strain\n" + "".join(f"{a!r},{b!r},{'x' if k == 7 else repr(c)}\n"
+                                           for k, (a, b, c) in enumerate(zip(t, u, y)))))
+    add("nan_cell.csv", lambda p: _csv(p, t, u, [math.nan if k == 5 else v for k, v in enumerate(y)]))
+    add("inf_cell.csv", lambda p: _csv(p, t, [math.inf if k == 3 else v for k, v in enumerate(u)], y))
+    add("decreasing.csv", lambda p: _csv(p, t[::-1], u, y))
+    add("repeated.csv", lambda p: _csv(p, [0.0] * len(t), u, y))
+    add("dup_columns.csv", lambda p: _csv(p, t, u, y, header="time_s,stress,stress"))
+    add("missing_column.csv", lambda p: _csv(p, t, u, y, header="time_s,force,strain"))
+    add("bom_comments.csv", lambda p: p.write_bytes(
+        b"\xef\xbb\xbf# a comment\n" + "\n".join(
+            ["time_s,stress,strain"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t, u, y)]
+        ).encode()))
+    add("big_field.csv", lambda p: _csv(p, t, u, y, extra=lambda k: "x" * (200_000 if k == 3 else 1)))
+    add("binary.csv", lambda p: p.write_bytes(bytes(range(256)) * 8))
+    add("latin1.csv", lambda p: p.write_bytes("temps_é,stress,strain\n1,2,3\n".encode("latin-1")))
+    add("ragged.csv", lambda p: p.write_text("time_s,stress,strain\n0,1\n0.1,1,2\n0.2,1,2,3\n"))
+    add("huge_numbers.csv", lambda p: _csv(p, t, [1e308] * len(t), [1e-308] * len(t)))
+    add("constant_output.csv", lambda p: _csv(p, t, u, [1.0] * len(t)))
+    add("zero_input.csv", lambda p: _csv(p, t, [0.0] * len(t), y))
+    add("irregular.csv", lambda p: _csv(p, list(np.cumsum(np.r_[0, np.linspace(0.05, 0.3, len(t) - 1)])), u, y))
+    (folder / "folder.csv").mkdir()
+    files["folder.csv"] = None
+
+    def npz(name, **arrays):
+        base = {"time_s": np.asarray(t), "stress": np.asarray(u), "strain": np.asarray(y)}
+        np.savez(folder / name, **{**base, **arrays})
+
+    add("good.npz", lambda p: npz("good.npz"))
+    add("complex.npz", lambda p: npz("complex.npz", stress=np.asarray(u) + 1j))
+    add("dates.npz", lambda p: npz("dates.npz", time_s=np.arange(len(t)).astype("datetime64[s]")))
+    add("cube.npz", lambda p: npz("cube.npz", strain=np.zeros((4, 5, 2))))
+    add("empty.npz", lambda p: p.write_bytes(b""))
+    add("cut.npz", lambda p: (npz("cut.npz"), p.write_bytes(p.read_bytes()[:300])))
+    add("huge_header.npz", lambda p: _npz_header(p, (2**40,)))
+    add("short_data.npz", lambda p: _npz_header(p, (1000,)))
+    add("empty_arrays.npz", lambda p: npz("empty_arrays.npz", time_s=np.zeros(0), stress=np.zeros(0), strain=np.zeros(0)))
+    return sorted(files)
+
+
+COLUMNS = ["--time", "time_s", "--input", "stress", "--output", "strain"]
+
+OPTION_SETS = [
+    ["--method", "refit"],
+    ["--method", "refit", "--area", "inf"],
+    ["--method", "refit", "--area", "nan"],
+    ["--method", "refit", "--area", "-1"],
+    ["--method", "refit", "--length", "1e308"],
+    ["--method", "refit", "--resample", "5e-324"],
+    ["--method", "refit", "--resample", "1e-308"],
+    ["--method", "refit", "--resample", "0.05"],
+    ["--method", "refit", "--origin=-1e308"],
+    ["--method", "refit", "--origin", "nan"],
+    ["--method", "refit", "--origin", "-1"],
+    ["--method", "refit", "--fit-from", "2", "--fit-to", "1"],
+    ["--method", "refit", "--fit-from", "inf"],
+    ["--method", "refit", "--trim-column", "stress", "--trim-below", "0.5"],
+    ["--method", "refit", "--trim-column", "stress", "--trim-below", "1e300"],
+    ["--method", "refit", "--trim-column", "stress"],
+    ["--method", "bogus"],
+    ["--method", "gradient", "--gamma", "0"],
+    ["--method", "gradient", "--gamma", "nan"],
+    ["--method", "gradient", "--lam", "-1"],
+    ["--method", "gradient", "--gamma", "0.5", "--lam", "0.9"],
+    ["--method", "refit", "--gamma", "0.5"],
+    ["--method", "refit", "--model", "bogus"],
+    ["--method", "refit", "--model", "kelvin-voigt"],
+    ["--method", "refit", "--model", "maxwell", "--area", "2", "--length", "3"],
+    ["--method", "gradient", "--model", "zener"],
+    ["--method", "refit", "--group-by", "specimen"],
+    ["--method", "refit", "--format", "gif"],
+    ["--method", "refit", "--strict"],
+    ["--method", "refit", "--bogus-option"],
+]
+
+
+def cases(files):
+    out = []
+    for name in files:
+        for opts in OPTION_SETS:
+            out.append(["identify", name, *COLUMNS, *opts, "--out", "out"])
+            out.append(["batch", name, *COLUMNS, *opts, "--out", "out", "--quiet"])
+    # --out at or around the inputs
+    for out_dir in (".", "good.csv", "..", "folder.csv"):
+        out.append(["identify", "good.csv", *COLUMNS, "--method", "refit", "--out", out_dir])
+        out.append(["batch", "good.csv", "text_cell.csv", *COLUMNS, "--method", "refit",
+                    "--out", out_dir, "--quiet"])
+    # one batch over every file: each bad one fails alone
+    out.append(["batch", *files, *COLUMNS, "--method", "refit", "--out", "out", "--quiet"])
+    for value in ("inf", "nan", "0", "-1", "1e-300", "abc", "1e308"):
+        out.append(["demo", "--dt", value, "--out", "out"])
+    for value in ("-1", "99999999999999999999999", "abc", "1.5"):
+        out.append(["demo", "--seed", value, "--out", "out"])
+    for value in ("1.5", "0", "nan", "-0.1"):
+        out.append(["demo", "--alpha0", value, "--out", "out"])
+    for opts in (["--rtol", "nan"], ["--rtol", "-1"], ["--rtol", "0"], ["--fd-rtol", "inf"],
+                 ["--order", "1.5"], ["--order", "a,b"], ["--max-samples", "-5"],
+                 ["--lam", "0"], ["--memory", "bogus"]):
+        out.append(["check", "good.csv", *COLUMNS, *opts])
+    out.append(["example", "bogus"])
+    out.append(["bogus-command"])
+    out.append([])
+    return out
+
+
+def _snapshot(root: Path, skip: Path):
+    state = {}
+    for path in sorted(root.rglob("*")):
+        if skip in path.parents or path == skip:
+            continue
+        stat = path.lstat()
+        # a folder's time changes when --out is created in it: folders count by existence
+        key = str(path.relative_to(root))
+        state[key] = ("dir",) if path.is_dir() else (stat.st_size, stat.st_mtime_ns)
+    return state
+
+
+def _strict(text):
+    def refuse(constant):
+        raise ValueError(constant)
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def _outputs_clean(out: Path) -> str:
+    for path in out.rglob("summary.json"):
+        try:
+            _strict(path.read_text())
+        except ValueError as e:
+            return f"{path}: not strict JSON ({e})"
+    for path in out.rglob("identification.csv"):
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+        for row in rows[1:]:
+            for cell in row:
+                if cell and not math.isfinite(float(cell)):
+                    return f"{path}: a non-finite value {cell!r}"
+    return ""
+
+
+def run_case(argv, files_dir: Path, main):
+    """``(clean, why, status, first line of stderr)`` of one command in a fresh copy."""
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp) / "work"
+        # a fresh copy of the inputs per case: a case that writes over one cannot hide
+        import shutil
+
+        shutil.copytree(files_dir, work, symlinks=True)
+        named = argv[argv.index("--out") + 1] if "--out" in argv[:-1] else "out"
+        out = (work / named).resolve()
+        before = _snapshot(Path(tmp), out)
+        err = io.StringIO()
+        cwd = os.getcwd()
+        os.chdir(work)
+        try:
+            with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                try:
+                    status = main(argv)
+                except SystemExit as e:
+                    status = e.code if isinstance(e.code, int) else 1
+                except BaseException as e:  # noqa: BLE001 - anything escaping main is dirty
+                    return False, f"escaped {type(e).__name__}: {e}", None, ""
+        finally:
+            os.chdir(cwd)
+        text = err.getvalue()
+        lines = [ln for ln in text.splitlines() if ln.strip()]
+        errors = [ln for ln in lines if not ln.startswith("vojax: warning:")
+                  and not ln.startswith("vojax: note:")]
+        first = errors[0] if errors else ""
+        after = _snapshot(Path(tmp), out)
+        if after != before:
+            changed = sorted(set(after) ^ set(before)) or [
+                k for k in after if after[k] != before.get(k)
+            ]
+            return False, f"wrote outside --out: {changed[:3]}", status, first
+        if "Traceback" in text or "internal error" in text:
+            return False, "traceback or internal error", status, first
+        if status not in (0, 1, 2):
+            return False, f"exit status {status}", status, first
+        if status == 1 and len(errors) != 1:
+            return False, f"{len(errors)} error lines", status, first
+        if status == 0 and out.exists():
+            why = _outputs_clean(out)
+            if why:
+                return False, why, status, first
+        return True, "", status, first
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--limit", type=int, default=None, help="run the first N cases only")
+    parser.add_argument("--show-dirty", action="store_true", help="print every dirty case")
+    parser.add_argument("--out", default=None, help="write the summary here too")
+    args = parser.parse_args(argv)
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from vojax._cli import main as vojax_main
+
+    saved = os.environ.get("VOJAX_COMPILATION_CACHE")
+    os.environ["VOJAX_COMPILATION_CACHE"] = "off"  # leave the user's cache alone
+    try:
+        return _run(args, vojax_main)
+    finally:
+        if saved is None:
+            os.environ.pop("VOJAX_COMPILATION_CACHE", None)
+        else:
+            os.environ["VOJAX_COMPILATION_CACHE"] = saved
+
+
+def _run(args, vojax_main):
+
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        files_dir = Path(tmp) / "files"
+        files_dir.mkdir()
+        files = make_files(files_dir)
+        corpus = cases(files)[: args.limit]
+        results = []
+        statuses = {}
+        for k, argv_case in enumerate(corpus):
+            clean, why, status, first = run_case(argv_case, files_dir, vojax_main)
+            results.append((clean, why, argv_case, first))
+            statuses[status] = statuses.get(status, 0) + 1
+            if not clean and args.show_dirty:
+                print(f"DIRTY {' '.join(argv_case)}\n      {why}; stderr: {first}", flush=True)
+            if (k + 1) % 50 == 0:
+                print(f"  {k + 1}/{len(corpus)} cases, {sum(not r[0] for r in results)} dirty",
+                      file=sys.stderr, flush=True)
+    dirty = [r for r in results if not r[0]]
+    lines = [
+        f"# fuzz_cli: {len(results)} cases ({len(files)} files x {len(OPTION_SETS)} option "
+        "sets x (identify, batch), --out around the inputs, one batch of every file, demo, "
+        f"check and others); {time.perf_counter() - started:.0f} s",
+        f"clean: {len(results) - len(dirty)}/{len(results)} "
+        f"({100 * (len(results) - len(dirty)) / max(len(results), 1):.1f} %)",
+        "exit statuses: " + ", ".join(f"{k}: {v}" for k, v in sorted(statuses.items(), key=str)),
+    ]
+    for _, why, argv_case, first in dirty[:20]:
+        lines.append(f"dirty: {' '.join(argv_case)} -- {why} -- {first}")
+    text = "\n".join(lines)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+    return 1 if dirty else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
