@@ -332,7 +332,7 @@ def _hostile_npz(folder):
             out = io.BytesIO()
             np.save(out, np.zeros(50))
             z.writestr(f"{name}.npy", out.getvalue())
-    cases["huge"] = "declares 1099511627776 samples"
+    cases["huge"] = "declares 1099511627776 samples, more than"
     buffer = io.BytesIO()
     np.lib.format.write_array_header_1_0(
         buffer, {"descr": "<f8", "fortran_order": False, "shape": (1000,)}
