@@ -407,6 +407,11 @@ MUTATIONS = {
         [("    if summary.is_file() or summary.is_symlink():\n        summary.unlink()", "    pass")],
         ["tests/test_outputs.py::test_a_folder_is_current_only_with_the_summary_of_its_own_run"],
     ),
+    "a varying order read as one number": (
+        "vojax/_refit.py",
+        [("        if not self.constant:\n            raise ValueError(", "        if False:\n            raise ValueError(")],
+        ["tests/test_results.py::test_a_varying_refit_refuses_a_single_number"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

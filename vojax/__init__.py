@@ -55,6 +55,7 @@ from ._models import (
     stress_strain as stress_strain,
 )
 from ._refit import Refit as Refit
+from ._results import Summary as Summary
 from ._refit import refit as refit
 from ._refit import refit_lbfgsb as refit_lbfgsb
 from ._simulate import simulate as simulate

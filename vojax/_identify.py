@@ -116,6 +116,66 @@ class Identification(eqx.Module):
     diagnostics: Diagnostics = eqx.field(static=True)
     tuning: object = eqx.field(static=True, default=None)
 
+    def summary(self, names=None):
+        """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
+        order with its standard deviation, the order's median over the second half, the band's
+        half-width, each parameter's final value (named by `names`, default ``p1``, ``p2``…),
+        the offset, and the verdict with its reason."""
+        from ._results import Summary, row
+
+        alpha, std = np.asarray(self.alpha), np.asarray(self.alpha_std)
+        half = alpha.shape[0] // 2
+        out = Summary()
+        out["order (final)"] = row(alpha[-1], std[-1])
+        out["order (median, second half)"] = row(np.median(alpha[half:]))
+        out["band half-width (median)"] = row(self.diagnostics.band_halfwidth)
+        p, p_std = np.asarray(self.p), np.asarray(self.p_std)
+        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
+        if len(names) != p.shape[1]:
+            raise ValueError(f"`names` must name the {p.shape[1]} parameters, got {len(names)}.")
+        for j, name in enumerate(names):
+            out[f"{name} (final)"] = row(p[-1, j], p_std[-1, j])
+        out["x0"] = row(self.x0, self.x0_std)
+        out["identified"] = row(
+            "yes" if self.diagnostics.identified else "no", None, self.diagnostics.message
+        )
+        return out
+
+    def plot(self, ax=None, *, t=None):
+        """The order with its ±2σ band against `t` (the sample times; default ``k·dt``), titled
+        with the verdict. Returns the matplotlib Axes."""
+        from ._results import plot_order
+
+        n = np.asarray(self.alpha).shape[0]
+        times = float(self.dt) * np.arange(n) if t is None else np.asarray(t, dtype=float)
+        if times.shape != (n,):
+            raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
+        name = {"kalman": "tracker", "gradient": "paper's law"}.get(self.method, self.method)
+        verdict = "identified" if self.diagnostics.identified else "not identified"
+        return plot_order(
+            times, self.alpha, self.alpha_lower, self.alpha_upper, ax=ax, label=name,
+            xlabel="time (from the first sample)", title=f"order: {verdict}",
+        )
+
+    def to_dataframe(self, t=None, names=None):
+        """The per-sample columns (``alpha`` with ``alpha_std`` and its band, each parameter
+        and its standard deviation, ``y_hat``, ``y_pred``; ``time`` if `t` is given) as a
+        pandas DataFrame (needs the optional pandas)."""
+        from ._results import to_dataframe
+
+        p, p_std = np.asarray(self.p), np.asarray(self.p_std)
+        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
+        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
+        columns.update(
+            alpha=self.alpha, alpha_std=self.alpha_std, alpha_lower=self.alpha_lower,
+            alpha_upper=self.alpha_upper,
+        )
+        for j, name in enumerate(names):
+            columns[name] = p[:, j]
+            columns[f"{name}_std"] = p_std[:, j]
+        columns.update(y_hat=self.y_hat, y_pred=self.y_pred)
+        return to_dataframe(columns)
+
 
 TRACES = {"scan": 0}
 

@@ -55,6 +55,83 @@ class Refit(eqx.Module):
     p_at_bound: tuple[bool, ...] = eqx.field(static=True, default=())
     at_bound: bool = eqx.field(static=True, default=False)
 
+    @property
+    def constant(self) -> bool:
+        """Whether the fitted order is one number (``order="constant"``, or a fixed constant)."""
+        order = np.asarray(self.order)
+        return bool(order.size and np.all(order == order[0]))
+
+    def _constant_or_raise(self):
+        if not self.constant:
+            raise ValueError(
+                f"the order varies along the record ({np.asarray(self.knots).size} knots): read "
+                "`order` (per sample), or `knots` at `knot_times`."
+            )
+
+    @property
+    def order_value(self) -> float:
+        """The order as a number, where it is constant; `ValueError` where it varies."""
+        self._constant_or_raise()
+        return float(np.asarray(self.order)[0])
+
+    @property
+    def order_value_stderr(self) -> float:
+        """The constant order's standard error; `ValueError` where the order varies."""
+        self._constant_or_raise()
+        return float(np.asarray(self.order_stderr)[0])
+
+    def summary(self, names=None):
+        """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the
+        order (or its knots), each coefficient (named by `names`, default ``p1``, ``p2``…)
+        with its standard error, the offset, the residual σ and whether it converged."""
+        from ._results import Summary, row
+
+        out = Summary()
+        if self.constant:
+            note = "at a bound: the interval is not meaningful" if self.at_bound else ""
+            out["order"] = row(self.order_value, self.order_value_stderr, note)
+        else:
+            knots = np.asarray(self.knots)
+            for k, (q, tk) in enumerate(zip(knots, np.asarray(self.knot_times))):
+                out[f"order at knot {k + 1} (t = {float(tk):.4g})"] = row(q)
+        p, se = np.asarray(self.p), np.asarray(self.p_stderr)
+        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.size)]
+        if len(names) != p.size:
+            raise ValueError(f"`names` must name the {p.size} coefficients, got {len(names)}.")
+        for j, name in enumerate(names):
+            held = bool(self.p_at_bound[j]) if j < len(self.p_at_bound) else False
+            out[name] = row(p[j], se[j], "held at 0 by its sign" if held else "")
+        out["x0"] = row(self.x0, self.x0_stderr)
+        out["residual sigma"] = row(self.sigma)
+        out["converged"] = row("yes" if self.result == optx.RESULTS.successful else "no")
+        return out
+
+    def plot(self, ax=None, *, t=None):
+        """The fitted order with its ±2σ interval against `t` (the sample times; default the
+        sample index). Returns the matplotlib Axes."""
+        from ._results import plot_order
+
+        n = np.asarray(self.order).size
+        times = np.arange(n) if t is None else np.asarray(t, dtype=float)
+        if times.shape != (n,):
+            raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
+        return plot_order(
+            times, self.order, self.order_lower, self.order_upper, ax=ax, label="refit",
+            xlabel="sample" if t is None else "time", color="C0",
+        )
+
+    def to_dataframe(self, t=None):
+        """The per-sample columns (``order``, its interval, ``y_hat``, ``residuals``; ``time``
+        if `t` is given) as a pandas DataFrame (needs the optional pandas)."""
+        from ._results import to_dataframe
+
+        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
+        columns.update(
+            order=self.order, order_lower=self.order_lower, order_upper=self.order_upper,
+            y_hat=self.y_hat, residuals=self.residuals,
+        )
+        return to_dataframe(columns)
+
 
 TRACES = {"fit": 0}
 # a direction of the column-scaled Jacobian whose singular value is below this fraction of the
