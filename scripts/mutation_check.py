@@ -412,6 +412,12 @@ MUTATIONS = {
         [("        if not self.constant:\n            raise ValueError(", "        if False:\n            raise ValueError(")],
         ["tests/test_results.py::test_a_varying_refit_refuses_a_single_number"],
     ),
+    "a decimal comma read as a separator of thousands": (
+        "vojax/_data/_records.py",
+        [('values.append(float(text.replace(",", ".") if decimal == "," else text))',
+          'values.append(float(text.replace(",", "") if decimal == "," else text))')],
+        ["tests/test_data_cli.py::test_semicolons_decimal_commas_and_a_hint_for_them"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -366,3 +366,84 @@ def test_hostile_npz_files_fail_alone_with_one_sentence(tmp_path):
         failed = {Path(r["file"]).stem for r in csv.DictReader(f)}
     assert failed == set(cases)
     assert (tmp_path / "out" / "good" / "summary.json").is_file()
+
+
+def test_semicolons_decimal_commas_and_a_hint_for_them(tmp_path):
+    """A file as a European spreadsheet writes it (';' between fields, a decimal comma) loads
+    to the same numbers as the plain CSV; read with the defaults, the error says what to
+    pass; a decimal comma with ',' between fields is refused."""
+    _springpot_csv(tmp_path / "plain.csv", n=30)
+    text = (tmp_path / "plain.csv").read_text()
+    euro = "\n".join(
+        ";".join(cell.replace(".", ",") for cell in line.split(",")) for line in text.splitlines()
+    )
+    (tmp_path / "euro.csv").write_text(euro + "\n")
+    (tmp_path / "tabs.csv").write_text(text.replace(",", "\t"))
+    cols = dict(time="time_s", inputs=["stress"], output="strain")
+    (a,) = load_records(tmp_path / "plain.csv", **cols)
+    (b,) = load_records(tmp_path / "euro.csv", **cols, delimiter=";", decimal=",")
+    (c,) = load_records(tmp_path / "tabs.csv", **cols, delimiter="\t")
+    for r in (b, c):
+        np.testing.assert_array_equal(r.time, a.time)
+        np.testing.assert_array_equal(r.inputs, a.inputs)
+        np.testing.assert_array_equal(r.output, a.output)
+    with pytest.raises(DataError, match="pass --delimiter ';'"):
+        load_records(tmp_path / "euro.csv", **cols)
+    with pytest.raises(DataError, match="pass --delimiter tab"):
+        load_records(tmp_path / "tabs.csv", **cols)
+    with pytest.raises(ValueError, match="a decimal comma needs another delimiter"):
+        load_records(tmp_path / "plain.csv", **cols, decimal=",")
+    proc = _cli("identify", "euro.csv", "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--delimiter", ";", "--decimal-comma", "--method", "refit",
+                "--out", "o", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert abs(summary["refit"]["order"] - 0.35) < 1e-6
+
+
+def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
+    """`vojax batch FOLDER` reads the folder's .csv and .npz files (not its subfolders');
+    summary.csv names each record's output folder; a folder without data is an error."""
+    from vojax._data._paths import record_folder
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for k in range(2):
+        _springpot_csv(data / f"Spec {k}.csv", n=30)
+    (data / "notes.txt").write_text("not data")
+    (data / "sub").mkdir()
+    _springpot_csv(data / "sub" / "deeper.csv", n=30)
+    proc = _cli("batch", "data", "--time", "time_s", "--input", "stress", "--output", "strain",
+                "--method", "refit", "--out", "out", "--quiet", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "out" / "summary.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["record"] for r in rows] == ["Spec 0", "Spec 1"]
+    for r in rows:
+        assert r["folder"] == record_folder(r["record"])
+        assert (tmp_path / "out" / r["folder"] / "summary.json").is_file()
+    (tmp_path / "empty").mkdir()
+    proc = _cli("batch", "empty", "--time", "t", "--input", "u", "--output", "y",
+                "--out", "o2", cwd=tmp_path)
+    assert proc.returncode == 1 and "without .csv or .npz files" in proc.stderr
+
+
+@pytest.mark.slow
+def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
+    """The closing line says how many records the tracker did not identify, as summary.csv's
+    `kalman_identified` column does: a clean springpot is identified, an output of pure noise
+    is not."""
+    t, stress, strain = _springpot_csv(tmp_path / "unused.csv", n=150)
+    rng = np.random.default_rng(0)
+    for name, y in (("clean", strain + 0.01 * np.ptp(strain) * rng.standard_normal(150)),
+                    ("noise", rng.standard_normal(150))):
+        with open(tmp_path / f"{name}.csv", "w") as f:
+            f.write("time_s,stress,strain\n")
+            f.writelines(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), stress.tolist(), y.tolist()))
+    proc = _cli("batch", "clean.csv", "noise.csv", "--time", "time_s", "--input", "stress",
+                "--output", "strain", "--out", "out", "--quiet", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "out" / "summary.csv", newline="") as f:
+        flags = {r["record"]: r["kalman_identified"] for r in csv.DictReader(f)}
+    assert flags == {"clean": "True", "noise": "False"}
+    assert "2 computed" in proc.stdout and "1 of them with the order not identified" in proc.stdout

@@ -28,6 +28,25 @@ def _new_dir(out: str | None) -> Path:
     return path
 
 
+def _expand(paths):
+    """The batch's inputs: a folder stands for its ``.csv`` and ``.npz`` files (not those of
+    its subfolders), sorted by name; a folder without any is an error."""
+    files = []
+    for path in paths:
+        folder = Path(path)
+        if folder.is_dir():
+            found = sorted(
+                str(p) for p in folder.iterdir()
+                if p.is_file() and p.suffix.lower() in (".csv", ".npz")
+            )
+            if not found:
+                raise CLIError(f"{path} is a folder without .csv or .npz files.")
+            files.extend(found)
+        else:
+            files.append(str(path))
+    return files
+
+
 def _out_apart(out, files):
     """--out must not be, or hold, an input file (see `check_out_holds_no_input`)."""
     from ._data._paths import check_out_holds_no_input
@@ -97,6 +116,13 @@ def _count(text: str):
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
     if not 0 <= value < 2**63:
         raise argparse.ArgumentTypeError(f"expected a whole number from 0 to 2^63 - 1, got {text!r}")
+    return value
+
+
+def _delimiter(text: str):
+    value = {"tab": "\t", "\\t": "\t", "comma": ",", "semicolon": ";"}.get(text, text)
+    if value not in (",", ";", "\t"):
+        raise argparse.ArgumentTypeError(f"expected ',', ';' or tab, got {text!r}")
     return value
 
 
@@ -270,6 +296,18 @@ def _column_options(p):
         "contact); the time restarts at 0 at the first kept sample (default: keep all)",
     )
     p.add_argument(
+        "--delimiter",
+        type=_delimiter,
+        default=",",
+        help="the CSV's field separator: ',' (default), ';' or tab",
+    )
+    p.add_argument(
+        "--decimal-comma",
+        action="store_true",
+        help="numbers are written with a decimal comma (1,5): needs --delimiter ';' or tab "
+        "(default: a decimal point)",
+    )
+    p.add_argument(
         "--trim-below",
         type=_finite,
         help="the threshold of --trim-column, in that column's unit",
@@ -359,6 +397,8 @@ def _load(path, args):
 
     if (args.trim_column is None) != (args.trim_below is None):
         raise CLIError("--trim-column and --trim-below go together.")
+    if args.decimal_comma and args.delimiter == ",":
+        raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
     for name in ("area", "length"):
         value = getattr(args, name)
         if value is not None and not value > 0:
@@ -378,6 +418,8 @@ def _load(path, args):
             resample=args.resample,
             trim_column=args.trim_column,
             trim_below=args.trim_below,
+            delimiter=args.delimiter,
+            decimal="," if args.decimal_comma else ".",
         )
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
@@ -408,6 +450,8 @@ def _loader(args) -> dict:
         resample=args.resample,
         trim_column=args.trim_column,
         trim_below=args.trim_below,
+        delimiter=args.delimiter,
+        decimal="," if args.decimal_comma else ".",
     )
 
 
@@ -477,10 +521,11 @@ def batch_command(args) -> int:
     from ._data._batch import run_batch
 
     _law_options(args)
-    _out_apart(args.out, args.files)
+    files = _expand(args.files)
+    _out_apart(args.out, files)
     out = _new_dir(args.out)
     records, failures = [], []
-    for path in args.files:
+    for path in files:
         try:
             loaded = _load(path, args)
         except DataError as e:
@@ -509,9 +554,13 @@ def batch_command(args) -> int:
         )
     except BatchBusy as e:
         raise CLIError(str(e)) from None
+    unidentified = (
+        f", {report.unidentified} of them with the order not identified (see summary.csv)"
+        if report.unidentified else ""
+    )
     print(
         f"vojax batch: {report.computed} computed, {report.skipped} up to date (skipped), "
-        f"{report.redone} redone, {report.failed} failed → {out}/"
+        f"{report.redone} redone, {report.failed} failed{unidentified} → {out}/"
     )
     if report.failed:
         print(
@@ -686,7 +735,11 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser(
         "batch", help="identify many recorded tests (files, or groups of a long file)"
     )
-    b.add_argument("files", nargs="+", help="CSV or NPZ files; each is a record unless --group-by")
+    b.add_argument(
+        "files", nargs="+",
+        help="CSV or NPZ files, or folders of them (their .csv and .npz files); each file is a "
+        "record unless --group-by",
+    )
     _data_options(b, many=True)
     b.add_argument("--quiet", action="store_true", help="no progress line (default: one on stderr)")
     b.add_argument(

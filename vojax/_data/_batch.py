@@ -435,6 +435,9 @@ def run_batch(
         rows = _write_summary_table(
             out_dir, records, folders, provenance, rows_cache, failed, overwrite
         )
+        report.unidentified = sum(
+            str(row.get("kalman_identified")) == "False" for row in rows
+        )
         if rows:
             from .._plotting import overview_figure
 
@@ -604,6 +607,9 @@ class BatchReport:
     skipped: int = 0
     redone: int = 0
     failed: int = 0
+    # records in summary.csv whose tracker did not identify the order (the law's never does:
+    # it is not counted)
+    unidentified: int = 0
 
 
 def _pad_to(a, num, value):
@@ -629,7 +635,12 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
 
 
 def _summary_row(summary):
-    row = {"record": summary["record"], "source": summary["source"], "samples": summary["samples"]}
+    row = {
+        "record": summary["record"],
+        "folder": record_folder(summary["record"]),
+        "source": summary["source"],
+        "samples": summary["samples"],
+    }
     if "disagreement" in summary:
         row["disagreement"] = summary["disagreement"]
     for part in ("kalman", "gradient", "refit"):

@@ -81,7 +81,7 @@ def _npz_column(path, data, name):
     return np.asarray(data[name], dtype=float).ravel()
 
 
-def _read_csv(path: Path):
+def _read_csv(path: Path, delimiter=","):
     """Header and rows of a CSV file. Blank lines, and lines starting with ``#`` before the
     header, are skipped; a UTF-8 byte-order mark is removed. Errors name the file and line."""
     try:
@@ -111,7 +111,7 @@ def _read_csv(path: Path):
     limit = csv.field_size_limit()
     csv.field_size_limit(max(limit, len(text) + 1))
     try:
-        reader = csv.reader([line for _, line in lines])
+        reader = csv.reader([line for _, line in lines], delimiter=delimiter)
         header = next(reader)
         rows = list(reader)
     except csv.Error as e:
@@ -128,13 +128,21 @@ def _read_csv(path: Path):
     return header, rows, [n for n, _ in lines[1:]]
 
 
-def _column(path, header, rows, line_numbers, name, numeric=True):
+def _column(path, header, rows, line_numbers, name, numeric=True, decimal="."):
     if name not in header:
         spaced = [h for h in header if h.strip() == name]
         if spaced:
             raise DataError(
                 f"{path}: no column {name!r}; the header has {spaced[0]!r}, with spaces around "
                 "the name (remove them, or pass the name with its spaces)."
+            )
+        separators = [c for c, say in ((";", "';'"), ("\t", "tab"), (",", "','")) if
+                      len(header) == 1 and c in header[0]]
+        if separators:
+            say = {";": "';'", "\t": "tab", ",": "','"}[separators[0]]
+            raise DataError(
+                f"{path}: no column {name!r}: the header is one column holding {say}; the file "
+                f"is separated by {say}: pass --delimiter {say} (delimiter= in Python)."
             )
         raise DataError(f"{path}: no column {name!r} (columns: {', '.join(header)}).")
     j = header.index(name)
@@ -149,7 +157,7 @@ def _column(path, header, rows, line_numbers, name, numeric=True):
             continue
         text = row[j].strip()
         try:
-            values.append(float(text))
+            values.append(float(text.replace(",", ".") if decimal == "," else text))
         except ValueError:
             raise DataError(
                 f"{path}, line {line}, column {name!r}: {text!r} is not a number."
@@ -225,6 +233,8 @@ def load_records(
     resample: float | None = None,
     trim_column: str | None = None,
     trim_below: float | None = None,
+    delimiter: str = ",",
+    decimal: str = ".",
 ) -> list[Record]:
     """Reads the records of one CSV or NPZ file.
 
@@ -240,9 +250,17 @@ def load_records(
       steps more than 4 times shorter (a fast phase, such as a loading ramp, would be lost).
     - `trim_column`, `trim_below`: drop the leading samples while ``|column| < trim_below``
       (e.g. force before contact); the time is re-zeroed at the first kept sample.
+    - `delimiter`: the CSV's field separator, ``","`` (default), ``";"`` or ``"\t"``;
+      `decimal`: ``"."`` (default) or ``","`` (a decimal comma, with another delimiter).
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
+    if delimiter not in (",", ";", "\t"):
+        raise ValueError(f"`delimiter` must be ',', ';' or a tab, got {delimiter!r}.")
+    if decimal not in (".", ","):
+        raise ValueError(f"`decimal` must be '.' or ',', got {decimal!r}.")
+    if decimal == "," and delimiter == ",":
+        raise ValueError("a decimal comma needs another delimiter (';' or a tab).")
     path = Path(path)
     if path.is_dir():
         raise DataError(f"{path}: is a folder, not a CSV or NPZ file.")
@@ -272,9 +290,11 @@ def load_records(
         groups = {"": np.arange(len(cols[time]))}
         lines = np.arange(len(cols[time])) + 1
     else:
-        header, rows, lines = _read_csv(path)
+        header, rows, lines = _read_csv(path, delimiter)
         lines = np.array(lines)
-        cols = {c: _column(path, header, rows, lines, c) for c in dict.fromkeys(wanted)}
+        cols = {
+            c: _column(path, header, rows, lines, c, decimal=decimal) for c in dict.fromkeys(wanted)
+        }
         if group_by:
             keys = _column(path, header, rows, lines, group_by, numeric=False)
             groups = {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}
