@@ -418,6 +418,12 @@ MUTATIONS = {
           'values.append(float(text.replace(",", "") if decimal == "," else text))')],
         ["tests/test_data_cli.py::test_semicolons_decimal_commas_and_a_hint_for_them"],
     ),
+    "the overview hides what was not identified": (
+        "vojax/_plotting.py",
+        [('        known = np.array([str(r.get(f"{tracker}_identified")) == "True" for r in rows])',
+          '        known = np.array([True for r in rows])')],
+        ["tests/test_figures.py::test_the_overview_marks_what_was_not_identified_and_what_failed"],
+    ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_pipeline.py",
         [("    if \"refit\" in parts:\n", "    if False:\n")],

@@ -175,3 +175,28 @@ def test_a_killed_figure_worker_costs_no_record(tmp_path):
     for key in keys:
         assert (tmp_path / key / "identification.png").is_file()
         assert (tmp_path / key / "summary.json").is_file()
+
+
+def test_the_overview_marks_what_was_not_identified_and_what_failed(tmp_path, monkeypatch):
+    """Records the tracker did not identify are drawn hollow under their own legend entry,
+    and the title counts them and the failed records; the record axis has whole ticks."""
+    from vojax import _plotting
+
+    saved = []
+    monkeypatch.setattr(_plotting, "_save", lambda fig, path, **kw: saved.append(fig))
+    rows = [
+        {"record": name, "kalman_alpha_final": q, "kalman_alpha_final_std": 0.01,
+         "kalman_identified": ident, "kalman_nrmse": 0.01}
+        for name, q, ident in (("a", 0.4, True), ("b", 0.45, False), ("c", 0.5, "True"))
+    ]
+    _plotting.overview_figure(rows, tmp_path / "o.png", failed=2)
+    ax = saved[0].axes[0]
+    assert ax.get_title() == "3 records, 1 not identified, 2 failed (failures.csv)"
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == ["final order ±2σ", "not identified"]
+    ticks = ax.get_xticks()
+    assert np.all(ticks == np.round(ticks))
+    # the histogram's bins span the orders found, not 0–1
+    counts, edges = np.histogram([0.4, 0.45, 0.5], bins=20, range=(0.38, 0.52))
+    heights = [p.get_height() for p in saved[0].axes[1].patches]
+    assert heights == list(counts)

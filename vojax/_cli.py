@@ -270,27 +270,6 @@ def _column_options(p):
         "refused above 1,000,000 samples or where the file has steps 4 times shorter",
     )
     p.add_argument(
-        "--origin",
-        type=_finite,
-        metavar="T0",
-        help="the time (in the time column's unit) at which the test started, before the first "
-        "sample: the inputs are taken as held at their first values from T0 (a step load) and "
-        "the refit's x0 is the output at T0 (default: the first sample)",
-    )
-    p.add_argument(
-        "--fit-from",
-        type=_finite,
-        metavar="T",
-        help="the refit fits samples from this time on (the whole record still drives the "
-        "model; default: the first sample)",
-    )
-    p.add_argument(
-        "--fit-to",
-        type=_finite,
-        metavar="T",
-        help="the refit fits samples up to this time (default: the last sample)",
-    )
-    p.add_argument(
         "--trim-column",
         help="drop leading samples while |this column| < --trim-below (e.g. force before "
         "contact); the time restarts at 0 at the first kept sample (default: keep all)",
@@ -314,8 +293,34 @@ def _column_options(p):
     )
 
 
+def _refit_options(p):
+    """The refit's own options (identify, batch)."""
+    p.add_argument(
+        "--origin",
+        type=_finite,
+        metavar="T0",
+        help="the time (in the time column's unit) at which the test started, before the first "
+        "sample: the inputs are taken as held at their first values from T0 (a step load) and "
+        "the refit's x0 is the output at T0 (default: the first sample)",
+    )
+    p.add_argument(
+        "--fit-from",
+        type=_finite,
+        metavar="T",
+        help="the refit fits samples from this time on (the whole record still drives the "
+        "model; default: the first sample)",
+    )
+    p.add_argument(
+        "--fit-to",
+        type=_finite,
+        metavar="T",
+        help="the refit fits samples up to this time (default: the last sample)",
+    )
+
+
 def _data_options(p, *, many: bool):
     _column_options(p)
+    _refit_options(p)
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument(
         "--format",
@@ -644,7 +649,13 @@ def example_command(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    parser = _Parser(prog="vojax", description=__doc__)
+    parser = _Parser(
+        prog="vojax",
+        description="Identify the variable order q(t) and the parameters of recorded tests "
+        "(D^q(t) x = p·u), with bands and a verdict; simulate the paper's study; cross-check "
+        "the order sensitivities on your data. Each command's --help says its options, with "
+        "their defaults and units.",
+    )
     parser.add_argument("--version", action="version", version=f"vojax {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser(

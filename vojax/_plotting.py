@@ -203,7 +203,7 @@ def record_figure(columns, summary, inputs, path) -> None:
     _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
 
 
-def overview_figure(rows, path) -> None:
+def overview_figure(rows, path, failed=0) -> None:
     """The batch at a glance, from the rows of ``summary.csv``: each record's order with its
     band (the tracker's or law's final order ±2σ, the refit's interval), and the distributions
     of the orders and of the fits' NRMSE."""
@@ -221,22 +221,42 @@ def overview_figure(rows, path) -> None:
     tracker = next(
         (m for m in ("kalman", "gradient") if any(f"{m}_alpha_final" in r for r in rows)), None
     )
+    unidentified = 0
     if tracker is not None:
         a, sd = column(f"{tracker}_alpha_final"), column(f"{tracker}_alpha_final_std")
-        ax.errorbar(index - 0.15, a, yerr=2 * sd, fmt="o", ms=3, color="C3", label="final order ±2σ")
+        known = np.array([str(r.get(f"{tracker}_identified")) == "True" for r in rows])
+        if tracker == "gradient":  # the law never identifies: one kind of marker
+            known[:] = True
+        for mask, face, label in ((known, "C3", "final order ±2σ"),
+                                  (~known, "none", "not identified")):
+            if mask.any():
+                ax.errorbar(index[mask] - 0.15, a[mask], yerr=2 * sd[mask], fmt="o", ms=4,
+                            color="C3", mfc=face, label=label)
+        unidentified = int((~known).sum())
         series.append(("final order", a, "C3"))
     if any("refit_order" in r for r in rows):
         q, lo, hi = column("refit_order"), column("refit_order_lower"), column("refit_order_upper")
         ax.errorbar(index + 0.15, q, yerr=[q - lo, hi - q], fmt="s", ms=3, color="C0", label="refit 95 %")
         series.append(("refit order", q, "C0"))
+    title = f"{len(rows)} records"
+    if tracker is not None and unidentified:
+        title += f", {unidentified} not identified"
+    if failed:
+        title += f", {failed} failed (failures.csv)"
     ax.set(xlabel="record (sorted by name; see summary.csv)", ylabel="order q (dimensionless)",
-           title=f"{len(rows)} records", ylim=(0, 1))
+           title=title, ylim=(0, 1))
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if len(rows) <= 12:
         ax.set_xticks(index, names, rotation=45, ha="right", fontsize=7)
     ax.legend(fontsize=8)
     ax = axes[1]
     for label, values, color in series:
-        ax.hist(values[np.isfinite(values)], bins=20, range=(0, 1), alpha=0.5, color=color, label=label)
+        finite = values[np.isfinite(values)]
+        # bins over the orders found (not the whole 0–1), so that close orders are told apart
+        span = (max(0.0, finite.min() - 0.02), min(1.0, finite.max() + 0.02)) if finite.size else (0, 1)
+        ax.hist(finite, bins=20, range=span, alpha=0.5, color=color, label=label)
     ax.set(xlabel="order q (dimensionless)", ylabel="records", title="orders")
     if series:
         ax.legend(fontsize=8)

@@ -272,7 +272,8 @@ def refit(
     linear in a logit variable, so it stays inside `order_bounds`), or fixed (``order`` an
     ``(N,)`` array: then the fit is linear least squares). The coefficients are constant.
     Standard errors come from the Gauss–Newton approximation ``σ² (JᵀWJ)⁻¹``,
-    ``σ² = Σ w r²/(N_fit − P)``, and the order's by the delta method (docs/method.md §7).
+    ``σ² = Σ w r²/(N_fit − P)``, and the order's by the delta method through the logistic
+    map of the knots.
 
     **What is fitted** (the whole input history drives the model either way):
 

@@ -441,7 +441,7 @@ def run_batch(
         if rows:
             from .._plotting import overview_figure
 
-            overview_figure(rows, out_dir / f"overview.{figure_format}")
+            overview_figure(rows, out_dir / f"overview.{figure_format}", failed=len(failed))
         path = out_dir / "failures.csv"
         if failed:
             rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (x[1], x[0]))]
