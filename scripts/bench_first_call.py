@@ -1,0 +1,93 @@
+"""The user's wall clock for the default `vojax.identify` (the tracker): the first call of a
+fresh process (compilation included), the second call, and the first call of a new process
+with the persistent compilation cache (`vojax.use_compilation_cache`) empty and then warm;
+and the cost per sample of a warm call at several record lengths.
+
+Each case runs in its own fresh Python process; the record is a ramp-and-hold input driving
+a slowly moving order with 1 % noise. Times are wall-clock seconds on this machine; the
+table gives ratios measured in the same run.
+
+    python scripts/bench_first_call.py [--samples 370] [--lengths 1000 10000] [--out FILE]
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+CHILD = r"""
+import json, sys, time
+started = time.perf_counter()
+import numpy as np
+import jax
+jax.config.update("jax_enable_x64", True)
+import vojax
+imported = time.perf_counter()
+cache = sys.argv[2]
+if cache != "none":
+    vojax.use_compilation_cache(cache)
+n = int(sys.argv[1])
+dt = 0.05
+t = dt * np.arange(n)
+u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
+alpha = 0.35 + 0.2 * t / t[-1]
+x = np.asarray(vojax.simulate(u, alpha, np.array([2.0]), dt, memory="exponential"))
+y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+prepared = time.perf_counter()
+res = vojax.identify(u, y, dt, warn=False)
+res.alpha.block_until_ready()
+first = time.perf_counter()
+res = vojax.identify(u, 1.001 * y, dt, warn=False)
+res.alpha.block_until_ready()
+second = time.perf_counter()
+print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
+                      second=second - first)))
+"""
+
+
+def run(n, cache="none"):
+    env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache], capture_output=True,
+                         text=True, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--samples", type=int, default=370)
+    parser.add_argument("--lengths", type=int, nargs="*", default=[1000, 10000])
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args(argv)
+    rows = []
+    cold = run(args.samples)
+    rows.append(("fresh process, no cache: first call", cold["first"]))
+    rows.append(("same process: second call", cold["second"]))
+    with tempfile.TemporaryDirectory() as folder:
+        empty = run(args.samples, folder)
+        warm = run(args.samples, folder)
+    rows.append(("fresh process, empty cache: first call", empty["first"]))
+    rows.append(("fresh process, warm cache: first call", warm["first"]))
+    lines = [
+        f"# bench_first_call: identify (default: the tracker), {args.samples} samples; "
+        f"import of vojax and JAX {cold['imported']:.2f} s; {os.cpu_count()} CPUs",
+        "| case | wall s | ÷ second call |",
+        "|---|---|---|",
+    ]
+    for name, value in rows:
+        lines.append(f"| {name} | {value:.2f} | {value / cold['second']:.1f} |")
+    lines += ["", "| samples | first call s | warm call s | µs per sample (warm) |", "|---|---|---|---|"]
+    for n in args.lengths:
+        r = run(n)
+        lines.append(f"| {n} | {r['first']:.2f} | {r['second']:.2f} | {1e6 * r['second'] / n:.0f} |")
+    text = "\n".join(lines)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
