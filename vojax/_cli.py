@@ -57,6 +57,10 @@ def _out_apart(out, files):
         raise CLIError(str(e)) from None
 
 
+class _Terminated(BaseException):
+    """SIGTERM, raised where the process is, so that it unwinds like Ctrl-C."""
+
+
 class _Parser(argparse.ArgumentParser):
     """An unknown option or a bad value: one line, exit 1, as every other bad input (argparse
     would print its usage and exit 2, the code of a batch with failed records)."""
@@ -782,13 +786,35 @@ def main(argv=None) -> int:
         except RuntimeError:  # main() run inside a process that has already computed
             pass
     jax.config.update("jax_enable_x64", True)
+    # after a SIGKILL of this process, multiprocessing's helper would print a warning about
+    # the figure pool's semaphores into the user's terminal: it inherits this setting
+    os.environ.setdefault(
+        "PYTHONWARNINGS", "ignore::UserWarning:multiprocessing.resource_tracker"
+    )
     cache = os.environ.get(CACHE_ENV, "")
     if cache.lower() != "off":
         use_compilation_cache(cache or None)
     parser = build_parser()
     args = parser.parse_args(argv)
+    import signal
+
+    armed = [True]
+
+    def terminate(signum, frame):  # SIGTERM: unwind as Ctrl-C does (workers stopped, lock freed)
+        if armed[0]:  # once, and not while main() is returning (its work is done)
+            armed[0] = False
+            raise _Terminated()
+
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, terminate)
+    except ValueError:  # not the main thread (main() called from a thread): leave it
+        pass
     try:
         return args.run(args)
+    except _Terminated:
+        print("vojax: terminated.", file=sys.stderr)
+        return 143
     except CLIError as e:
         print(f"vojax: error: {e}", file=sys.stderr)
         return 1
@@ -810,6 +836,10 @@ def main(argv=None) -> int:
             file=sys.stderr,
         )
         return 3
+    finally:
+        armed[0] = False
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
