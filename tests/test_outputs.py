@@ -281,6 +281,11 @@ def test_out_never_holds_the_inputs_and_follows_no_link(tmp_path):
     records = load_records(work / "summary.csv", time="time_s", inputs=["stress"], output="strain")
     with pytest.raises(ValueError, match="holds the input"):
         run_batch(records, work, model="springpot", method="refit", gamma=None, lam=None)
+    # a folder where the batch writes a table: refused by name before anything is computed
+    (work / "o4" / "summary.csv").mkdir(parents=True)
+    proc = _batch(work, "--out", "o4", method="refit")
+    assert proc.returncode == 1 and "o4/summary.csv is a folder" in proc.stderr, proc.stderr
+    assert sorted(p.name for p in (work / "o4").iterdir()) == ["summary.csv"]
     # the lock: a link to a file outside --out is refused, and nothing is created there
     (work / "out").mkdir()
     elsewhere = tmp_path / "elsewhere.txt"

@@ -247,6 +247,12 @@ def run_batch(
         model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
         figure_format=figure_format, **(loader or {}), **fit,
     )
+    for name in ("summary.csv", "failures.csv", f"overview.{figure_format}"):
+        if (out_dir / name).is_dir() and not (out_dir / name).is_symlink():
+            raise ValueError(
+                f"{out_dir / name} is a folder, where the batch writes its {name}: rename it "
+                "or choose another --out."
+            )
     with _locked(out_dir), contextlib.ExitStack() as cleanup:
         _remove_orphans(out_dir)
         report = BatchReport()
