@@ -75,6 +75,7 @@ def law_covariance(law, u, big_y, sigma2):
 
 def unscaled(v, log_scale):
     """``e^s · v`` for variances ``v ≥ 0`` (rounding may leave them slightly negative), ``inf``
-    beyond the float range, never NaN (``0 · e^s`` stays 0)."""
+    beyond the float range; ``0 · e^s`` stays 0, and a NaN stays NaN (never hidden as 0)."""
     v = jnp.maximum(v, 0.0)
-    return jnp.where(v > 0, jnp.exp(jnp.log(jnp.where(v > 0, v, 1.0)) + log_scale), 0.0)
+    out = jnp.where(v > 0, jnp.exp(jnp.log(jnp.where(v > 0, v, 1.0)) + log_scale), 0.0)
+    return jnp.where(jnp.isnan(v), v, out)
