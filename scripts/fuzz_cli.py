@@ -26,6 +26,7 @@ import io
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -225,8 +226,6 @@ def run_case(argv, files_dir: Path, main):
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp) / "work"
         # a fresh copy of the inputs per case: a case that writes over one cannot hide
-        import shutil
-
         shutil.copytree(files_dir, work, symlinks=True)
         named = argv[argv.index("--out") + 1] if "--out" in argv[:-1] else "out"
         out = (work / named).resolve()

@@ -318,33 +318,30 @@ def _hostile_npz(folder):
     cases["cube"] = "has shape (5, 5, 2)"
     save("text", F=np.array(["a"] * 50))
     cases["text"] = "holds text values"
-    # a header that declares 2^40 samples over a few bytes of data
+    # headers that declare more samples than the file holds: 2^40 (refused for its size
+    # before anything is allocated) and 1000 (truncated)
+    _npz_declaring(folder / "huge.npz", 2**40)
+    cases["huge"] = "declares 1099511627776 samples, more than"
+    _npz_declaring(folder / "short.npz", 1000)
+    cases["short"] = "is truncated"
+    return cases
+
+
+def _npz_declaring(path, samples):
+    """An NPZ whose time array's header declares `samples` float64 values over 64 bytes."""
     import io
     import zipfile
 
-    buffer = io.BytesIO()
+    header = io.BytesIO()
     np.lib.format.write_array_header_1_0(
-        buffer, {"descr": "<f8", "fortran_order": False, "shape": (2**40,)}
+        header, {"descr": "<f8", "fortran_order": False, "shape": (samples,)}
     )
-    with zipfile.ZipFile(folder / "huge.npz", "w") as z:
-        z.writestr("t.npy", buffer.getvalue() + b"\0" * 64)
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("t.npy", header.getvalue() + b"\0" * 64)
         for name in ("F", "d"):
             out = io.BytesIO()
             np.save(out, np.zeros(50))
             z.writestr(f"{name}.npy", out.getvalue())
-    cases["huge"] = "declares 1099511627776 samples, more than"
-    buffer = io.BytesIO()
-    np.lib.format.write_array_header_1_0(
-        buffer, {"descr": "<f8", "fortran_order": False, "shape": (1000,)}
-    )
-    with zipfile.ZipFile(folder / "short.npz", "w") as z:
-        z.writestr("t.npy", buffer.getvalue() + b"\0" * 64)
-        for name in ("F", "d"):
-            out = io.BytesIO()
-            np.save(out, np.zeros(50))
-            z.writestr(f"{name}.npy", out.getvalue())
-    cases["short"] = "is truncated"
-    return cases
 
 
 def test_hostile_npz_files_fail_alone_with_one_sentence(tmp_path):

@@ -106,6 +106,14 @@ def test_figures_leave_pyplot_alone(tmp_path):
         assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
 
 
+def _finish(figures):
+    """Every ``(key, error)`` the queue reports until all its records are written."""
+    got = list(figures.collect())
+    for _ in figures.drain():
+        got += figures.collect()
+    return got + figures.collect()
+
+
 @pytest.mark.slow
 def test_the_figure_queue_reports_every_record_once_with_its_error(tmp_path):
     """Eight records handed to one worker (at most two at a time) while this process queues
@@ -123,10 +131,7 @@ def test_the_figure_queue_reports_every_record_once_with_its_error(tmp_path):
             s = {k: v for k, v in summary.items() if not (bad and k == "output_column")}
             figures.add(key, tmp_path / key, columns, s, inputs, "png")
         assert len(figures.waiting) > 0  # some left for this process to draw
-        got = list(figures.collect())
-        for _ in figures.drain():
-            got += figures.collect()
-        got += figures.collect()
+        got = _finish(figures)
     finally:
         figures.close()
     assert sorted(k for k, _ in got) == keys
@@ -164,10 +169,7 @@ def test_a_killed_figure_worker_costs_no_record(tmp_path):
         for key in keys[4:]:
             (tmp_path / key).mkdir()
             figures.add(key, tmp_path / key, columns, summary, inputs, "png")
-        got = list(figures.collect())
-        for _ in figures.drain():
-            got += figures.collect()
-        got += figures.collect()
+        got = _finish(figures)
     finally:
         figures.close()
     assert sorted(k for k, _ in got) == keys

@@ -191,29 +191,6 @@ def test_killed_batches_lose_no_rows(tmp_path):
     assert not list((work / "out").rglob("*.tmp"))
 
 
-def _children(pid):
-    """Process ids whose parent is `pid` (Linux /proc)."""
-    out = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == pid:
-                out.append(int(entry))
-    return out
-
-
-def _alive(pid):
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
-
-
 @pytest.mark.slow
 @pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads the process table from /proc")
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
@@ -221,6 +198,9 @@ def test_a_killed_batch_leaves_no_process_behind(tmp_path, how):
     """The batch's figure workers (and multiprocessing's helper) end with the batch however
     it ends: 10 s after SIGKILL, SIGTERM or SIGINT of the main process, none is running, and
     what it printed after the signal is at most one line."""
+    from .helpers import load_script
+
+    procs = load_script("kill_batch")  # its /proc helpers: children(pid), alive(pid)
     work = tmp_path / "w"
     work.mkdir()
     for k in range(6):
@@ -232,14 +212,14 @@ def test_a_killed_batch_leaves_no_process_behind(tmp_path, how):
     deadline, children = time.monotonic() + 60, []
     while proc.poll() is None and time.monotonic() < deadline and len(children) < 2:
         time.sleep(0.2)
-        children = _children(proc.pid)
+        children = procs.children(proc.pid)
     assert proc.poll() is None and children, "the batch ended before its workers started"
     proc.send_signal(how)
     _, err = proc.communicate(timeout=60)
     deadline = time.monotonic() + 10
-    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+    while any(procs.alive(c) for c in children) and time.monotonic() < deadline:
         time.sleep(0.2)
-    assert not [c for c in children if _alive(c)]
+    assert not [c for c in children if procs.alive(c)]
     # Ctrl-C and SIGTERM: at most one line (SIGKILL: nothing, not even multiprocessing's
     # warning about the pool's semaphores)
     assert len(err.strip().splitlines()) <= 1 and "Traceback" not in err, err

@@ -85,14 +85,9 @@ def test_the_cli_fuzz_corpus_is_clean(capsys):
     """`scripts/fuzz_cli.py`: about 1,950 hostile files and options through the command,
     every outcome clean (status 0, 1 with one line, or 2 with failures.csv; nothing written
     outside --out; no NaN in what is written)."""
-    import importlib.util
-    from pathlib import Path
+    from .helpers import load_script
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_cli.py"
-    spec = importlib.util.spec_from_file_location("fuzz_cli", path)
-    fuzz = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fuzz)
-    status = fuzz.main([])
+    status = load_script("fuzz_cli").main([])
     text = capsys.readouterr().out
     assert status == 0, text
     total = int(text.split(" cases")[0].split()[-1])

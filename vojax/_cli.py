@@ -408,10 +408,6 @@ def _load(path, args):
         raise CLIError("--trim-column and --trim-below go together.")
     if args.decimal_comma and args.delimiter == ",":
         raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
-    for name in ("area", "length"):
-        value = getattr(args, name)
-        if value is not None and not value > 0:
-            raise CLIError(f"--{name} must be positive, got {value}.")
     import warnings
 
     # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
