@@ -57,10 +57,6 @@ def _out_apart(out, files):
         raise CLIError(str(e)) from None
 
 
-class _Terminated(BaseException):
-    """SIGTERM, raised where the process is, so that it unwinds like Ctrl-C."""
-
-
 class _Parser(argparse.ArgumentParser):
     """An unknown option or a bad value: one line, exit 1, as every other bad input (argparse
     would print its usage and exit 2, the code of a batch with failed records)."""
@@ -794,23 +790,25 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     import signal
 
-    armed = [True]
+    def stop(signum, frame):
+        # Ctrl-C or SIGTERM: one line, then out at once. Raising an exception here could land
+        # in a garbage-collector callback, where Python prints it and goes on; exiting is
+        # safe: every output is written atomically, a re-run removes the temporaries and
+        # redoes what is incomplete, the lock dies with the process and so do the workers
+        interrupted = signum == signal.SIGINT
+        sys.stdout.flush()
+        print(f"vojax: {'interrupted' if interrupted else 'terminated'}.", file=sys.stderr,
+              flush=True)
+        os._exit(130 if interrupted else 143)
 
-    def terminate(signum, frame):  # SIGTERM: unwind as Ctrl-C does (workers stopped, lock freed)
-        if armed[0]:  # once, and not while main() is returning (its work is done)
-            armed[0] = False
-            raise _Terminated()
-
-    previous = None
+    previous = {}
     try:
-        previous = signal.signal(signal.SIGTERM, terminate)
-    except ValueError:  # not the main thread (main() called from a thread): leave it
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, stop)
+    except ValueError:  # not the main thread (main() called from a thread): leave them
         pass
     try:
         return args.run(args)
-    except _Terminated:
-        print("vojax: terminated.", file=sys.stderr)
-        return 143
     except CLIError as e:
         print(f"vojax: error: {e}", file=sys.stderr)
         return 1
@@ -833,9 +831,8 @@ def main(argv=None) -> int:
         )
         return 3
     finally:
-        armed[0] = False
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":
