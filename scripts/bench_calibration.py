@@ -252,6 +252,10 @@ def run_method(method, case):
         warnings.simplefilter("ignore")
         if method == "tracker":
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid)
+        elif method == "tracker-constant":  # the user states that the parameters are constant
+            res = vojax.identify(
+                case["u"], case["y"], method="kalman", parameters="constant", warn=False, **grid
+            )
         elif method == "law":
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
         else:

@@ -6,14 +6,17 @@ A case is clean when:
   error") or 2 (a batch with failed records, listed in ``failures.csv``);
 - nothing outside ``--out`` was created, changed or removed (the inputs are untouched);
 - with status 0, every ``summary.json`` written is strict JSON (no NaN) and every number of
-  ``identification.csv`` is finite or empty.
+  ``identification.csv`` is finite or empty;
+- a file of the user's in ``--out`` named like an output (``summary.csv``,
+  ``identification.csv``) is left as it was.
 
 The corpus is deterministic: bad files (empty, header only, short, text and NaN cells,
 decreasing or repeated times, duplicate columns, a 200 kB field, binary bytes, Latin-1, a
 folder named like a file, NPZ files with complex, date-time, 3-D, truncated or
 2^40-sample arrays, formula-like record names), each with option sets that are valid or
-not (non-finite and absurd numbers, unknown names, an --out that holds the input), and the
-demo's and check's options. The command runs in this process (``vojax._cli.main``), so a
+not (non-finite and absurd numbers, unknown names, an --out that holds the input or files
+of the user's), a file of a million rows with the default method (refused at once, with
+how to resample), and the demo's and check's options. The command runs in this process (``vojax._cli.main``), so a
 case that fails fast costs milliseconds.
 
     python scripts/fuzz_cli.py [--limit N] [--show-dirty] [--out results.txt]
@@ -41,6 +44,11 @@ def _csv(path, t, u, y, header="time_s,stress,strain", extra=None):
     for k, (a, b, c) in enumerate(zip(t, u, y)):
         rows.append(f"{a!r},{b!r},{c!r}" + ("" if extra is None else f",{extra(k)}"))
     path.write_text("\n".join(rows) + "\n")
+
+
+def _csv_fast(path, t, u, y):
+    np.savetxt(path, np.column_stack([t, u, y]), delimiter=",", header="time_s,stress,strain",
+               comments="", fmt="%.17g")
 
 
 def _good(n=40):
@@ -104,6 +112,10 @@ def make_files(folder: Path) -> list[str]:
     add("irregular.csv", lambda p: _csv(p, list(np.cumsum(np.r_[0, np.linspace(0.05, 0.3, len(t) - 1)])), u, y))
     (folder / "folder.csv").mkdir()
     files["folder.csv"] = None
+    # an output folder holding files of the user's named like vojax's outputs
+    (folder / "foreign_out").mkdir()
+    for name in FOREIGN:
+        (folder / "foreign_out" / name).write_text("mine\n")
 
     def npz(name, **arrays):
         base = {"time_s": np.asarray(t), "stress": np.asarray(u), "strain": np.asarray(y)}
@@ -122,6 +134,8 @@ def make_files(folder: Path) -> list[str]:
 
 
 COLUMNS = ["--time", "time_s", "--input", "stress", "--output", "strain"]
+FOREIGN = ("summary.csv", "identification.csv")  # in foreign_out/, written by the user
+MILLION = 1_000_000  # rows of the long file, run with the default method
 
 OPTION_SETS = [
     ["--method", "refit"],
@@ -168,6 +182,9 @@ def cases(files):
         out.append(["identify", "good.csv", *COLUMNS, "--method", "refit", "--out", out_dir])
         out.append(["batch", "good.csv", "text_cell.csv", *COLUMNS, "--method", "refit",
                     "--out", out_dir, "--quiet"])
+    # --out holding the user's own summary.csv and identification.csv: refused, kept
+    for command in ("identify", "batch"):
+        out.append([command, "good.csv", *COLUMNS, "--method", "refit", "--out", "foreign_out"])
     # one batch over every file: each bad one fails alone
     out.append(["batch", *files, *COLUMNS, "--method", "refit", "--out", "out", "--quiet"])
     for value in ("inf", "nan", "0", "-1", "1e-300", "abc", "1e308"):
@@ -244,6 +261,10 @@ def run_case(argv, files_dir: Path, main):
         finally:
             os.chdir(cwd)
         text = err.getvalue()
+        if named == "foreign_out" and any(
+            (out / name).read_text() != "mine\n" for name in FOREIGN
+        ):
+            return False, "overwrote a file vojax did not write", None, ""
         lines = [ln for ln in text.splitlines() if ln.strip()]
         errors = [ln for ln in lines if not ln.startswith("vojax: warning:")
                   and not ln.startswith("vojax: note:")]
@@ -296,11 +317,20 @@ def _run(args, vojax_main):
         files_dir = Path(tmp) / "files"
         files_dir.mkdir()
         files = make_files(files_dir)
-        corpus = cases(files)[: args.limit]
+        corpus = [(argv, files_dir) for argv in cases(files)][: args.limit]
+        # a file of a million rows with the default method (the tracker): its own folder,
+        # so that the other cases do not copy it
+        big_dir = Path(tmp) / "big"
+        big_dir.mkdir()
+        t = np.arange(MILLION) * 1e-3
+        _csv_fast(big_dir / "million.csv", t, np.sin(t), np.cos(t))
+        if args.limit is None:
+            for command in ("identify", "batch"):
+                corpus.append(([command, "million.csv", *COLUMNS, "--out", "out"], big_dir))
         results = []
         statuses = {}
-        for k, argv_case in enumerate(corpus):
-            clean, why, status, first = run_case(argv_case, files_dir, vojax_main)
+        for k, (argv_case, where) in enumerate(corpus):
+            clean, why, status, first = run_case(argv_case, where, vojax_main)
             results.append((clean, why, argv_case, first))
             statuses[status] = statuses.get(status, 0) + 1
             if not clean and args.show_dirty:
@@ -311,7 +341,8 @@ def _run(args, vojax_main):
     dirty = [r for r in results if not r[0]]
     lines = [
         f"# fuzz_cli: {len(results)} cases ({len(files)} files x {len(OPTION_SETS)} option "
-        "sets x (identify, batch), --out around the inputs, one batch of every file, demo, "
+        "sets x (identify, batch), --out around the inputs or holding the user's files, one "
+        f"batch of every file, a file of {MILLION:,} rows with the default method, demo, "
         f"check and others); {time.perf_counter() - started:.0f} s",
         f"clean: {len(results) - len(dirty)}/{len(results)} "
         f"({100 * (len(results) - len(dirty)) / max(len(results), 1):.1f} %)",

@@ -256,3 +256,14 @@ def test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths():
         plan_buckets([10], -1.0)
     with pytest.raises(ValueError, match="≥ 1"):
         plan_buckets([10, 0])
+
+
+def test_time_left_is_paced_after_the_first_record():
+    """The first record of a batch also compiles: the time left is paced on the records after
+    it (3 s each here, after a first one of 40 s), none is guessed after one record, and 0
+    is left at the end."""
+    from vojax._data._batch import time_left
+
+    assert time_left(40.0, 40.0, 1, 10) is None
+    assert time_left(46.0, 40.0, 3, 10) == pytest.approx(3.0 * 7)
+    assert time_left(67.0, 40.0, 10, 10) == 0.0

@@ -165,6 +165,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
         "--method",
         method,
         *(["--gamma", "0.5"] if method.startswith("gradient") else []),
+        *(["--parameters", "constant"] if method == "kalman+refit" else []),
         cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr
@@ -197,6 +198,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
     if method.startswith("kalman"):
         a = summary["kalman"]
         assert a["method"] == "kalman" and a["converged"]
+        assert a["parameters"] == ("constant" if method == "kalman+refit" else "drifting")
         assert abs(a["alpha_final"] - 0.35) < max(3 * a["alpha_final_std"], 1e-3)
         assert abs(a["parameters_final"]["eta"] - 4.0) < 0.05
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
@@ -294,6 +296,29 @@ def test_one_default_and_one_name_per_estimator(capsys):
     assert "--method must be one of kalman, gradient" in capsys.readouterr().err
     with pytest.raises(ValueError, match="`method` must be one of"):
         canonical_method("tracker")
+
+
+
+def test_parameters_option_sets_the_tracker_only(tmp_path):
+    """--parameters (the tracker's) with the paper's law or the refit alone is refused in one
+    line before anything is written, as `identify(parameters=...)` with the law is."""
+    _springpot_csv(tmp_path / "test.csv")
+    base = ["test.csv", "--time", "time_s", "--input", "stress", "--output", "strain"]
+    for command, method in (("identify", "gradient"), ("batch", "refit")):
+        proc = _cli(command, *base, "--out", "o", "--method", method, "--parameters",
+                    "constant", cwd=tmp_path)
+        assert proc.returncode == 1 and proc.stderr.count("\n") == 1, proc.stderr
+        assert f"--parameters sets the tracker, which --method {method} does not run" in proc.stderr
+    assert not (tmp_path / "o").exists()
+    from vojax._data._batch import run_batch
+    from vojax._data._records import load_records
+
+    records = load_records(tmp_path / "test.csv", time="time_s", inputs=["stress"], output="strain")
+    with pytest.raises(ValueError, match="--parameters sets the tracker"):
+        run_batch(records, tmp_path / "b", model="springpot", method="refit", gamma=None, lam=None,
+                  parameters="constant")
+    with pytest.raises(ValueError, match="--parameters sets the tracker"):
+        vojax.io.identify_record(records[0], method="gradient+refit", parameters="constant")
 
 
 def _hostile_npz(folder):

@@ -202,3 +202,40 @@ def test_the_overview_marks_what_was_not_identified_and_what_failed(tmp_path, mo
     counts, edges = np.histogram([0.4, 0.45, 0.5], bins=20, range=(0.38, 0.52))
     heights = [p.get_height() for p in saved[0].axes[1].patches]
     assert heights == list(counts)
+
+
+def test_parameters_panel_shows_a_constant_plainly_and_names_the_parameters(tmp_path):
+    """A constant η (31.9185851, with wiggles of 1e-9) is drawn within ±1 % of its level with
+    plain tick labels, not zoomed on its last digits with an offset; a start-up transient
+    (η = 1/p̂ while p̂ is near 0, the first 5 % of samples) does not set the limits, but the
+    whole record after it does (a step in the first half stays in view); the y-label names
+    the parameters."""
+    from vojax import _plotting
+
+    t = np.linspace(0.0, 10.0, 200)
+    eta = 31.9185851 + 1e-9 * np.sin(t)
+    eta[:10] = 1e6  # the transient
+    eta[40:60] = 34.0  # a step in the first half
+    columns = {"time": t, "y": np.sin(t), "eta": eta}
+    summary = {
+        "record": "r", "model": "springpot", "output_column": "strain",
+        "input_columns": ["stress"], "parameter_names": ["eta"], "time_column": "time_s",
+    }
+    seen = {}
+    real = _plotting._save
+
+    def keep(fig, path, **kw):
+        ax = fig.axes[3]
+        fig.canvas.draw()
+        seen.update(ylim=ax.get_ylim(), label=ax.get_ylabel(),
+                    offset=ax.yaxis.get_major_formatter().get_offset())
+        real(fig, path, **kw)
+
+    _plotting._save = keep
+    try:
+        _plotting.record_figure(columns, summary, np.sin(t)[:, None], tmp_path / "f.png")
+    finally:
+        _plotting._save = real
+    lo, hi = seen["ylim"]
+    assert lo <= 31.9185851 * 0.99 + 1e-12 and hi >= 34.0 and hi < 1e3
+    assert seen["offset"] == "" and seen["label"] == "eta"

@@ -4,10 +4,12 @@ the lock, strict JSON, no silent NaN, the umask."""
 import csv
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -273,6 +275,46 @@ def test_out_never_holds_the_inputs_and_follows_no_link(tmp_path):
     proc = _batch(work, method="refit")
     assert proc.returncode == 1 and "symbolic link" in proc.stderr
     assert not elsewhere.exists()
+
+
+def test_vojax_overwrites_only_what_it_wrote(tmp_path):
+    """A file in --out that vojax did not write (the user's own summary.csv, or a record's
+    identification.csv) is refused by name before anything is written, and left as it was;
+    what vojax wrote there itself, listed in the folder's manifest, it rewrites on a re-run."""
+    from vojax._data._paths import MANIFEST
+
+    work = tmp_path / "w"
+    work.mkdir()
+    _springpot_csv(work / "a.csv", n=40)
+    for name in ("summary.csv", "a/identification.csv"):  # a table, and a record's file
+        out = work / "out"
+        shutil.rmtree(out, ignore_errors=True)
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_text("mine\n")
+        proc = _batch(work, method="refit")
+        assert proc.returncode == 1, proc.stderr
+        assert f"{name}' exists and was not written by vojax" in proc.stderr
+        assert proc.stderr.count("\n") == 1
+        assert (out / name).read_text() == "mine\n"
+        assert not (out / MANIFEST).exists()
+        left = sorted(p.name for p in out.rglob("*") if p.is_file())
+        assert left in ([Path(name).name], [".vojax-batch.lock", Path(name).name])
+    shutil.rmtree(work / "out")
+    # a fresh folder: written and listed; the re-run rewrites its own files
+    for _ in range(2):
+        proc = _batch(work, "--figures", "overview", method="refit")
+        assert proc.returncode == 0, proc.stderr
+    listed = (work / "out" / MANIFEST).read_text().split()
+    assert {"summary.csv", "a/identification.csv", "a/summary.json"} <= set(listed)
+    written = {str(p.relative_to(work / "out")) for p in (work / "out").rglob("*")
+               if p.is_file() and p.name not in (MANIFEST, ".vojax-batch.lock")}
+    assert written <= set(listed)
+    (work / "out" / "notes.txt").write_text("mine\n")  # a file of the user's beside them
+    (work / "single").mkdir()
+    (work / "single" / "identification.csv").write_text("mine\n")
+    proc = _cli("identify", "a.csv", *BASE[:-1], "--method", "refit", "--out", "single", cwd=work)
+    assert proc.returncode == 1 and "was not written by vojax" in proc.stderr, proc.stderr
+    assert (work / "single" / "identification.csv").read_text() == "mine\n"
 
 
 @pytest.mark.slow

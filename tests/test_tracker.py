@@ -275,12 +275,32 @@ def test_wide_band_warns():
         (dict(alpha0=0.4), "add method='gradient'"),
         (dict(method="gradient", noise=dict(noise_std=0.1)), "`noise` sets the tracker"),
         (dict(method="gradient", smooth=False), "`smooth=False` sets the tracker"),
+        (dict(parameters="fixed"), "`parameters` must be one of"),
+        (dict(method="gradient", parameters="constant"), "`parameters` sets the tracker"),
+        (dict(parameters="constant",
+              noise=dict(order_drift=1.0, parameter_drift=1.0, noise_std=0.1)), "not both"),
     ],
 )
 def test_identify_kalman_validation(ramp, kwargs, match):
     t, u, y, *_, dt = ramp
     with pytest.raises(ValueError, match=match):
         vojax.identify(u, y, dt, **kwargs)
+
+
+def test_a_record_too_long_for_the_tracker_is_refused_at_once():
+    """Past `TRACKER_MAX_SAMPLES` the tracker would run for longer than 5 min with no word:
+    it refuses before computing anything, saying how to resample; the law still runs."""
+    from vojax._identify import TRACKER_MAX_SAMPLES
+
+    n = TRACKER_MAX_SAMPLES + 1
+    rng = np.random.default_rng(0)
+    u, y = rng.standard_normal(n), rng.standard_normal(n)
+    with pytest.raises(ValueError, match=r"50,001 samples would take about 5 min: resample"):
+        vojax.identify(u, y, 0.01)
+    mask = np.ones(n)
+    mask[TRACKER_MAX_SAMPLES:] = 0.0  # padding after the last fitted sample does not count
+    with pytest.raises(ValueError, match="`y` is constant"):  # past the length check
+        vojax.identify(u, np.ones(n), 0.01, mask=mask)
 
 
 def test_constant_output_is_refused(ramp):
@@ -682,14 +702,23 @@ def test_band_covers_the_other_modes_in_proportion_to_their_evidence():
 
 
 def test_correlated_prediction_errors_are_refused():
-    """AR(1) measurement noise (ρ = 0.9) on a record that white noise leaves identified: the
-    innovations' lag-1 autocorrelation exceeds 0.25 and the band is refused, with what to do;
-    with white noise of the same level it stays far below."""
-    from vojax._identify import MAX_CORRELATION, diagnose
+    """AR(1) measurement noise (ρ = 0.9) on a record that white noise leaves identified (its
+    parameters stated constant): the innovations' lag-1 autocorrelation exceeds 0.25 and the
+    band is refused, with what to do;
+    with white noise of the same level it stays below the limit."""
+    from vojax._identify import MAX_CORRELATION, correlation_limit, diagnose
 
     alpha = np.full(100, 0.4)
     d = diagnose(alpha, alpha - 0.01, alpha + 0.01, (0.01, 0.99), True, (), correlation=0.3)
     assert not d.identified and "coarser clock" in d.message and d.innovation_correlation == 0.3
+    # the limit: three standard errors of a white sequence's (1/√n), within 0.1–0.25
+    for n, limit in ((50, 0.25), (144, 0.25), (400, 0.15), (900, 0.1), (10_000, 0.1)):
+        assert correlation_limit(n) == pytest.approx(limit)
+    for r, n, refused in ((0.16, 400, True), (0.14, 400, False), (0.12, 5000, True),
+                          (0.24, 100, False)):
+        d = diagnose(alpha, alpha - 0.01, alpha + 0.01, (0.01, 0.99), True, (), correlation=r,
+                     samples=n)
+        assert d.identified is not refused and ("> 0.15" in d.message) is (n == 400 and refused)
     t = np.arange(600) * 0.05
     u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
     x = np.asarray(vojax.simulate(u, np.full(t.size, 0.45), np.array([1.0]), 0.05))
@@ -699,9 +728,10 @@ def test_correlated_prediction_errors_are_refused():
     for k in range(1, t.size):
         ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
     level = 0.01 * np.ptp(x)
-    clean = vojax.identify(u, x + level * white, 0.05, method="kalman", warn=False).diagnostics
-    assert clean.identified and abs(clean.innovation_correlation) < 0.1
-    coloured = vojax.identify(u, x + level * ar, 0.05, method="kalman", warn=False).diagnostics
+    # the parameters stated constant: by default a drifting one explains this record too
+    clean = vojax.identify(u, x + level * white, 0.05, parameters="constant", warn=False).diagnostics
+    assert clean.identified and clean.innovation_correlation < 0.1  # the rule is one-sided
+    coloured = vojax.identify(u, x + level * ar, 0.05, parameters="constant", warn=False).diagnostics
     assert coloured.innovation_correlation > MAX_CORRELATION and not coloured.identified
 
 
@@ -758,3 +788,120 @@ def test_tracker_order_barely_depends_on_the_unit_of_time():
         b = vojax.identify(u, y, t=t * c, warn=False)
         assert b.diagnostics.identified
         assert np.max(np.abs(np.asarray(b.alpha) - np.asarray(a.alpha))) < sd
+
+
+def _gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3):
+    """One input, a constant order, and a gain that rises by 30 % mid-record:
+    ``y = p(t)·I^α u + c`` (a tissue stiffening during a test)."""
+    from vojax import reference
+
+    dt = 0.05
+    t = np.arange(n) * dt
+    u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
+    s = t / t[-1]
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / 0.15)) / 2.0
+    x = p * np.asarray(reference.fractional_integral(u[:, None], np.full(n, alpha), dt))[:, 0]
+    sd = noise * np.ptp(x)
+    y = x + 0.2 + sd * np.random.default_rng(seed).standard_normal(n)
+    return t, u, y, dt, sd
+
+
+def test_trade_interval_against_an_independent_profile():
+    """The constant orders with which a drifting parameter explains the data as well, against
+    the same profile computed independently: `vojax.reference`'s direct sums on a dense grid
+    of 400 orders, least squares in NumPy over hat functions built here, for a gain on the
+    memory term and for a parameter inside the integral; the interval is where the better
+    form's Δχ² ≤ 4. It holds the true order; with a noise level far below the data's, no
+    drifting parameter explains them and there is no interval."""
+    from vojax import reference
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+
+    t, u, y, dt, sd = _gain_drift_case()
+    n, bounds, knots = t.size, (0.01, 0.99), _track.TRADE_KNOTS
+    memory = make_memory("exponential", dt, n, order_range=bounds)
+    mask = np.ones(n)
+    got = _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
+                                jnp.asarray(mask), t, n - 1, bounds, sd**2)
+    s = t / t[-1]
+    hats = np.stack([np.interp(s, np.linspace(0, 1, knots), np.eye(knots)[k])
+                     for k in range(knots)], axis=1)
+    dense = np.linspace(0.02, 0.98, 400)
+    chi2 = np.empty((dense.size, 2))
+    for i, a in enumerate(dense):
+        order = np.full(n, a)
+        gain = np.asarray(reference.fractional_integral(u[:, None], order, dt)) * hats
+        inside = np.asarray(reference.fractional_integral(u[:, None] * hats, order, dt))
+        for form, x in enumerate((gain, inside)):
+            x = np.column_stack([x, np.ones(n)])
+            res = y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+            chi2[i, form] = res @ res / sd**2
+    dof = n - knots - 1
+    fits = [f for f in range(2) if chi2[:, f].min() <= dof + 2 * np.sqrt(2 * dof)]
+    assert fits  # the gain form is the truth: it must explain the data
+    within = np.concatenate([dense[chi2[:, f] - chi2[:, f].min() <= 4.0] for f in fits])
+    assert got is not None
+    assert got[0] == pytest.approx(within.min(), abs=0.01)
+    assert got[1] == pytest.approx(within.max(), abs=0.01)
+    assert got[0] <= 0.45 <= got[1]
+    assert _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
+                                 jnp.asarray(mask), t, n - 1, bounds, 1e-4 * sd**2) is None
+
+
+def test_parameters_constant_holds_their_drift_and_skips_the_trade(monkeypatch):
+    """``parameters="constant"``: the parameters' drift is held at its floor exactly (never
+    'at the edge'), the band's mixture has no drifting-parameter alternatives (the tuned
+    run, one run per start, the order-drift levels), and no trade interval widens it. The
+    default mixes in the six drifting-parameter alternatives too, and its band, widened by
+    the trade, holds the true constant order of the drifting gain."""
+    from vojax._tracker import _track
+
+    runs, trades = [], []
+    mix, trade = _track.mix_modes, _track.trade_interval
+    monkeypatch.setattr(_track, "mix_modes", lambda b, *a, **k: runs.append(len(b)) or mix(b, *a, **k))
+    monkeypatch.setattr(_track, "trade_interval", lambda *a, **k: trades.append(trade(*a, **k)) or trades[-1])
+    t, u, y, dt, _ = _gain_drift_case()
+    held = vojax.identify(u, y, dt, parameters="constant", warn=False)
+    assert held.tuning.parameter_drift == pytest.approx(_track.PARAM_DRIFT0, rel=1e-12)
+    assert "parameter_drift" not in held.tuning.at_edge
+    starts = len(_track.START_ORDERS) + 1
+    assert runs == [1 + starts + len(_track.ALT_ORDER_DRIFT)] and trades == []
+    free = vojax.identify(u, y, dt, warn=False)
+    assert runs[1] == runs[0] + 2 * len(_track.ALT_PARAM_DRIFT)
+    assert len(trades) == 1 and trades[0] is not None
+    lower, upper = (np.asarray(a)[t.size // 2 :] for a in (free.alpha_lower, free.alpha_upper))
+    assert np.all(lower <= trades[0][0] + 1e-12) and np.all(upper >= trades[0][1] - 1e-12)
+    assert np.mean((lower <= 0.45) & (0.45 <= upper)) > 0.9
+
+
+@pytest.mark.slow
+def test_band_covers_a_moving_order_with_a_drifting_gain_or_refuses():
+    """A moving order (0.35 → 0.60) and a gain rising 30 % mid-record, one input: a drifting
+    parameter and a moving order trade off. By default the band covers the truth at every
+    sample of the second half, widened by the drifting-parameter smoothings that fit (no
+    constant order does here), and the order is refused with a reason that names
+    ``parameters='constant'``. Stating the parameters constant, falsely, gives a narrow band
+    that misses the truth everywhere: the statement is conditional on the assumption."""
+    from vojax import reference
+
+    n, dt = 400, 0.05
+    t = np.arange(n) * dt
+    s = t / t[-1]
+    u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
+    alpha = 0.35 + 0.25 * s
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / 0.15)) / 2.0
+    x = p * np.asarray(reference.fractional_integral(u[:, None], alpha, dt))[:, 0]
+    y = x + 0.2 + 0.01 * np.ptp(x) * np.random.default_rng(3).standard_normal(n)
+    half = slice(n // 2, None)
+
+    def coverage(res):
+        lo, hi = np.asarray(res.alpha_lower)[half], np.asarray(res.alpha_upper)[half]
+        return np.mean((lo <= alpha[half]) & (alpha[half] <= hi))
+
+    free = vojax.identify(u, y, dt, warn=False)
+    d = free.diagnostics
+    assert coverage(free) == 1.0 and not d.identified
+    assert "because a drifting parameter explains the data as well:" in d.message
+    assert "parameters='constant'" in d.message
+    held = vojax.identify(u, y, dt, parameters="constant", warn=False)
+    assert held.diagnostics.identified and coverage(held) < 0.1

@@ -150,7 +150,8 @@ def demo(args) -> int:
     from ._data._pipeline import versions
     from ._identify import identify
     from ._io import write_json
-    from ._plotting import study_figures
+    from ._data._paths import claim_outputs
+    from ._plotting import STUDY_FIGURES, study_figures
     from ._study import simulate_study, study_errors
 
     if not args.dt > 0 or 300.0 / args.dt > 2e6:
@@ -158,6 +159,7 @@ def demo(args) -> int:
             f"--dt must be positive and give at most 2e6 samples over 300 s, got {args.dt}."
         )
     out = _new_dir(args.out)
+    claim_outputs(out, ["summary.json", *STUDY_FIGURES])
     started = time.perf_counter()
     data = simulate_study(args.dt, args.seed)
     simulated = time.perf_counter()
@@ -321,6 +323,15 @@ def _refit_options(p):
 def _data_options(p, *, many: bool):
     _column_options(p)
     _refit_options(p)
+    p.add_argument(
+        "--parameters",
+        choices=("drifting", "constant"),
+        default=None,
+        help="the tracker's parameters: drifting (default, as vojax.identify: their drift is "
+        "tuned, and the order band also covers every constant order that a drifting parameter "
+        "explains as well) or constant (known not to drift: the band holds under that "
+        "assumption only)",
+    )
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument(
         "--format",
@@ -384,6 +395,11 @@ def _law_options(args):
             f"--model {args.model} has a spring (an order-0 term) that the adaptive law and the "
             "tracker do not take; add --method refit."
         )
+    if getattr(args, "parameters", None) and not args.method.startswith("kalman"):
+        raise CLIError(
+            f"--parameters sets the tracker, which --method {args.method} does not run; add "
+            "--method kalman (or kalman+refit)."
+        )
     fit = [f"--{k.replace('_', '-')}" for k in FIT_OPTIONS if getattr(args, k) is not None]
     if fit and not args.method.endswith("refit"):
         raise CLIError(
@@ -437,6 +453,7 @@ def _settings(args) -> dict:
         area=args.area,
         length=args.length,
         **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
+        **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
     )
 
 
@@ -476,6 +493,7 @@ def _select(records, args):
 
 
 def identify_command(args) -> int:
+    from ._data._paths import claim_outputs
     from ._data._pipeline import check_finite, identify_record, make_provenance, write_outputs
 
     _law_options(args)
@@ -491,6 +509,9 @@ def identify_command(args) -> int:
             raise CLIError(f"{record.name}: {e}") from None
         summary["provenance"] = make_provenance(
             record, {**_settings(args), "figure_format": args.format, **_loader(args)}
+        )
+        claim_outputs(
+            target, ["identification.csv", "summary.json", f"identification.{args.format}"]
         )
         write_outputs(target, columns, summary, record.inputs, args.format)
         parts = [f"{record.name}: {record.time.size} samples"]

@@ -22,11 +22,27 @@ PAPER_LAM = 0.9
 
 
 IDENTIFIED_HALFWIDTH = 0.1  # median ±2σ half-width of the order band above which it is "not identified"
+# the tracker's longest record: its cost is about 6 ms a sample (2-core CPU, 1e4 samples),
+# so this is about 5 min
+TRACKER_MAX_SAMPLES = 50_000
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
 # lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
 # white measurement noise, is not trusted (coloured noise, or a model that misses part of the
-# signal); on the calibration suite's records with white noise it stays below 0.23
+# signal): `CORRELATION_Z` standard errors (1/√n) of a white sequence's, but at least
+# `CORRELATION_FLOOR` (below it, coloured noise would widen a band by under 11 %) and at most
+# `MAX_CORRELATION` (on the calibration suite's records with white noise it stays below 0.23)
 MAX_CORRELATION = 0.25
+CORRELATION_Z = 3.0
+CORRELATION_FLOOR = 0.1
+
+
+def correlation_limit(samples) -> float:
+    """The innovations' lag-1 autocorrelation above which the band is refused, for
+    `samples` innovations (`MAX_CORRELATION` when unknown)."""
+    if samples is None:
+        return MAX_CORRELATION
+    z = CORRELATION_Z / np.sqrt(max(int(samples), 1))
+    return float(min(MAX_CORRELATION, max(z, CORRELATION_FLOOR)))
 
 
 # the law's band is its estimate's spread over the noise alone; on held-out simulations
@@ -59,7 +75,8 @@ class Diagnostics:
     - `message`: one sentence when something is wrong, else ``""``.
     - `innovation_correlation`: lag-1 autocorrelation of the one-step prediction errors
       (innovations) over the fitted samples; white noise and a right model give about 0.
-      Above `MAX_CORRELATION` (0.25) the tracker's band is not trusted.
+      Above `correlation_limit` (3/√n for n innovations, within 0.1–0.25) the tracker's
+      band is not trusted.
     """
 
     band_halfwidth: float
@@ -86,12 +103,14 @@ class Identification(eqx.Module):
     - `method`, `diagnostics` (`Diagnostics`), and the settings used: `gamma`, `lam`, `alpha0`,
       `dt` (the median step when the samples came with times `t`), `alpha_bounds`, `memory`
       (for ``"kalman"``, `gamma` and `lam` are NaN and `diagnostics`/`tuning` say what was
-      chosen).
+      chosen, and `parameters` whether the parameters were let drift).
 
     For ``method="gradient"`` the band is the law's spread over realisations of the
     measurement noise, by the delta method through its own recursion (see
-    `vojax._adaptive._bands`); it does not include the law's tracking bias. For ``method="kalman"`` it is
-    the posterior of the tracker's random-walk model, given its tuned noise intensities.
+    `vojax._adaptive._bands`); it does not include the law's tracking bias. For
+    ``method="kalman"`` it is the posterior of the tracker's random-walk model, mixed over
+    the explanations its evidence leaves open and widened to cover every explanation that
+    fits the data (with ``parameters="drifting"``, those with a drifting parameter too).
     """
 
     alpha: Float[Array, " N"]
@@ -115,6 +134,8 @@ class Identification(eqx.Module):
     method: str = eqx.field(static=True)
     diagnostics: Diagnostics = eqx.field(static=True)
     tuning: object = eqx.field(static=True, default=None)
+    # the tracker's `parameters` setting ("drifting" or "constant"); None for the law
+    parameters: str | None = eqx.field(static=True, default=None)
 
     def summary(self, names=None):
         """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
@@ -341,7 +362,8 @@ def lag1_correlation(e) -> float:
 
 def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
-    correlation=float("nan"), unstable_from=None,
+    correlation=float("nan"), unstable_from=None, trade=None, samples=None,
+    drift_covered=False,
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -349,7 +371,11 @@ def diagnose(
     estimate over the measurement noise, without its tracking error), so nothing is
     identified by it. `correlation`: the innovations' lag-1 autocorrelation (see
     `Diagnostics`). `unstable_from`: the first sample at which the law's spread passes the
-    order's range (its linearisation is unstable), or None."""
+    order's range (its linearisation is unstable), or None. `trade`: the constant orders
+    ``(lo, hi)`` with which a drifting parameter explains the data as well, which the band
+    was widened to cover, or None; `drift_covered`: the band was widened to cover the
+    tracker's drifting-parameter alternatives that explain the data. `samples`: how many innovations `correlation` is over
+    (see `correlation_limit`)."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2
@@ -357,7 +383,19 @@ def diagnose(
     tol = BOUND_TOL * (hi - lo)
     at_bound = float(np.mean((alpha <= lo + tol) | (alpha >= hi - tol)))
     problems = []
-    if width > IDENTIFIED_HALFWIDTH:
+    if (trade is not None or drift_covered) and width > IDENTIFIED_HALFWIDTH:
+        where = (
+            f" with any constant order from {trade[0]:.2f} to {trade[1]:.2f}"
+            if trade is not None else ""
+        )
+        problems.append(
+            f"the order band is ±{width:.2g} wide because a drifting parameter explains the "
+            f"data as well{where}: with one input an order and a drifting parameter trade "
+            "off, and the band covers both; if the parameters are known not to drift, say so "
+            "(parameters='constant', --parameters constant), otherwise a second input or a "
+            "test with another loading would separate them"
+        )
+    elif width > IDENTIFIED_HALFWIDTH:
         problems.append(
             f"the order band is ±{width:.2g} wide: these data do not determine the order "
             "(a test with a longer hold or a second input would, or a refit with fewer free "
@@ -389,11 +427,12 @@ def diagnose(
     others = [name for name in at_edge if name != "noise"]
     if others:
         problems.append(f"{', '.join(others)} at the edge of the search box")
-    coloured = calibrated and correlation > MAX_CORRELATION
+    limit = correlation_limit(samples)
+    coloured = calibrated and correlation > limit
     if coloured:
         problems.append(
             f"the prediction errors are correlated (lag-1 autocorrelation {correlation:.2f} > "
-            f"{MAX_CORRELATION}): the measurement noise is coloured or the model misses part of "
+            f"{limit:.2g}): the measurement noise is coloured or the model misses part of "
             "the signal, and the band, which assumes white noise, is too narrow; resample to a "
             "coarser clock, on which the noise decorrelates between samples, or give `noise=` "
             "with the known noise level"
@@ -434,6 +473,7 @@ def identify(
     x0=None,
     r0=None,
     noise=None,
+    parameters=None,
     mask=None,
     tol: float = 1e-10,
     warn: bool = True,
@@ -490,14 +530,23 @@ def identify(
       ``order_drift`` (variance of the logistic order coordinate's change over the record),
       ``parameter_drift`` (variance of each normalised parameter's change over the record)
       and ``noise_std`` (of the measurement, in the units of `y`).
+    - `parameters`: ``method="kalman"`` only. ``"drifting"`` (the default, None): the
+      parameters may drift, their drift tuned with the order's; since with one input a
+      drifting parameter can stand in for a moving order, the band also covers every
+      constant order with which a parameter free to drift explains the data as well, and the
+      order is reported not identified when that makes the band wide. ``"constant"``: the
+      parameters are known not to drift (a calibrated instrument, a test short against any
+      ageing); their drift is held, and the band holds under that assumption only.
     - `mask`: ``method="kalman"`` only: an ``(N,)`` array of 0 and 1; samples with 0 are not
       fitted (the tracker still estimates the states there, from its random-walk model). Used
       to pad records to a common length so that one compiled program serves many lengths;
       the diagnostics cover the samples up to the last one fitted.
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
 
-    **Returns:** an `Identification`. **Raises:** `ValueError` for bad input and when the
-    estimate is not finite (the law diverged), naming the sample.
+    **Returns:** an `Identification`. **Raises:** `ValueError` for bad input, when the
+    estimate is not finite (the law diverged), naming the sample, and for the tracker on
+    more than `TRACKER_MAX_SAMPLES` (50,000) samples, which would take over 5 min: it says
+    how to resample.
     """
     check.choice(method, ("kalman", "gradient"), "method")
     if alpha_bounds is None:
@@ -512,8 +561,19 @@ def identify(
                 f"{', '.join(given)} set the paper's law, which method='kalman' (the default) "
                 "does not use; add method='gradient', or leave them out."
             )
+        parameters = "drifting" if parameters is None else parameters
+        check.choice(parameters, ("drifting", "constant"), "parameters")
+        if parameters == "constant" and noise is not None:
+            raise ValueError(
+                "`noise` sets the parameters' drift itself (its 'parameter_drift'); give it, "
+                "or parameters='constant', not both."
+            )
         return _identify_kalman(
-            u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn
+            u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn, parameters
+        )
+    if parameters is not None:
+        raise ValueError(
+            "`parameters` sets the tracker (method='kalman'); the paper's law does not use it."
         )
     if mask is not None:
         raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
@@ -622,7 +682,10 @@ def law_identification(
     )
 
 
-def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn):
+def _identify_kalman(
+    u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn,
+    parameters="drifting",
+):
     from ._tracker import track
 
     u2, y, bounds, _, _ = check_options(
@@ -639,8 +702,18 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     if mask is not None:
         mask = check_mask(mask, u2.shape[0], u2.shape[1])
         span = int(np.flatnonzero(mask)[-1]) + 1
+    if span > TRACKER_MAX_SAMPLES:
+        raise ValueError(
+            f"the tracker takes about 6 ms a sample on a CPU core, so {span:,} samples would "
+            f"take about {span * 6e-3 / 60:.0f} min: resample the record to at most "
+            f"{TRACKER_MAX_SAMPLES:,} samples (an order changes slowly; `load_records(..., "
+            "resample=STEP)`, the CLI's --resample STEP), or use method='gradient' or `refit`."
+        )
     mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
-    res = track(mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t)
+    res = track(
+        mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t,
+        parameters=parameters,
+    )
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
@@ -656,7 +729,8 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
     fitted = np.ones(span, bool) if mask is None else np.asarray(mask)[:span] > 0
     diagnostics = diagnose(
         alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift,
-        correlation=lag1_correlation((y_np - pred)[fitted][1:]),
+        correlation=lag1_correlation((y_np - pred)[fitted][1:]), trade=res.trade,
+        samples=int(np.sum(fitted)) - 1, drift_covered=res.drift_covered,
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)
@@ -683,4 +757,5 @@ def _identify_kalman(u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mas
         method="kalman",
         diagnostics=diagnostics,
         tuning=res.tuning,
+        parameters=parameters,
     )

@@ -28,6 +28,9 @@ def _save(fig, path, dpi=110, compress_level=None):
         fig.savefig(tmp, dpi=dpi, format=fmt, **extra)
 
 
+STUDY_FIGURES = ("fig2_order.png", "fig3_output.png", "fig4_parameters.png")
+
+
 def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[str]:
     """Writes Figs. 2–4 of the paper (order, output, parameters) as PNG files; returns names."""
     written = []
@@ -45,7 +48,7 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
     ax.plot(t, result.alpha, "C3--", lw=1.2, label=r"$\hat\alpha$")
     ax.set(xlabel="t (s)", ylabel="order", title="Fig. 2: actual and identified order")
     ax.legend()
-    save(fig, "fig2_order.png")
+    save(fig, STUDY_FIGURES[0])
 
     fig, ax = subplots(figsize=(7, 3.5))
     ax.plot(t, y, color="0.7", lw=0.6, label="measured $x^*+\\nu$")
@@ -53,7 +56,7 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
     ax.plot(t, result.y_hat, "C3--", lw=1.0, label=r"$\hat x$")
     ax.set(xlabel="t (s)", ylabel="output", title="Fig. 3: actual and identified output")
     ax.legend(ncols=3)
-    save(fig, "fig3_output.png")
+    save(fig, STUDY_FIGURES[1])
 
     fig, axes = subplots(2, 1, figsize=(7, 5), sharex=True)
     for i, ax in enumerate(axes):
@@ -62,22 +65,29 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
         ax.legend()
     axes[0].set_title("Fig. 4: actual and identified parameters")
     axes[1].set_xlabel("t (s)")
-    save(fig, "fig4_parameters.png")
+    save(fig, STUDY_FIGURES[2])
     return written
 
 
+SKIP_START = 0.1  # the parameters panel's y-limits leave out this first fraction of a record
+
+
 def _robust_limits(ax, series):
-    """y-limits from the 1st–99th percentiles of the second half of each series, so that a
-    start-up transient does not swamp the panel."""
+    """y-limits from the 1st–99th percentiles of each series after its first `SKIP_START`
+    (a start-up transient, η = 1/p̂ while p̂ is near 0, would swamp the panel), at least ±1 %
+    of the level wide, and plain tick labels: a constant does not become a zoom on its last
+    digits with an offset (``1e-9 + 3.19185851e1``)."""
     import numpy as np
 
-    tails = [np.asarray(v)[len(v) // 2 :] for v in series]
+    ax.ticklabel_format(axis="y", useOffset=False)
+    tails = [np.asarray(v)[int(SKIP_START * len(v)) :] for v in series]
     tails = [v[np.isfinite(v)] for v in tails if np.any(np.isfinite(v))]
     if not tails:
         return
     lo = min(np.percentile(v, 1) for v in tails)
     hi = max(np.percentile(v, 99) for v in tails)
-    pad = 0.15 * (hi - lo) if hi > lo else 0.1 * max(abs(hi), 1e-300)
+    level = max(abs(lo), abs(hi), 1e-300)
+    pad = max(0.15 * (hi - lo), 0.01 * level)
     ax.set_ylim(lo - pad, hi + pad)
 
 
@@ -163,7 +173,8 @@ def record_figure(columns, summary, inputs, path) -> None:
             )
         ax.plot(t, columns["refit_alpha"], "C0:", label="refit")
     ax.set(title="identified order", xlabel=time_label, ylabel="order α (dimensionless)")
-    ax.legend()
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend()
     ax = axes[1, 1]
     shown = [name for name in summary["parameter_names"] if name in columns]
     series = [columns[name] for name in shown]
@@ -185,10 +196,11 @@ def record_figure(columns, summary, inputs, path) -> None:
     _robust_limits(ax, series)
     if not shown:  # only the refit's constants: the panel still spans the record's time
         ax.set_xlim(t[0], t[-1])
+    names = shown or list((refit or {}).get("parameters", {}))
     ax.set(
-        title="parameters (y-limits from the 2nd half)",
+        title=f"parameters (y-limits after the first {SKIP_START:.0%})",
         xlabel=time_label,
-        ylabel="value (units of the fitted columns)",
+        ylabel=", ".join(names) or "parameters",
     )
     if ax.get_legend_handles_labels()[0]:
         ax.legend()

@@ -61,6 +61,7 @@ def identify_record(
     lam=None,
     area=None,
     length=None,
+    parameters=None,
 ):
     """Identifies one `Record` as ``vojax identify`` does; returns ``(columns, summary)``.
 
@@ -72,6 +73,7 @@ def identify_record(
       / ``"gradient+refit"`` (one of the first two and the refit). The same names as
       `vojax.identify`'s `method` and the keys of the summary.
     - `area`, `length`: eq. (35): σ = F/a and ε = d/l.
+    - `parameters`: the tracker's, as in `vojax.identify` (``"drifting"`` when None).
 
     `columns` holds the per-sample series (``time``, ``alpha`` and its band, the physical
     parameters, ``y``, ``y_hat``, the refit's columns), `summary` the estimates with their
@@ -84,7 +86,8 @@ def identify_record(
         if value is not None and not float(value) > 0:
             raise ValueError(f"`{key}` must be positive, got {value}.")
     return _identify_record(
-        record, model=model, method=method, gamma=gamma, lam=lam, area=area, length=length
+        record, model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
+        parameters=parameters,
     )
 
 

@@ -36,7 +36,7 @@ from .._integral import make_memory
 from .._io import atomic_path
 from .._plotting import warm_record_figure
 from .._stats import noise_variance
-from ._paths import check_out_holds_no_input, inside, record_folder
+from ._paths import claim_outputs, check_out_holds_no_input, inside, record_folder
 from ._pipeline import (
     adaptive_part,
     canonical_method,
@@ -209,6 +209,7 @@ def run_batch(
     origin=None,
     fit_from=None,
     fit_to=None,
+    parameters=None,
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -233,8 +234,13 @@ def run_batch(
     `figure_workers` worker processes (default: the cores but one, at least one, at most four;
     0 draws them in this process), off the computation's path; a record counts as done when its
     figure and summary are written. Records on irregular clocks run one at a time, on their own
-    clock. `origin`, `fit_from`, `fit_to`: the refit's, as in `identify_record`.
+    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`: the tracker's, as in
+    `identify_record`.
     """
+    if parameters is not None and estimator(canonical_method(method)) != "kalman":
+        raise ValueError(
+            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
+        )
     from .._tune import tune_gains
 
     method = canonical_method(method)
@@ -242,7 +248,13 @@ def run_batch(
     out_dir = Path(out_dir)
     check_out_holds_no_input(out_dir, [r.source for r in records] + [f[0] for f in failures])
     out_dir.mkdir(parents=True, exist_ok=True)
-    fit = {k: v for k, v in dict(origin=origin, fit_from=fit_from, fit_to=fit_to).items() if v is not None}
+    fit = {
+        k: v
+        for k, v in dict(
+            origin=origin, fit_from=fit_from, fit_to=fit_to, parameters=parameters
+        ).items()
+        if v is not None
+    }
     settings = dict(
         model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
         figure_format=figure_format, **(loader or {}), **fit,
@@ -259,6 +271,11 @@ def run_batch(
         failed = list(failures)
         report.failed = len(failed)
         folders = {r.name: inside(out_dir, record_folder(r.name)) for r in records}
+        tables = ["summary.csv", "failures.csv", f"overview.{figure_format}"]
+        own = ("identification.csv", "summary.json", f"identification.{figure_format}")
+        claim_outputs(
+            out_dir, tables + [f"{record_folder(r.name)}/{name}" for r in records for name in own]
+        )
         hashes = {}
         provenance = {r.name: make_provenance(r, settings, hashes) for r in records}
         todo = []
@@ -281,6 +298,7 @@ def run_batch(
         total = len(todo)
 
         last_table = [time.perf_counter()]
+        first_at = [started]
 
         def finished(r, state, ok):
             if ok:
@@ -300,10 +318,14 @@ def run_batch(
                 report.failed += 1
             if progress:
                 n = report.computed + report.redone + report.failed - len(failures)
-                eta = (time.perf_counter() - started) / max(n, 1) * (total - n)
+                now = time.perf_counter()
+                if n == 1:
+                    first_at[0] = now
+                left = time_left(now - started, first_at[0] - started, n, total)
+                left = "estimating the time left" if left is None else f"about {left:.0f} s left"
                 print(
                     f"\rvojax batch: {n}/{total} done, {report.failed} failed, "
-                    f"{report.skipped} up to date; about {eta:.0f} s left   ",
+                    f"{report.skipped} up to date; {left}   ",
                     end="",
                     file=sys.stderr,
                     flush=True,
@@ -616,6 +638,15 @@ class BatchReport:
     # records in summary.csv whose tracker did not identify the order (the law's never does:
     # it is not counted)
     unidentified: int = 0
+
+
+def time_left(elapsed, first, done, total):
+    """Seconds left in a batch, from the pace after its first record (`first`: seconds to the
+    end of it), which also compiled the programs: timed from the start, the first estimate
+    was 8 times too long. None until two records are done."""
+    if done < 2 or total <= done:
+        return None if done < 2 and total > done else 0.0
+    return (elapsed - first) / (done - 1) * (total - done)
 
 
 def _pad_to(a, num, value):

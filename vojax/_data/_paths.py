@@ -91,3 +91,42 @@ def check_out_holds_no_input(out, inputs) -> None:
                 f"the output folder {str(out)!r} {where} the input {str(source)!r}: vojax "
                 "would write beside (or over) your data; choose a new folder for --out."
             )
+
+
+MANIFEST = ".vojax-outputs"  # the files vojax wrote in an output folder, one per line
+
+
+def _written(out: Path) -> set[str]:
+    path = out / MANIFEST
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        raise ValueError(f"{str(path)!r} is not a file vojax wrote; choose a new folder for --out.")
+    if not path.exists():
+        return set()
+    return {line for line in path.read_text(encoding="utf-8").splitlines() if line}
+
+
+def claim_outputs(out, names) -> None:
+    """Declares that vojax is about to write the files `names` (paths relative to the output
+    folder `out`) and records them in the folder's manifest (`MANIFEST`) first. `ValueError`
+    when one of them already exists there and is not in the manifest: a file vojax did not
+    write (the user's own ``summary.csv``, say) is never overwritten. A name is refused too
+    if it would leave `out`."""
+    from .._io import atomic_path
+
+    out = Path(out)
+    root = out.resolve()
+    names = [str(n) for n in names]
+    known = _written(out)
+    for name in names:
+        target = out / name
+        if root not in (root / name).resolve().parents and not target.is_symlink():
+            raise ValueError(f"output {name!r} would leave the output folder {str(out)!r}.")
+        if name not in known and (target.exists() or target.is_symlink()):
+            raise ValueError(
+                f"{str(target)!r} exists and was not written by vojax: vojax never overwrites "
+                "a file it did not write; choose a new folder for --out, or move that file."
+            )
+    new = known | set(names)
+    if new != known:
+        with atomic_path(out / MANIFEST) as tmp:
+            Path(tmp).write_text("".join(f"{n}\n" for n in sorted(new)), encoding="utf-8")

@@ -356,7 +356,7 @@ def _padded(fn, u, y, pad_to, **kwargs):
 
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
-    length=None, pad_to=None, origin=None, fit_from=None, fit_to=None,
+    length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -364,7 +364,8 @@ def identify_record(
     to that length and masked (results equal to the unpadded run within the solvers'
     tolerances). `origin` (the test's start, before the first sample) and the fit window
     `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
-    the model's coefficients physical (`p_signs`)."""
+    the model's coefficients physical (`p_signs`). `parameters`: the tracker's, as in
+    `vojax.identify` (``"drifting"`` when None)."""
     from .._identify import identify
     from .._refit import refit
 
@@ -379,6 +380,10 @@ def identify_record(
             "--origin, --fit-from and --fit-to set the refit; use --method refit or "
             f"{method}+refit."
         )
+    if parameters is not None and estimator(method) != "kalman":
+        raise ValueError(
+            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
+        )
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
@@ -386,12 +391,16 @@ def identify_record(
     summary = record_header(record, model, method, area, length)
     tracker = estimator(method)
     if tracker == "kalman":
-        res = _padded(identify, u, y, pad_to, **grid, method="kalman", warn=False)
+        res = _padded(
+            identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False
+        )
     elif tracker == "gradient":
         res = identify(u, y, **grid, method="gradient", gamma=gamma, lam=lam, warn=False)
     if tracker is not None:
         cols, summary[tracker] = adaptive_part(res, y, physical)
         columns.update(cols)
+    if tracker == "kalman":
+        summary["kalman"]["parameters"] = parameters or "drifting"
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)

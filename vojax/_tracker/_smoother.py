@@ -19,7 +19,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
-from ._model import Hyper, linearise, objective, order_of
+from ._model import Hyper, linearise, objective, order_of, predict
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
@@ -193,11 +193,13 @@ def smoother_modes(
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
     the constant trajectory of its row of `starts` (C, d), one after the other in one compiled
     program. Returns, per run, only what a mixture of them needs: the order coordinate β of
-    the mode (C, N), its smoothed variance (C, N) and the run's `score` (C,)."""
+    the mode (C, N), its smoothed variance (C, N), the run's `score` (C,) and its residual
+    sum of squares over the fitted samples (C,)."""
     def one(item):
         h, start = item
         sm = _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
-        return sm.theta[:, 0], sm.cov[:, 0, 0], score(sm)
+        res = y - predict(sm.theta, sm.phi, u.shape[1])
+        return sm.theta[:, 0], sm.cov[:, 0, 0], score(sm), jnp.sum(mask * res * res)
 
     return lax.map(one, (hyper, starts))
 

@@ -54,6 +54,13 @@ HELD_RATIO = 2.0
 ALT_ORDER_DRIFT = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift, or × 1e-3 if smaller
 ORDER_DRIFT_BASE = 1e-3  # (an order tuned to be constant still has its variable alternatives)
 ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's change
+# with one input a drifting parameter can stand in for a moving order: the band also covers
+# every constant order with which a parameter free to drift (a piecewise-linear p(t) on
+# `TRADE_KNOTS` knots, as a gain on the memory term or inside the integral) explains the data
+# as well (Δχ² ≤ `TRADE_CHI2` from the best), when such a fit explains them at all
+TRADE_KNOTS = 8
+TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
+TRADE_CHI2 = 4.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,10 +160,13 @@ class Tuning:
     tuned: bool
 
 
-def box(noise_floor):
-    """The search box (natural logs): `BOX`, with the noise's lower end raised to the floor."""
+def box(noise_floor, hold=False):
+    """The search box (natural logs): `BOX`, with the noise's lower end raised to the floor;
+    `hold`: the parameters' drift held at `PARAM_DRIFT0` (a box of zero width)."""
     out = dict(BOX)
     out["noise"] = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
+    if hold:
+        out["parameter_drift"] = (float(np.log(PARAM_DRIFT0)),) * 2
     return out
 
 
@@ -180,8 +190,10 @@ def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps
         x = lo + (hi - lo) * jax.nn.sigmoid(zeta)
         return -linearised_log_likelihood(Hyper.from_array(x), jac, z, mask, steps, horizon, m0, p0) / count
 
-    x0 = jnp.clip(x0, lo + 1e-3, hi - 1e-3)
-    zeta0 = jnp.log((x0 - lo) / (hi - x0))
+    # inside the box (a box of zero width holds its coordinate: ζ = 0, x = lo)
+    margin = jnp.minimum(1e-3, (hi - lo) / 2)
+    x0 = jnp.clip(x0, lo + margin, hi - margin)
+    zeta0 = jnp.where(hi > lo, jnp.log((x0 - lo) / jnp.where(hi > lo, hi - x0, 1.0)), 0.0)
     sol = optx.minimise(
         loss, optx.BFGS(rtol=1e-7, atol=1e-9), zeta0, max_steps=max_steps, throw=False
     )
@@ -205,6 +217,69 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     return np.stack(out)
 
 
+def hat_basis(times, last, knots=TRADE_KNOTS):
+    """Piecewise-linear hat functions (N, knots) on evenly spaced knots over ``times[0]`` …
+    ``times[last]``: a parameter that drifts smoothly over the fitted span."""
+    times = np.asarray(times, float)
+    s = np.clip((times - times[0]) / max(times[last] - times[0], 1e-300), 0.0, 1.0)
+    return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
+
+
+@eqx.filter_jit
+def _drift_profile(memory, u, y, mask, alphas, basis):
+    """Weighted residual sums of squares (A, 2) of least squares at each constant order of
+    `alphas` with an offset and the parameters free to drift, ``p_j(t) = Σ_k a_jk B_k(t)``:
+    as a gain on the memory term (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral
+    (``y ≈ c + Σ a_jk I^α(B_k u_j)``)."""
+    num, n = u.shape
+    k = basis.shape[1]
+    w = jnp.sqrt(mask)
+    inside_u = (u[:, :, None] * basis[:, None, :]).reshape(num, n * k)
+    ones = jnp.ones((num, 1), u.dtype)
+
+    def rss(x):
+        x = jnp.concatenate([x, ones], axis=1) * w[:, None]
+        coef = jnp.linalg.lstsq(x, y * w)[0]
+        res = y * w - x @ coef
+        return res @ res
+
+    def one(alpha):
+        order = jnp.full((num,), alpha, u.dtype)
+        phi = memory.run(u, order, False)
+        gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
+        return jnp.stack([rss(gain), rss(memory.run(inside_u, order, False))])
+
+    return lax.map(one, alphas)
+
+
+def trade_interval(memory, u, y, mask, times, last, bounds, noise):
+    """The constant orders ``(lo, hi)`` with which a drifting parameter explains the data as
+    well as the best such fit (``Δχ² ≤ TRADE_CHI2`` at the measurement variance `noise`, on the
+    same scale as `y`), over the forms (gain, inside) whose best fit passes a χ² test at 2σ
+    (``χ² ≤ dof + 2√(2 dof)``); None when neither explains the data."""
+    lo, hi = bounds
+    alphas = jnp.asarray(np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1], u.dtype)
+    basis = jnp.asarray(hat_basis(times, last), u.dtype)
+    chi2 = np.asarray(_drift_profile(memory, u, y, mask, alphas, basis)) / noise
+    dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
+    grid = np.asarray(alphas)
+    found = []
+    for form in range(chi2.shape[1]):
+        c = chi2[:, form]
+        if not np.all(np.isfinite(c)) or c.min() > dof + 2 * np.sqrt(2 * dof):
+            continue
+        excess = c - c.min() - TRADE_CHI2
+        inside = np.flatnonzero(excess <= 0)
+
+        def crossing(a, b):  # where Δχ² crosses the limit between grid orders a (in), b (out)
+            return grid[a] + (grid[b] - grid[a]) * -excess[a] / (excess[b] - excess[a])
+
+        i, j = inside[0], inside[-1]
+        found.append(lo if i == 0 else crossing(i, i - 1))
+        found.append(hi if j == grid.size - 1 else crossing(j, j + 1))
+    return (float(min(found)), float(max(found))) if found else None
+
+
 def _stack_hypers(values):
     """A batched `Hyper` from rows ``(q_order, q_params, r)``."""
     arr = jnp.log(jnp.asarray(values))
@@ -213,7 +288,7 @@ def _stack_hypers(values):
 
 def tune(
     memory, u, y, mask, steps, horizon, m0, p0, starts, noises, bounds, noise_floor=NOISE_MIN,
-    rounds=2,
+    rounds=2, hold=False,
 ):
     """Maximises the marginal likelihood (Laplace evidence at the posterior mode) over the
     noise intensities and over starting trajectories, since the posterior of a variable order
@@ -224,8 +299,9 @@ def tune(
     refinement of the likelihood of the linearised model and re-smoothing. Returns
     ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`: smooth
     records otherwise reach a higher likelihood by explaining every wiggle with drifting
-    states and no noise at all, with meaningless, vanishing bands."""
-    limits = box(noise_floor)
+    states and no noise at all, with meaningless, vanishing bands. `hold`: the parameters'
+    drift held at `PARAM_DRIFT0` (the parameters known to be constant)."""
+    limits = box(noise_floor, hold)
     first = jnp.asarray(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
     passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]
     for noise, budget in passes:
@@ -261,8 +337,8 @@ def tune(
     edges = tuple(
         name
         for name, v in zip(limits, x)
-        if min(v - limits[name][0], limits[name][1] - v)
-        < 0.05 * (BOX[name][1] - BOX[name][0])
+        if limits[name][1] > limits[name][0]
+        and min(v - limits[name][0], limits[name][1] - v) < 0.05 * (BOX[name][1] - BOX[name][0])
     )
     tuning = Tuning(*map(float, np.exp(x)), edges, float(sm.log_likelihood), True)
     return hyper, sm, tuning
@@ -288,35 +364,61 @@ def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds
     )
 
 
-def mixture(memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, span):
+def mixture(
+    memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, span, hold=False,
+    fit_noise=None,
+):
     """The order's variance (N,) on the β scale from an evidence-weighted mixture (see
     `mix_modes`) of the tuned smoothing `sm` and of smoothings at the tuned intensities
     (`tuning`) from every constant start, and at those intensities with the order's drift
     scaled by each of `ALT_ORDER_DRIFT` (from at least `ORDER_DRIFT_BASE`), the parameters'
     set to each of `ALT_PARAM_DRIFT`, and the order held with the parameters drifting at
-    those levels (from the time average of the tuned mode). Returns ``(variance, weights)``,
-    the tuned run first."""
+    those levels (from the time average of the tuned mode); with `hold` (the parameters
+    known to be constant), none of the parameters' alternatives. Returns
+    ``(variance, weights, envelope, drifting)``, the tuned run first; `envelope`:
+    ``(lo, hi)`` (N,) on the β scale, the union of the ±2σ bands of the alternatives whose
+    residuals pass a χ² test at 2σ at the noise variance `fit_noise`, or None; `drifting`:
+    one of those has the parameters drifting."""
     qo, qp, r = tuning.order_drift, tuning.parameter_drift, tuning.noise
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
     rows = [(qo, qp, r)] * len(starts)
-    rows += [(qo, alt, r) for alt in ALT_PARAM_DRIFT]
-    # the other explanation a single input allows: the order (nearly) constant, the
-    # parameters drifting
-    rows += [(float(np.exp(BOX["order_drift"][0])), alt, r) for alt in ALT_PARAM_DRIFT]
+    if not hold:
+        rows += [(qo, alt, r) for alt in ALT_PARAM_DRIFT]
+        # the other explanation a single input allows: the order (nearly) constant, the
+        # parameters drifting
+        rows += [(float(np.exp(BOX["order_drift"][0])), alt, r) for alt in ALT_PARAM_DRIFT]
     base = max(qo, ORDER_DRIFT_BASE)
     drifts = np.clip(base * np.asarray(ALT_ORDER_DRIFT), *np.exp(BOX["order_drift"]))
     rows += [(float(q), qp, r) for q in drifts]
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores = smoother_modes(
+    betas, variances, scores, rss = smoother_modes(
         memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0,
         jnp.asarray(firsts, u.dtype), bounds, MAX_ITER,
     )
     betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
     variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
     scores = np.concatenate([[float(score(sm))], np.asarray(scores)])
-    return mix_modes(betas, variances, scores, 0, span)
+    variance, weights = mix_modes(betas, variances, scores, 0, span)
+    # the alternatives that explain the data (a χ² test at 2σ, at the noise `fit_noise`):
+    # the band covers each one's ±2σ, whatever its evidence (evidence under the random-walk
+    # prior is not a safe guide between a moving order and drifting parameters, nor between
+    # order-drift levels)
+    envelope, drifting = None, False
+    first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
+    drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
+    if fit_noise is not None:
+        dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] - 2, 1.0)
+        limit = dof + 2 * np.sqrt(2 * dof)
+        for c in range(1, len(scores)):  # rss has no row for the tuned run
+            if np.isfinite(scores[c]) and float(rss[c - 1]) / fit_noise <= limit:
+                drifting |= c in drift_rows
+                sd = np.sqrt(np.maximum(variances[c], 0.0))
+                lo, hi = betas[c] - 2 * sd, betas[c] + 2 * sd
+                envelope = (lo, hi) if envelope is None else (
+                    np.minimum(envelope[0], lo), np.maximum(envelope[1], hi))
+    return variance, weights, envelope, drifting
 
 
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
@@ -366,13 +468,21 @@ class TrackResult(eqx.Module):
     alpha_held: jax.Array | None = None
     # the evidence weights of the band's mixture (see `mixture`), the tuned run first
     mixture_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    # the constant orders with which a drifting parameter explains the data as well (see
+    # `trade_interval`), which the band covers, or None
+    trade: tuple[float, float] | None = eqx.field(static=True, default=None)
+    # the band covers a drifting-parameter alternative that explains the data (see `mixture`)
+    drift_covered: bool = eqx.field(static=True, default=False)
 
 
 def track(
-    memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3, times=None
+    memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3, times=None,
+    parameters="drifting",
 ):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
-    `times` (then `dt` is None); see `identify`."""
+    `times` (then `dt` is None); see `identify`. ``parameters="constant"``: their drift held
+    at `PARAM_DRIFT0`, and the band conditional on it (no `trade_interval`)."""
+    hold = parameters == "constant"
     num, n = u.shape
     mask = jnp.ones((num,), u.dtype) if mask is None else jnp.asarray(mask, u.dtype)
     scales = data_scales(u, y, mask)
@@ -413,7 +523,8 @@ def track(
         noises = (misfit, noise0) if noise_data < NOISE_MIN else (noise0, misfit)
     if hyper is None:
         hyper, sm, tuning = tune(
-            memory, un, yn, mask, steps, horizon, m0, p0, starts, noises, bounds, noise_floor
+            memory, un, yn, mask, steps, horizon, m0, p0, starts, noises, bounds, noise_floor,
+            hold=hold,
         )
     else:
         hyper = Hyper(
@@ -428,15 +539,15 @@ def track(
         alpha_held = held_order(
             memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds, misfit
         )
-    weights = None
+    weights, envelope, drifting = None, None, False
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
         beta_var = cov[:, 0, 0]
         if tuning.tuned:
-            beta_var, weights = mixture(
+            beta_var, weights, envelope, drifting = mixture(
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
-                last + 1,
+                last + 1, hold, max(tuning.noise, noise_data),
             )
             beta_var = jnp.asarray(beta_var)
     else:
@@ -453,13 +564,27 @@ def track(
         y_hat_n = theta[:, -1] + jnp.sum(theta[:, 1 : 1 + n] * sm.phi, axis=1)
     beta_sd = jnp.sqrt(jnp.maximum(beta_var, 0.0))
     alpha, dalpha = order_of(theta[:, 0], bounds)
+    alpha_std = dalpha * beta_sd
+    lower = order_of(theta[:, 0] - 2 * beta_sd, bounds)[0]
+    upper = order_of(theta[:, 0] + 2 * beta_sd, bounds)[0]
+    if envelope is not None:
+        lower = jnp.minimum(lower, order_of(jnp.asarray(envelope[0]), bounds)[0])
+        upper = jnp.maximum(upper, order_of(jnp.asarray(envelope[1]), bounds)[0])
+    # at the larger of the tuned noise and the data's own (drifting states absorb noise)
+    trade = None if hold else trade_interval(
+        memory, un, yn, mask, times, last, bounds, max(tuning.noise, noise_data)
+    )
+    if trade is not None:  # the band covers the constant orders a drifting parameter allows
+        lower, upper = jnp.minimum(lower, trade[0]), jnp.maximum(upper, trade[1])
+    if trade is not None or envelope is not None:
+        alpha_std = jnp.maximum(alpha_std, (upper - lower) / 4)
     scale = jnp.asarray(p_scale)
     var = jnp.maximum(jnp.diagonal(cov, axis1=1, axis2=2), 0.0)
     return TrackResult(
         alpha=alpha,
-        alpha_std=dalpha * beta_sd,
-        alpha_lower=order_of(theta[:, 0] - 2 * beta_sd, bounds)[0],
-        alpha_upper=order_of(theta[:, 0] + 2 * beta_sd, bounds)[0],
+        alpha_std=alpha_std,
+        alpha_lower=lower,
+        alpha_upper=upper,
         p=theta[:, 1 : 1 + n] * scale,
         p_std=jnp.sqrt(var[:, 1 : 1 + n]) * scale,
         x0=scales.y_ref + scales.y_scale * theta[-1, -1],
@@ -471,4 +596,6 @@ def track(
         constant_order=alpha_c,
         alpha_held=alpha_held,
         mixture_weights=None if weights is None else tuple(float(w) for w in weights),
+        trade=trade,
+        drift_covered=drifting,
     )
