@@ -28,7 +28,11 @@ error (α̂ − α)/σ, the median order RMS, the fraction identified, and the *
 rate: identified, yet the truth outside the band at more than half of the samples. Every
 draw is seeded from its family and index.
 
-    python scripts/bench_calibration.py [--per-family 12] [--methods tracker law]
+Methods: ``tracker`` (`identify`'s default: the parameters may drift), ``tracker-constant``
+(``parameters="constant"``: the user states that they do not; false on the drift families,
+which measure what that costs) and ``law`` (the paper's law, automatic gains).
+
+    python scripts/bench_calibration.py [--per-family 12] [--methods tracker tracker-constant law]
         [--families ...] [--workers 2] [--out scripts/results/bench_calibration.txt]
 """
 
@@ -361,7 +365,7 @@ def main(argv=None):
         help="index of the first draw (the thresholds were set on draws 0–11; 12 on are held out)",
     )
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
-    parser.add_argument("--methods", nargs="*", default=["tracker", "law"])
+    parser.add_argument("--methods", nargs="*", default=["tracker", "tracker-constant", "law"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--data", default=str(DATA))
     parser.add_argument("--out", default=None, help="write the table and the rows (JSON) here")

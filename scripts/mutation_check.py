@@ -441,8 +441,8 @@ MUTATIONS = {
     ),
     "tracker's band not mixed": (
         "vojax/_tracker/_track.py",
-        [("        if tuning.tuned:\n            beta_var, weights = mixture(",
-          "        if False:\n            beta_var, weights = mixture(")],
+        [("        if tuning.tuned:\n            beta_var, weights, envelope, drifting = mixture(",
+          "        if False:\n            beta_var, weights, envelope, drifting = mixture(")],
         ["tests/test_tracker.py::test_band_covers_the_other_modes_in_proportion_to_their_evidence"],
     ),
     "correlated prediction errors not refused": (
@@ -465,6 +465,52 @@ MUTATIONS = {
         [("    if isinstance(value, str) and value.startswith(FORMULA_START):",
           "    if False:")],
         ["tests/test_outputs.py::test_tables_do_not_carry_spreadsheet_formulas"],
+    ),
+    "trade interval without its χ² test": (
+        "vojax/_tracker/_track.py",
+        [("        if not np.all(np.isfinite(c)) or c.min() > dof + 2 * np.sqrt(2 * dof):",
+          "        if not np.all(np.isfinite(c)):")],
+        ["tests/test_tracker.py::test_trade_interval_against_an_independent_profile"],
+    ),
+    "trade interval ends on grid orders": (
+        "vojax/_tracker/_track.py",
+        [("        found.append(lo if i == 0 else crossing(i, i - 1))",
+          "        found.append(lo if i == 0 else grid[i - 1])")],
+        ["tests/test_tracker.py::test_trade_interval_against_an_independent_profile"],
+    ),
+    "trade interval not widening the band": (
+        "vojax/_tracker/_track.py",
+        [("        lower, upper = jnp.minimum(lower, trade[0]), jnp.maximum(upper, trade[1])",
+          "        pass")],
+        ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
+    ),
+    "parameters='constant' still lets them drift": (
+        "vojax/_tracker/_track.py",
+        [('    hold = parameters == "constant"', "    hold = False")],
+        ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
+    ),
+    "autocorrelation limit ignores the record's length": (
+        "vojax/_identify.py",
+        [("    return float(min(MAX_CORRELATION, max(z, CORRELATION_FLOOR)))",
+          "    return MAX_CORRELATION")],
+        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused"],
+    ),
+    "a file vojax did not write is overwritten": (
+        "vojax/_data/_paths.py",
+        [("        if name not in known and (target.exists() or target.is_symlink()):",
+          "        if False:")],
+        ["tests/test_outputs.py::test_vojax_overwrites_only_what_it_wrote"],
+    ),
+    "time left paced from the start": (
+        "vojax/_data/_batch.py",
+        [("    return (elapsed - first) / (done - 1) * (total - done)",
+          "    return elapsed / done * (total - done)")],
+        ["tests/test_batch.py::test_time_left_is_paced_after_the_first_record"],
+    ),
+    "tracker length limit off by the padding": (
+        "vojax/_identify.py",
+        [("    if span > TRACKER_MAX_SAMPLES:", "    if u2.shape[0] > TRACKER_MAX_SAMPLES:")],
+        ["tests/test_tracker.py::test_a_record_too_long_for_the_tracker_is_refused_at_once"],
     ),
 }
 

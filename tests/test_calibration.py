@@ -1,7 +1,8 @@
 """The calibration suite of `scripts/bench_calibration.py`, reduced to what the slow tier can
 afford: its truth is independent of the code under test and inside the model's class, the
-tracker's bands hold on its first white-noise and noisy draws, and the paper's law never
-claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
+tracker's band is never confidently wrong where a parameter drifts, with the parameters
+stated constant it identifies most white-noise and noisy draws with bands that hold, and the
+paper's law never claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
 
 import importlib.util
 from pathlib import Path
@@ -50,17 +51,34 @@ def test_truth_is_inside_the_model_to_well_below_the_noise(suite, family, index)
     assert np.sqrt(np.mean((case["x"] - model) ** 2)) < 0.2 * sd
 
 
-def test_tracker_bands_hold_on_the_first_white_and_noisy_draws(suite):
-    """Draws 0–5 of the white (0.5–2 %) and noisy (5–10 %, quantised) families: most are
-    identified, the identified bands hold the truth at ≥ 85 % of the second halves' samples,
-    and none is confidently wrong (identified, the truth outside at most samples)."""
-    module, signals = suite
-    rows = [
-        module.score(case, module.run_method("tracker", case))
-        for case in (module.draw_case(f, i, signals) for f in ("white", "noisy") for i in range(6))
+def _rows(module, signals, method, families, count=6):
+    return [
+        module.score(case, module.run_method(method, case))
+        for case in (module.draw_case(f, i, signals) for f in families for i in range(count))
     ]
+
+
+def test_default_tracker_is_never_confidently_wrong_where_a_parameter_drifts(suite):
+    """Draws 0–5 of the drift and gain-drift families (a moving order and a parameter
+    drifting 10–40 %, inside the integral or as a gain): the default tracker's band, widened
+    to every explanation that fits, holds the truth at ≥ 90 % of the second halves' samples
+    pooled over all twelve records, and no record it calls identified is confidently wrong
+    (before the widening, all 7 of the records it identified among these were)."""
+    module, signals = suite
+    rows = _rows(module, signals, "tracker", ("drift", "gain-drift"))
+    assert sum(r["inside"] for r in rows) / sum(r["count"] for r in rows) >= 0.9
+    assert not any(r["wrong"] for r in rows if r["identified"])
+
+
+def test_tracker_with_constant_parameters_identifies_white_and_noisy_draws(suite):
+    """Draws 0–5 of the white (0.5–2 %) and noisy (5–10 %, quantised) families, the
+    parameters constant and stated so (``parameters="constant"``): at least 5 of the 12 are
+    identified, the identified bands hold the truth at ≥ 85 % of the second halves' samples,
+    and none is confidently wrong."""
+    module, signals = suite
+    rows = _rows(module, signals, "tracker-constant", ("white", "noisy"))
     identified = [r for r in rows if r["identified"]]
-    assert len(identified) >= 8
+    assert len(identified) >= 5
     coverage = sum(r["inside"] for r in identified) / sum(r["count"] for r in identified)
     assert coverage >= 0.85
     assert not any(r["wrong"] for r in identified)

@@ -198,7 +198,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
     if method.startswith("kalman"):
         a = summary["kalman"]
         assert a["method"] == "kalman" and a["converged"]
-        assert a["parameters"] == ("constant" if method == "kalman+refit" else "drifting")
+        assert a["parameter_model"] == ("constant" if method == "kalman+refit" else "drifting")
         assert abs(a["alpha_final"] - 0.35) < max(3 * a["alpha_final_std"], 1e-3)
         assert abs(a["parameters_final"]["eta"] - 4.0) < 0.05
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
@@ -453,8 +453,8 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
 @pytest.mark.slow
 def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
     """The closing line says how many records the tracker did not identify, as summary.csv's
-    `kalman_identified` column does: a clean springpot is identified, an output of pure noise
-    is not."""
+    `kalman_identified` column does: a clean springpot (its η stated constant) is identified,
+    an output of pure noise is not."""
     t, stress, strain = _springpot_csv(tmp_path / "unused.csv", n=150)
     rng = np.random.default_rng(0)
     for name, y in (("clean", strain + 0.01 * np.ptp(strain) * rng.standard_normal(150)),
@@ -463,7 +463,8 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
             f.write("time_s,stress,strain\n")
             f.writelines(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), stress.tolist(), y.tolist()))
     proc = _cli("batch", "clean.csv", "noise.csv", "--time", "time_s", "--input", "stress",
-                "--output", "strain", "--out", "out", "--quiet", cwd=tmp_path)
+                "--output", "strain", "--out", "out", "--quiet", "--parameters", "constant",
+                cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         flags = {r["record"]: r["kalman_identified"] for r in csv.DictReader(f)}

@@ -528,8 +528,9 @@ def identify(
       ``P(0) = I`` is ``np.eye(n)``).
     - `noise`: the tracker's noise intensities, instead of tuning them: a dict with
       ``order_drift`` (variance of the logistic order coordinate's change over the record),
-      ``parameter_drift`` (variance of each normalised parameter's change over the record)
-      and ``noise_std`` (of the measurement, in the units of `y`).
+      ``parameter_drift`` (variance of each normalised parameter's change over the record;
+      1e-6 or less states the parameters constant, as ``parameters="constant"`` does) and
+      ``noise_std`` (of the measurement, in the units of `y`).
     - `parameters`: ``method="kalman"`` only. ``"drifting"`` (the default, None): the
       parameters may drift, their drift tuned with the order's; since with one input a
       drifting parameter can stand in for a moving order, the band also covers every
@@ -707,7 +708,8 @@ def _identify_kalman(
             f"the tracker takes about 6 ms a sample on a CPU core, so {span:,} samples would "
             f"take about {span * 6e-3 / 60:.0f} min: resample the record to at most "
             f"{TRACKER_MAX_SAMPLES:,} samples (an order changes slowly; `load_records(..., "
-            "resample=STEP)`, the CLI's --resample STEP), or use method='gradient' or `refit`."
+            "resample=STEP)`, the CLI's --resample STEP), or use the paper's law or the "
+            "refit (method='gradient' or `vojax.refit`; --method gradient or refit)."
         )
     mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
     res = track(

@@ -400,7 +400,7 @@ def identify_record(
         cols, summary[tracker] = adaptive_part(res, y, physical)
         columns.update(cols)
     if tracker == "kalman":
-        summary["kalman"]["parameters"] = parameters or "drifting"
+        summary["kalman"]["parameter_model"] = parameters or "drifting"
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)

@@ -480,9 +480,13 @@ def track(
     parameters="drifting",
 ):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
-    `times` (then `dt` is None); see `identify`. ``parameters="constant"``: their drift held
-    at `PARAM_DRIFT0`, and the band conditional on it (no `trade_interval`)."""
-    hold = parameters == "constant"
+    `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `hyper` with a
+    parameter drift at most `PARAM_DRIFT0`): their drift held there, and the band conditional
+    on it (no `trade_interval`)."""
+    # parameters stated constant, or given a drift no larger than the floor (`noise=`)
+    hold = parameters == "constant" or (
+        hyper is not None and float(hyper["parameter_drift"]) <= PARAM_DRIFT0
+    )
     num, n = u.shape
     mask = jnp.ones((num,), u.dtype) if mask is None else jnp.asarray(mask, u.dtype)
     scales = data_scales(u, y, mask)
