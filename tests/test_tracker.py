@@ -872,6 +872,7 @@ def test_trade_interval_against_an_independent_profile():
                                  jnp.asarray(mask), t, n - 1, bounds, 1e-4 * sd**2) is None
 
 
+@pytest.mark.slow
 def test_parameters_constant_holds_their_drift_and_skips_the_trade(monkeypatch):
     """``parameters="constant"``: the parameters' drift is held at its floor exactly (never
     'at the edge'), the band's mixture has no drifting-parameter alternatives (the tuned
