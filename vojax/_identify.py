@@ -374,8 +374,8 @@ def diagnose(
     order's range (its linearisation is unstable), or None. `trade`: the constant orders
     ``(lo, hi)`` with which a drifting parameter explains the data as well, which the band
     was widened to cover, or None; `drift_covered`: the band was widened to cover the
-    tracker's drifting-parameter alternatives that explain the data. `samples`: how many innovations `correlation` is over
-    (see `correlation_limit`)."""
+    tracker's drifting-parameter alternatives that explain the data. `samples`: how many
+    innovations `correlation` is over (see `correlation_limit`)."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2

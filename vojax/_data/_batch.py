@@ -41,6 +41,7 @@ from ._pipeline import (
     adaptive_part,
     canonical_method,
     check_finite,
+    check_parameters,
     disagreement,
     finish_outputs,
     identify_record,
@@ -237,10 +238,7 @@ def run_batch(
     clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`: the tracker's, as in
     `identify_record`.
     """
-    if parameters is not None and estimator(canonical_method(method)) != "kalman":
-        raise ValueError(
-            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
-        )
+    check_parameters(method, parameters)
     from .._tune import tune_gains
 
     method = canonical_method(method)

@@ -43,6 +43,14 @@ def estimator(method) -> str | None:
     return first if first in ("kalman", "gradient") else None
 
 
+def check_parameters(method, parameters) -> None:
+    """`parameters` (the tracker's) is refused with a method that does not run the tracker."""
+    if parameters is not None and estimator(canonical_method(method)) != "kalman":
+        raise ValueError(
+            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
+        )
+
+
 def runs_refit(method) -> bool:
     return method.endswith("refit")
 
@@ -380,10 +388,7 @@ def identify_record(
             "--origin, --fit-from and --fit-to set the refit; use --method refit or "
             f"{method}+refit."
         )
-    if parameters is not None and estimator(method) != "kalman":
-        raise ValueError(
-            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
-        )
+    check_parameters(method, parameters)
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only

@@ -217,6 +217,11 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     return np.stack(out)
 
 
+def chi2_fits(chi2, dof):
+    """A fit passes the χ² test at 2σ: ``χ² ≤ dof + 2√(2·dof)``."""
+    return chi2 <= dof + 2 * np.sqrt(2 * dof)
+
+
 def hat_basis(times, last, knots=TRADE_KNOTS):
     """Piecewise-linear hat functions (N, knots) on evenly spaced knots over ``times[0]`` …
     ``times[last]``: a parameter that drifts smoothly over the fitted span."""
@@ -266,7 +271,7 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     found = []
     for form in range(chi2.shape[1]):
         c = chi2[:, form]
-        if not np.all(np.isfinite(c)) or c.min() > dof + 2 * np.sqrt(2 * dof):
+        if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):
             continue
         excess = c - c.min() - TRADE_CHI2
         inside = np.flatnonzero(excess <= 0)
@@ -410,9 +415,8 @@ def mixture(
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
         dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] - 2, 1.0)
-        limit = dof + 2 * np.sqrt(2 * dof)
         for c in range(1, len(scores)):  # rss has no row for the tuned run
-            if np.isfinite(scores[c]) and float(rss[c - 1]) / fit_noise <= limit:
+            if np.isfinite(scores[c]) and chi2_fits(float(rss[c - 1]) / fit_noise, dof):
                 drifting |= c in drift_rows
                 sd = np.sqrt(np.maximum(variances[c], 0.0))
                 lo, hi = betas[c] - 2 * sd, betas[c] + 2 * sd
@@ -544,6 +548,9 @@ def track(
             memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds, misfit
         )
     weights, envelope, drifting = None, None, False
+    # the χ² tests of what fits, at the larger of the tuned noise and the data's own
+    # (drifting states absorb noise)
+    fit_noise = max(tuning.noise, noise_data)
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
@@ -551,7 +558,7 @@ def track(
         if tuning.tuned:
             beta_var, weights, envelope, drifting = mixture(
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
-                last + 1, hold, max(tuning.noise, noise_data),
+                last + 1, hold, fit_noise,
             )
             beta_var = jnp.asarray(beta_var)
     else:
@@ -574,9 +581,8 @@ def track(
     if envelope is not None:
         lower = jnp.minimum(lower, order_of(jnp.asarray(envelope[0]), bounds)[0])
         upper = jnp.maximum(upper, order_of(jnp.asarray(envelope[1]), bounds)[0])
-    # at the larger of the tuned noise and the data's own (drifting states absorb noise)
     trade = None if hold else trade_interval(
-        memory, un, yn, mask, times, last, bounds, max(tuning.noise, noise_data)
+        memory, un, yn, mask, times, last, bounds, fit_noise
     )
     if trade is not None:  # the band covers the constant orders a drifting parameter allows
         lower, upper = jnp.minimum(lower, trade[0]), jnp.maximum(upper, trade[1])
