@@ -267,3 +267,155 @@ def test_time_left_is_paced_after_the_first_record():
     assert time_left(40.0, 40.0, 1, 10) is None
     assert time_left(46.0, 40.0, 3, 10) == pytest.approx(3.0 * 7)
     assert time_left(67.0, 40.0, 10, 10) == 0.0
+
+
+def _tables(out):
+    """Every number a batch wrote: summary.csv by record and column, each record's
+    identification.csv by column; text cells as they are."""
+
+    def read(path):
+        with open(path, newline="") as f:
+            return list(csv.DictReader(f))
+
+    def cell(v):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+
+    summary = {r["record"]: {k: cell(v) for k, v in r.items()} for r in read(out / "summary.csv")}
+    series = {}
+    for name, row in summary.items():
+        rows = read(out / row["folder"] / "identification.csv")
+        series[name] = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return summary, series
+
+
+def _assert_same_batch(a, b):
+    (sa, ia), (sb, ib) = a, b
+    assert sorted(sa) == sorted(sb)
+    for name in sa:
+        assert sa[name].keys() == sb[name].keys()
+        for k, v in sa[name].items():
+            if isinstance(v, float):
+                np.testing.assert_allclose(sb[name][k], v, rtol=1e-9, atol=1e-12, err_msg=f"{name}: {k}")
+            elif k != "folder":
+                assert sb[name][k] == v, (name, k)
+        assert ia[name].keys() == ib[name].keys()
+        for k in ia[name]:
+            np.testing.assert_allclose(ib[name][k], ia[name][k], rtol=1e-9, atol=1e-12, err_msg=f"{name}: {k}")
+
+
+def _children(pid):
+    """The processes descending from `pid` (Linux ``/proc``)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    parent = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            if parent == pid:
+                found += [int(entry), *_children(int(entry))]
+    return found
+
+
+def _running(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc for the workers")
+def test_dask_batch_equals_the_single_process_batch_and_resumes_after_a_kill(tmp_path):
+    """Eight records of two lengths and a bad file, on a Dask `LocalCluster` of two worker
+    processes: every number of summary.csv and of each record's identification.csv equals the
+    single-process batch's to rounding (a record's results under another's name, or padded to
+    another bucket, fail this), the same failure is reported, and a re-run skips every record.
+    A run killed (SIGKILL) while it computes leaves no worker process behind within 10 s, and
+    its re-run ends equal to the uninterrupted run, one row per record."""
+    pytest.importorskip("distributed")
+    data = tmp_path / "data"
+    data.mkdir()
+    for i in range(8):
+        _springpot_csv(data / f"r{i}.csv", n=80 if i < 5 else 50, q=0.25 + 0.07 * i)
+    (data / "bad.csv").write_text("tyme,stress,strain\n0,1,2\n0.1,1,2\n0.2,1,2\n")
+    common = ["batch", str(data), "--time", "time_s", "--input", "stress", "--output", "strain",
+              "--method", "kalman+refit", "--figures", "overview", "--quiet"]
+    dask = ["--scheduler", "local", "--workers", "2"]
+    here = _cli(*common, "--out", "here", cwd=tmp_path)
+    assert here.returncode == 2, here.stderr
+    there = _cli(*common, *dask, "--out", "there", cwd=tmp_path)
+    assert there.returncode == 2, there.stderr
+    assert "8 computed, 0 up to date (skipped), 0 redone, 1 failed" in there.stdout
+    reference = _tables(tmp_path / "here")
+    _assert_same_batch(reference, _tables(tmp_path / "there"))
+    assert (tmp_path / "here" / "failures.csv").read_text().replace("here", "") == (
+        tmp_path / "there" / "failures.csv"
+    ).read_text().replace("there", "")
+    again = _cli(*common, *dask, "--out", "there", cwd=tmp_path)
+    assert "0 computed, 8 up to date (skipped), 0 redone, 1 failed" in again.stdout, again.stderr
+
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vojax", *common, *dask, "--out", "killed"], cwd=tmp_path,
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    import time
+
+    deadline = time.monotonic() + 120
+    folders = tmp_path / "killed"
+    while time.monotonic() < deadline and not any(folders.glob("*/summary.json")):
+        time.sleep(0.05)
+    workers = _children(proc.pid)
+    proc.kill()
+    proc.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_running(p) for p in workers):
+        time.sleep(0.1)
+    assert workers and not any(_running(p) for p in workers)
+    resumed = _cli(*common, *dask, "--out", "killed", cwd=tmp_path)
+    assert resumed.returncode == 2, resumed.stderr
+    _assert_same_batch(reference, _tables(folders))
+
+
+def test_batch_scheduler_options_are_checked(tmp_path):
+    data = tmp_path / "data"
+    data.mkdir()
+    _springpot_csv(data / "r.csv", n=20, q=0.3)
+    common = ["batch", str(data), "--time", "time_s", "--input", "stress", "--output", "strain",
+              "--out", "out"]
+    alone = _cli(*common, "--workers", "2", cwd=tmp_path)
+    assert alone.returncode == 1
+    assert alone.stderr.strip() == ("vojax: error: --workers sets the worker processes of "
+                                    "--scheduler local; use it with that.")
+    none = _cli(*common, "--scheduler", "local", "--workers", "0", cwd=tmp_path)
+    assert none.returncode == 1 and "--workers must be at least 1, got 0." in none.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_run_batch_in_python_checks_its_arguments_before_writing(tmp_path):
+    import vojax.io
+
+    _springpot_csv(tmp_path / "r.csv", n=20, q=0.3)
+    rec, = vojax.io.load_records(tmp_path / "r.csv", time="time_s", inputs=["stress"], output="strain")
+    out = tmp_path / "out"
+    cases = [
+        (dict(records=[rec, rec]), ValueError, "two records share the name 'r'"),
+        (dict(records=[rec.output]), TypeError, "must be vojax.io.Record objects"),
+        (dict(figure_format="jpg"), ValueError, "`figure_format` must be png, svg or pdf"),
+        (dict(gamma=float("nan")), ValueError, "`gamma` must be a positive finite number"),
+        (dict(lam=-1.0), ValueError, "`lam` must be a positive finite number"),
+        (dict(method="kalmann"), ValueError, "`method` must be one of"),
+        (dict(model="maxwell"), ValueError, "`model` must be springpot"),
+        (dict(parameters="constant", method="refit"), ValueError, "--parameters sets the tracker"),
+    ]
+    for kwargs, error, text in cases:
+        kwargs = {"records": [rec], **kwargs}
+        with pytest.raises(error, match=text.replace("(", r"\(")):
+            vojax.io.run_batch(kwargs.pop("records"), out, **kwargs)
+        assert not out.exists()

@@ -268,3 +268,22 @@ def test_a_constant_order_does_not_depend_on_the_unit_of_time():
         assert float(b.order[0]) == pytest.approx(float(a.order[0]), abs=1e-8)
         np.testing.assert_allclose(np.asarray(b.p) * c ** float(a.order[0]), a.p, rtol=1e-6)
         assert float(b.order_stderr[0]) == pytest.approx(float(a.order_stderr[0]), rel=1e-5)
+
+
+@pytest.mark.parametrize("knots", ["constant", 3])
+def test_the_fit_does_not_depend_on_the_units_of_the_data(knots):
+    """The output in metres of an AFM indentation (~1e-10 as a contact strain) and the input in
+    newtons, or both ×1e9, or the input ×1e-6 and the output ×1e6: the same orders (to the
+    solver's tolerance), p scaled by c_y/c_u, x0 and σ by c_y. Absolute tolerances on the
+    residuals and coefficients made the solver stop at its start (order 0.5 with 1e-10-sized
+    data)."""
+    y = _data(0.42, seed=3)[:400]
+    u = U[:400]
+    a = vojax.refit(u, y, t=T[:400], order=knots)
+    assert abs(float(a.order[-1]) - 0.5) > 0.02  # the start is not the answer
+    for cu, cy in ((1.0, 1e-10), (1e-9, 1e-18), (1e-6, 1e6), (1e9, 1.0)):
+        b = vojax.refit(u * cu, y * cy, t=T[:400], order=knots)
+        np.testing.assert_allclose(np.asarray(b.order), np.asarray(a.order), rtol=0, atol=1e-7)
+        np.testing.assert_allclose(np.asarray(b.p) * cu / cy, np.asarray(a.p), rtol=1e-6)
+        assert float(b.x0) / cy == pytest.approx(float(a.x0), rel=1e-6, abs=1e-9 * np.ptp(y))
+        assert float(b.sigma) / cy == pytest.approx(float(a.sigma), rel=1e-6)

@@ -1,6 +1,7 @@
 """The ``vojax`` command. Errors are one sentence on stderr and a non-zero exit code."""
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -221,6 +222,18 @@ def demo(args) -> int:
     return 0
 
 
+def _segments(text: str):
+    try:
+        values = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated segment numbers (0, 1, …), got {text!r}"
+        ) from None
+    if any(v < 0 for v in values):
+        raise argparse.ArgumentTypeError(f"segment numbers are 0 or more, got {text!r}")
+    return values
+
+
 def _column_options(p):
     """How a file is read and turned into the model's signals (identify, batch, check)."""
     p.add_argument("--time", required=True, help="name of the time column (its unit is the time unit)")
@@ -292,6 +305,27 @@ def _column_options(p):
         "--trim-below",
         type=_finite,
         help="the threshold of --trim-column, in that column's unit",
+    )
+    p.add_argument(
+        "--segments",
+        type=_segments,
+        help="AFM files: the segments to keep, e.g. 1,2 (numbered as in the file; default: all)",
+    )
+    p.add_argument(
+        "--no-contact",
+        action="store_true",
+        help="AFM files: keep the samples before the contact point (default: drop them)",
+    )
+    p.add_argument(
+        "--tip",
+        help="AFM files: the tip for the contact_strain column, sphere:RADIUS_m or "
+        "cone:HALF_ANGLE_deg (default: none)",
+    )
+    p.add_argument(
+        "--poisson",
+        type=_finite,
+        default=0.5,
+        help="AFM files: the sample's Poisson ratio for contact_strain (default 0.5)",
     )
 
 
@@ -437,6 +471,7 @@ def _load(path, args):
             trim_below=args.trim_below,
             delimiter=args.delimiter,
             decimal="," if args.decimal_comma else ".",
+            **_afm_loader(args),
         )
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
@@ -470,7 +505,28 @@ def _loader(args) -> dict:
         trim_below=args.trim_below,
         delimiter=args.delimiter,
         decimal="," if args.decimal_comma else ".",
+        **_afm_loader(args),
     )
+
+
+def _afm_loader(args) -> dict:
+    """The AFM options, only where given (a CSV's provenance is unchanged by them)."""
+    from ._data._afm import check_tip
+
+    try:
+        check_tip(args.tip, args.poisson)
+    except ValueError as e:
+        raise CLIError(str(e)) from None
+    out = {}
+    if args.segments is not None:
+        out["segments"] = list(args.segments)
+    if args.no_contact:
+        out["from_contact"] = False
+    if args.tip is not None:
+        out["tip"] = args.tip
+    if args.poisson != 0.5:
+        out["poisson"] = args.poisson
+    return out
 
 
 def _select(records, args):
@@ -543,6 +599,12 @@ def batch_command(args) -> int:
     from ._data._batch import run_batch
 
     _law_options(args)
+    if args.workers is not None and args.scheduler != "local":
+        raise CLIError("--workers sets the worker processes of --scheduler local; use it with that.")
+    if args.workers is not None and args.workers < 1:
+        raise CLIError(f"--workers must be at least 1, got {args.workers}.")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise CLIError("--scheduler needs 'local' or a scheduler's address (tcp://host:8786).")
     files = _expand(args.files)
     _out_apart(args.out, files)
     out = _new_dir(args.out)
@@ -560,22 +622,35 @@ def batch_command(args) -> int:
         raise CLIError(
             f"two records share the name {duplicated[0]!r}; rename a file or use --group-by."
         )
-    from ._data._batch import BatchBusy
+    from ._data._batch import BatchBusy, dask_client
 
-    try:
-        report = run_batch(
-            records,
-            out,
-            **_settings(args),
-            failures=failures,
-            progress=not args.quiet,
-            loader=_loader(args),
-            overwrite=not args.no_overwrite,
-            figure_format=args.format,
-            record_figures=args.figures == "records",
-        )
-    except BatchBusy as e:
-        raise CLIError(str(e)) from None
+
+    with contextlib.ExitStack() as stack:
+        client = None
+        if args.scheduler is not None:
+            try:
+                client = stack.enter_context(dask_client(args.scheduler, args.workers))
+            except ImportError as e:
+                raise CLIError(str(e)) from None
+            except (OSError, TimeoutError) as e:
+                raise CLIError(
+                    f"could not reach the Dask scheduler {args.scheduler!r}: {e}"
+                ) from None
+        try:
+            report = run_batch(
+                records,
+                out,
+                **_settings(args),
+                failures=failures,
+                progress=not args.quiet,
+                loader=_loader(args),
+                overwrite=not args.no_overwrite,
+                figure_format=args.format,
+                record_figures=args.figures == "records",
+                client=client,
+            )
+        except BatchBusy as e:
+            raise CLIError(str(e)) from None
     unidentified = (
         f", {report.unidentified} of them with the order not identified (see summary.csv)"
         if report.unidentified else ""
@@ -783,6 +858,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="records (default): each record's figure, drawn in worker processes, and the "
         "overview; overview: only overview.<format> of all records (faster: a record's figure "
         "costs about 0.14 s of one core)",
+    )
+    b.add_argument(
+        "--scheduler",
+        help="compute the records on Dask (pip install \"vojax[dask]\"): 'local' for worker "
+        "processes on this machine, or a running scheduler's address (tcp://host:8786); this "
+        "process writes every output (default: compute here)",
+    )
+    b.add_argument(
+        "--workers", type=int,
+        help="worker processes of --scheduler local (default: the cores, at most 8)",
     )
     b.set_defaults(run=batch_command)
     return parser

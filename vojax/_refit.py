@@ -457,15 +457,24 @@ def _fit(
     # a start for p: linear least squares at the initial order (0 for held coefficients)
     phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
     p0 = jnp.linalg.lstsq(phi0 * sw[:, None], big_y * sw)[0]
-    theta0 = jnp.concatenate([raw0, p0])
+    # the solver sees the residuals in units of the data's RMS and each coefficient in units
+    # of (that RMS / its regressor's RMS), so that its tolerances mean the same in any units
+    # (in metres and newtons an AFM record's residuals are ~1e-10: below an absolute
+    # tolerance of 1e-10 the solver stopped at its start)
+    fitted = jnp.maximum(jnp.sum(sw > 0), 1).astype(sw.dtype)
+    y_scale = jnp.sqrt(jnp.sum((sw * big_y) ** 2) / fitted)
+    y_scale = jnp.where(y_scale > 0, y_scale, 1.0)
+    col = jnp.sqrt(jnp.sum((phi0 * sw[:, None]) ** 2, axis=0) / fitted)
+    p_unit = y_scale / jnp.where(col > 0, col, y_scale)
     sol = optx.least_squares(
-        lambda th, _: (model(th) - big_y) * sw,
+        lambda th, _: (model(jnp.concatenate([th[:num_knots], th[num_knots:] * p_unit])) - big_y)
+        * sw / y_scale,
         optx.LevenbergMarquardt(rtol=rtol, atol=atol),
-        theta0,
+        jnp.concatenate([raw0, p0 / p_unit]),
         max_steps=max_steps,
         throw=throw,
     )
-    theta = sol.value
+    theta = jnp.concatenate([sol.value[:num_knots], sol.value[num_knots:] * p_unit])
     fit = model(theta)
     residuals = big_y - fit
     # the Jacobian by the chain rule: ∂ŷ/∂p = the design, ∂ŷ_k/∂raw_i = (∂Φ_k/∂b · p) ∂β_k/∂raw_i

@@ -17,18 +17,24 @@ print(summary["refit"]["order"], summary["refit"]["parameters"])   # q and η (k
 writes: ``identification.csv``, ``summary.json`` and the figure, each atomically.
 """
 
+import math
 from pathlib import Path
 
 from ._data._pipeline import identify_record as _identify_record
 from ._data._pipeline import canonical_method, make_provenance, write_outputs
 from ._data._records import DataError, Record, load_records
+from ._data._batch import BatchReport, dask_client
+from ._data._batch import run_batch as _run_batch
 
 __all__ = [
+    "BatchReport",
     "DataError",
     "Record",
+    "dask_client",
     "example_file",
     "identify_record",
     "load_records",
+    "run_batch",
     "write_results",
 ]
 
@@ -103,3 +109,60 @@ def write_results(folder, columns, summary, record: Record | None = None, *, fig
         summary["provenance"] = make_provenance(record, {**settings, "figure_format": figure_format})
     write_outputs(folder, columns, summary, None if record is None else record.inputs, figure_format)
     return folder
+
+
+def run_batch(
+    records,
+    out,
+    *,
+    model: str = "springpot",
+    method: str = "kalman",
+    gamma="auto",
+    lam=None,
+    area=None,
+    length=None,
+    parameters=None,
+    overwrite: bool = True,
+    figure_format: str = "png",
+    record_figures: bool = True,
+    progress: bool = True,
+    client=None,
+) -> BatchReport:
+    """Identifies every `Record` into ``out/<folder>/`` as ``vojax batch`` does (the same
+    defaults, outputs, lock, provenance and re-run rules; see the command line's docs) and
+    returns a `BatchReport` (records computed, skipped as up to date, redone, failed, and not
+    identified). A record that fails is listed in ``out/failures.csv`` and the rest go on.
+
+    `client`: a Dask ``distributed.Client`` to compute the records on its workers
+    (``pip install "vojax[dask]"``); `dask_client` makes one (``"local"``: worker processes on
+    this machine; an address: a running cluster). This process writes every output either
+    way, and the results equal the single-process run's to rounding::
+
+        with vojax.io.dask_client("local", workers=4) as client:
+            report = vojax.io.run_batch(records, "out", client=client)
+    """
+    if model not in ("springpot", "kelvin-voigt", "linear"):
+        raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
+    records = list(records)
+    if not all(isinstance(r, Record) for r in records):
+        raise TypeError("`records` must be vojax.io.Record objects (see load_records).")
+    names = [r.name for r in records]
+    duplicated = sorted({n for n in names if names.count(n) > 1})
+    if duplicated:
+        raise ValueError(f"two records share the name {duplicated[0]!r}; each needs its own.")
+    if figure_format not in ("png", "svg", "pdf"):
+        raise ValueError(f"`figure_format` must be png, svg or pdf, got {figure_format!r}.")
+    for key, value in (("area", area), ("length", length)):
+        if value is not None and not float(value) > 0:
+            raise ValueError(f"`{key}` must be positive, got {value}.")
+    for key, value in (("gamma", gamma), ("lam", lam)):
+        if value is None or (key == "gamma" and isinstance(value, str) and value == "auto"):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < math.inf:
+            raise ValueError(f"`{key}` must be a positive finite number, got {value!r}.")
+    return _run_batch(
+        records, out, model=model, method=canonical_method(method), gamma=gamma, lam=lam,
+        area=area, length=length, parameters=parameters, overwrite=overwrite,
+        figure_format=figure_format, record_figures=record_figures, progress=progress,
+        client=client,
+    )

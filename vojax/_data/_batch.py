@@ -211,6 +211,7 @@ def run_batch(
     fit_from=None,
     fit_to=None,
     parameters=None,
+    client=None,
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -237,12 +238,14 @@ def run_batch(
     figure and summary are written. Records on irregular clocks run one at a time, on their own
     clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`: the tracker's, as in
     `identify_record`.
+
+    `client`: a Dask ``distributed.Client`` (``pip install "vojax[dask]"``) to compute the
+    records on its workers, in tasks of a few records of one length bucket each (see
+    `dask_client`); this process keeps the lock, writes every record's folder and draws the
+    figures, as without it. Results equal the single-process run's to rounding.
     """
     check_parameters(method, parameters)
-    from .._tune import tune_gains
-
     method = canonical_method(method)
-    law = estimator(method) == "gradient"
     out_dir = Path(out_dir)
     check_out_holds_no_input(out_dir, [r.source for r in records] + [f[0] for f in failures])
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -338,6 +341,19 @@ def run_batch(
                     fail(r, error)
                 finished(r, state, error is None)
 
+        def write(r, state, columns, summary):  # a computed record's folder, then its figure
+            try:
+                summary["provenance"] = provenance[r.name]
+                write_table(folders[r.name], columns, figure_format)
+                inputs = r.inputs if record_figures else None
+                figures.add((r, state), folders[r.name], columns, summary, inputs, figure_format)
+            except Exception as e:  # noqa: BLE001
+                fail(r, e)
+                finished(r, state, False)
+
+        config = dict(
+            model=model, method=method, gamma=gamma, lam=lam, area=area, length=length, fit=fit
+        )
         # records are padded to a few bucket lengths (m·2^k, neighbours merged where a compile
         # costs more than the padding: `plan_buckets`) and masked or cut back, so that a batch
         # compiles a few programs: the law runs a bucket's records together under vmap; the
@@ -363,96 +379,34 @@ def run_batch(
         for r, state in todo:
             key = (pad(r), step(r)) if r.uniform else (None, r.name)
             groups.setdefault(key, []).append((r, state))
-        for b, ((num, dt), group) in enumerate(groups.items()):
-            if progress:  # the first record of a bucket compiles its programs: say so
-                what = (
-                    f"{len(group)} record(s) padded to {num} samples" if num is not None
-                    else f"record {dt!r} on its own irregular clock"
-                )
-                print(
-                    f"\rvojax batch: length bucket {b + 1}/{len(groups)} ({what}): compiling…   ",
-                    end="",
-                    file=sys.stderr,
-                    flush=True,
-                )
-            prepared = []
-            for r, state in group:
-                try:
-                    u, y, names, physical = regressors(r, model, area, length)
-                    prepared.append((r, state, u, y, names, physical))
-                except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
-                    fail(r, e)
-                    finished(r, state, False)
-            if num is None or not law:
-                gains = [(np.nan, np.nan)] * len(prepared)  # not run here
-            elif gamma == "auto":
-                # one record at a time, one compiled program per bucket (a vmapped search
-                # over the bucket compiles for longer than it saves: 5.4 s against 2.8 s
-                # for 64 records of 192 samples, cold)
-                kept, gains = [], []
-                for p in prepared:
-                    try:
-                        g = tune_gains(p[2], p[3], dt, lam=lam, pad_to=num)
-                    except Exception as e:  # noqa: BLE001
-                        fail(p[0], e)
-                        finished(p[0], p[1], False)
-                    else:
-                        kept.append(p)
-                        gains.append((g.gamma, g.lam))
-                prepared = kept
+        def settle(r, state, result):
+            if isinstance(result, Exception):
+                fail(r, result)
+                finished(r, state, False)
             else:
-                gains = [(float(gamma), PAPER_LAM if lam is None else float(lam))] * len(prepared)
-            if not prepared:
-                continue
-            if num is not None and law:
-                # padded after each record's end (inputs 0, output held): causal, so unseen
-                us = np.stack([_pad_to(p[2], num, 0.0) for p in prepared])
-                ys = np.stack([_pad_to(p[3], num, p[3][-1]) for p in prepared])
-                lengths = [p[3].shape[0] for p in prepared]
-                g = np.array(gains)
-                try:
-                    out, x0 = adaptive_batch(
-                        us, ys, dt, g[:, 0], g[:, 1], mesh=mesh, lengths=lengths
+                write(r, state, *result)
+            settled()
+
+        if client is None:
+            for b, ((num, dt), group) in enumerate(groups.items()):
+                if progress:  # the first record of a bucket compiles its programs: say so
+                    what = (
+                        f"{len(group)} record(s) padded to {num} samples" if num is not None
+                        else f"record {dt!r} on its own irregular clock"
                     )
-                except Exception as e:  # noqa: BLE001
-                    for r, state, *_ in prepared:
-                        fail(r, e)
-                        finished(r, state, False)
-                    continue
-            for i, (r, state, u, y, names, physical) in enumerate(prepared):
-                try:
-                    if num is None:  # an irregular clock: everything on it, one record
-                        columns, summary = identify_record(
-                            r, model=model, method=method, gamma=gamma, lam=lam, area=area,
-                            length=length, **fit,
-                        )
-                    elif law:
-                        columns, summary = _columns_from_batch(
-                            r, y, names, physical, out, x0, i, g[i], model, method, area, length
-                        )
-                        if runs_refit(method):
-                            refit_cols, refit_summary = identify_record(
-                                r, model=model, method="refit", area=area, length=length,
-                                pad_to=pad(r), **fit,
-                            )
-                            for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
-                                columns[k] = refit_cols[k]
-                            summary["refit"] = refit_summary["refit"]
-                            summary["disagreement"] = disagreement(columns, summary)
-                    else:  # the tracker and/or the refit: one record at a time
-                        columns, summary = identify_record(
-                            r, model=model, method=method, area=area, length=length,
-                            pad_to=pad(r), **fit,
-                        )
-                    check_finite(summary, columns)
-                    summary["provenance"] = provenance[r.name]
-                    write_table(folders[r.name], columns, figure_format)
-                    inputs = r.inputs if record_figures else None
-                    figures.add((r, state), folders[r.name], columns, summary, inputs, figure_format)
-                except Exception as e:  # noqa: BLE001
-                    fail(r, e)
-                    finished(r, state, False)
-                settled()
+                    print(
+                        f"\rvojax batch: length bucket {b + 1}/{len(groups)} ({what}): "
+                        "compiling…   ",
+                        end="",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+                for r, state, result in _compute_group(group, num, dt, config, mesh):
+                    settle(r, state, result)
+        else:
+            for chunk, results in _on_dask(client, groups, config, progress):
+                for i, state, result in results:
+                    settle(chunk[i][0], state, result)
         for _ in figures.drain():
             settled()
         settled()
@@ -476,6 +430,227 @@ def run_batch(
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()  # a clean run leaves no stale failures
     return report
+
+
+def _compute_group(group, num, dt, config, mesh=None):
+    """Computes the records of one bucket (``num`` samples, step ``dt``; ``num=None``: one
+    record on its own irregular clock), yielding ``(record, state, (columns, summary))`` per
+    record as it is done, or ``(record, state, exception)`` for a record that failed. Writes
+    nothing: the batch writes each record's folder where it runs (this process, or the
+    process that holds a Dask client), so that the lock, the manifest and the atomic writes
+    stay with it."""
+    from .._tune import tune_gains
+
+    model, method, gamma, lam = (config[k] for k in ("model", "method", "gamma", "lam"))
+    area, length, fit = config["area"], config["length"], config["fit"]
+    law = estimator(method) == "gradient"
+    if mesh is None:
+        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
+    prepared = []
+    for r, state in group:
+        try:
+            u, y, names, physical = regressors(r, model, area, length)
+            prepared.append((r, state, u, y, names, physical))
+        except Exception as e:  # noqa: BLE001 - a bad record is reported, not fatal
+            yield r, state, e
+    if num is None or not law:
+        gains = [(np.nan, np.nan)] * len(prepared)  # not run here
+    elif gamma == "auto":
+        # one record at a time, one compiled program per bucket (a vmapped search over the
+        # bucket compiles for longer than it saves: 5.4 s against 2.8 s for 64 records of
+        # 192 samples, cold)
+        kept, gains = [], []
+        for p in prepared:
+            try:
+                g = tune_gains(p[2], p[3], dt, lam=lam, pad_to=num)
+            except Exception as e:  # noqa: BLE001
+                yield p[0], p[1], e
+            else:
+                kept.append(p)
+                gains.append((g.gamma, g.lam))
+        prepared = kept
+    else:
+        gains = [(float(gamma), PAPER_LAM if lam is None else float(lam))] * len(prepared)
+    if not prepared:
+        return
+    if num is not None and law:
+        # padded after each record's end (inputs 0, output held): causal, so unseen
+        us = np.stack([_pad_to(p[2], num, 0.0) for p in prepared])
+        ys = np.stack([_pad_to(p[3], num, p[3][-1]) for p in prepared])
+        lengths = [p[3].shape[0] for p in prepared]
+        g = np.array(gains)
+        try:
+            out, x0 = adaptive_batch(us, ys, dt, g[:, 0], g[:, 1], mesh=mesh, lengths=lengths)
+        except Exception as e:  # noqa: BLE001
+            for r, state, *_ in prepared:
+                yield r, state, e
+            return
+    for i, (r, state, u, y, names, physical) in enumerate(prepared):
+        try:
+            if num is None:  # an irregular clock: everything on it, one record
+                columns, summary = identify_record(
+                    r, model=model, method=method, gamma=gamma, lam=lam, area=area,
+                    length=length, **fit,
+                )
+            elif law:
+                columns, summary = _columns_from_batch(
+                    r, y, names, physical, out, x0, i, g[i], model, method, area, length
+                )
+                if runs_refit(method):
+                    refit_cols, refit_summary = identify_record(
+                        r, model=model, method="refit", area=area, length=length,
+                        pad_to=num, **fit,
+                    )
+                    for k in ("refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"):
+                        columns[k] = refit_cols[k]
+                    summary["refit"] = refit_summary["refit"]
+                    summary["disagreement"] = disagreement(columns, summary)
+            else:  # the tracker and/or the refit: one record at a time
+                columns, summary = identify_record(
+                    r, model=model, method=method, area=area, length=length, pad_to=num, **fit,
+                )
+            check_finite(summary, columns)
+        except Exception as e:  # noqa: BLE001
+            yield r, state, e
+        else:
+            yield r, state, (columns, summary)
+
+
+DASK_TASKS_PER_WORKER = 2  # a bucket is cut into about this many tasks per Dask worker
+
+
+def _x64():
+    """float64 for the duration of a task on a Dask worker (a scope, not a setting of the
+    worker process): ``jax.enable_x64`` where JAX has it, its experimental form before."""
+    if hasattr(jax, "enable_x64"):
+        return jax.enable_x64(True)
+    from jax.experimental import enable_x64
+
+    return enable_x64()
+
+
+def _compute_chunk(chunk, num, dt, config):
+    """`_compute_group` as a Dask task: ``[(index in chunk, state, result)]``, a failure as a
+    `RuntimeError` holding its one-line reason (an exception of any class travels back)."""
+    out = []
+    with _x64():
+        for r, state, result in _compute_group(chunk, num, dt, config):
+            i = next(k for k, (q, _) in enumerate(chunk) if q is r)
+            if isinstance(result, Exception):
+                text = str(result).splitlines()[0] if str(result) else type(result).__name__
+                result = RuntimeError(text)
+            else:
+                columns, summary = result
+                result = ({k: np.asarray(v) for k, v in columns.items()}, summary)
+            out.append((i, state, result))
+    return out
+
+
+def _on_dask(client, groups, config, progress):
+    """Submits every bucket to `client`'s workers, cut into chunks (about
+    `DASK_TASKS_PER_WORKER` per worker: a bucket's programs compile once per worker that
+    runs it), and yields ``(chunk, results)`` as tasks finish. A task lost with its worker
+    (Dask's ``KilledWorker``) fails its own records, with the reason."""
+    from distributed import as_completed
+
+    workers = max(1, sum(client.nthreads().values()))
+    futures = {}
+    for (num, dt), group in groups.items():
+        size = max(1, -(-len(group) // (DASK_TASKS_PER_WORKER * workers)))
+        for k in range(0, len(group), size):
+            chunk = group[k : k + size]
+            futures[client.submit(_compute_chunk, chunk, num, dt, config, pure=False)] = chunk
+    if progress:
+        print(
+            f"\rvojax batch: {len(futures)} task(s) of {len(groups)} length bucket(s) on "
+            f"{workers} Dask worker thread(s)…   ",
+            end="",
+            file=sys.stderr,
+            flush=True,
+        )
+    try:
+        for future in as_completed(futures):
+            chunk = futures[future]
+            try:
+                results = future.result()
+            except Exception as e:  # noqa: BLE001 - a lost task fails its records only
+                text = str(e).splitlines()[0] if str(e) else type(e).__name__
+                results = [(i, state, RuntimeError(text)) for i, (_, state) in enumerate(chunk)]
+            yield chunk, results
+    finally:  # interrupted: nothing keeps computing for a run that is gone
+        client.cancel(list(futures))
+
+
+@contextlib.contextmanager
+def dask_client(scheduler, workers=None):
+    """A Dask client for `run_batch`: ``"local"`` starts a `LocalCluster` of `workers` worker
+    processes (default: the cores, at most 8) with one thread each, which die with this
+    process however it ends; any other string is the address of a running scheduler
+    (``tcp://host:8786``), whose workers must have vojax installed and see the input files
+    never (the records travel with the tasks) and the output folder never (this process
+    writes it). Closed on exit."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise ImportError(
+            'the Dask scheduler needs the dask extra: pip install "vojax[dask]".'
+        ) from None
+    if scheduler == "local":
+        if workers is None:
+            workers = max(1, min(8, os.cpu_count() or 1))
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"`workers` must be a positive integer, got {workers!r}.")
+        with LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster, Client(cluster) as client:
+            client.register_plugin(_dies_with_parent(os.getpid()))
+            yield client
+    else:
+        if workers is not None:
+            raise ValueError("`workers` applies to scheduler='local' only: a running "
+                             "cluster has its own workers.")
+        with Client(scheduler, timeout="30s") as client:
+            yield client
+
+
+def _dies_with_parent(parent):
+    """A Dask worker plugin for the local cluster: the worker process exits when the process
+    that started the cluster is gone, however it ended (as the figure workers do)."""
+    from distributed import WorkerPlugin
+
+    class DiesWithParent(WorkerPlugin):
+        name = "vojax-dies-with-parent"
+        idempotent = True
+
+        def setup(self, worker):
+            import threading
+
+            try:
+                import ctypes
+                import signal
+
+                ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+            except (OSError, AttributeError):
+                pass
+
+            def watch():
+                while _alive(parent):
+                    time.sleep(0.5)
+                os._exit(0)
+
+            threading.Thread(target=watch, daemon=True).start()
+
+    return DiesWithParent()
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 MIN_RECORDS_FOR_WORKERS = 4  # fewer records are drawn here: a worker takes ~2 s to start

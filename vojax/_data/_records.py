@@ -235,8 +235,12 @@ def load_records(
     trim_below: float | None = None,
     delimiter: str = ",",
     decimal: str = ".",
+    segments=None,
+    from_contact: bool = True,
+    tip=None,
+    poisson: float = 0.5,
 ) -> list[Record]:
-    """Reads the records of one CSV or NPZ file.
+    """Reads the records of one CSV, NPZ or AFM file.
 
     **Arguments:**
 
@@ -252,6 +256,15 @@ def load_records(
       (e.g. force before contact); the time is re-zeroed at the first kept sample.
     - `delimiter`: the CSV's field separator, ``","`` (default), ``";"`` or ``"\t"``;
       `decimal`: ``"."`` (default) or ``","`` (a decimal comma, with another delimiter).
+    - AFM files (``.jpk-force``, ``.jpk-force-map``, ``.jpk-qi-data``, ``.jpk-qi-series``,
+      ``.ibw``, ``.h5``; read with `afmformats`, ``pip install "vojax[afm]"``): one record per
+      force curve, with the columns ``time_s``, ``segment`` (0 the approach, 1 the hold, then
+      the retract), ``force_N``, ``height_measured_m``, ``height_piezo_m`` as in the file, and
+      ``force_rise_N`` (F − F₀), ``indentation_m`` and ``contact_strain`` from the contact
+      point (see the command line's docs). `segments`: the segments to keep (e.g. ``[0, 1]``,
+      the approach and the hold; default all); `from_contact`: drop the samples before the
+      contact point (default); `tip`: ``("sphere", R)`` with R in m or ``("cone", θ)`` with
+      the half-angle in degrees, and `poisson`, for ``contact_strain``.
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
@@ -267,6 +280,17 @@ def load_records(
     if not path.is_file():
         raise DataError(f"{path}: no such file.")
     wanted = [time, *inputs, output] + ([trim_column] if trim_column else [])
+    from ._afm import check_tip, is_afm
+
+    check_tip(tip, poisson)
+    if is_afm(path):
+        if group_by:
+            raise DataError(f"{path}: --group-by is for long-format CSV files; each force "
+                            "curve of an AFM file is a record.")
+        return _afm_records(path, wanted, segments, from_contact, tip, poisson, time, inputs,
+                            output, trim_column, trim_below, strict, resample)
+    if segments is not None or tip is not None:
+        raise DataError(f"{path}: --segments and --tip are for AFM files, not CSV or NPZ.")
     if path.suffix.lower() == ".npz":
         if group_by:
             raise DataError(f"{path}: --group-by is for long-format CSV files, not NPZ.")
@@ -300,35 +324,81 @@ def load_records(
             groups = {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}
         else:
             groups = {"": np.arange(len(rows))}
-    records = []
-    for name, idx in groups.items():
-        t = cols[time][idx]
-        rec_lines = lines[idx]
-        if trim_column:
-            keep = np.flatnonzero(np.abs(cols[trim_column][idx]) >= trim_below)
-            if keep.size == 0:
-                raise DataError(
-                    f"{path}, record {name!r}: no sample has |{trim_column}| ≥ {trim_below}."
-                )
-            idx, t, rec_lines = idx[keep[0] :], t[keep[0] :], rec_lines[keep[0] :]
-        data = {c: cols[c][idx] for c in dict.fromkeys([*inputs, output])}
-        grid, data, dt, spread, uniform = _clock(
-            path, name, t, data, rec_lines, strict, resample
-        )
-        records.append(
-            Record(
-                name=name or path.stem,
-                source=str(path),
-                time=grid - grid[0],
-                inputs=np.stack([data[c] for c in inputs], axis=1),
-                output=data[output],
-                input_names=tuple(inputs),
-                output_name=output,
-                dt=dt,
-                resampled=spread,
-                time_name=time,
-                uniform=uniform,
-                time_offset=float(grid[0]),
+    return [
+        _record(path, name, cols, idx, lines, time, inputs, output, trim_column, trim_below,
+                strict, resample)
+        for name, idx in groups.items()
+    ]
+
+
+def _record(path, name, cols, idx, lines, time, inputs, output, trim_column, trim_below,
+            strict, resample):
+    """One `Record` from the rows `idx` of the columns `cols` (`lines`: each row's line in
+    the file, for messages)."""
+    t = cols[time][idx]
+    rec_lines = lines[idx]
+    if trim_column:
+        keep = np.flatnonzero(np.abs(cols[trim_column][idx]) >= trim_below)
+        if keep.size == 0:
+            raise DataError(
+                f"{path}, record {name!r}: no sample has |{trim_column}| ≥ {trim_below}."
             )
+        idx, t, rec_lines = idx[keep[0] :], t[keep[0] :], rec_lines[keep[0] :]
+    data = {c: cols[c][idx] for c in dict.fromkeys([*inputs, output])}
+    grid, data, dt, spread, uniform = _clock(path, name, t, data, rec_lines, strict, resample)
+    return Record(
+        name=name or path.stem,
+        source=str(path),
+        time=grid - grid[0],
+        inputs=np.stack([data[c] for c in inputs], axis=1),
+        output=data[output],
+        input_names=tuple(inputs),
+        output_name=output,
+        dt=dt,
+        resampled=spread,
+        time_name=time,
+        uniform=uniform,
+        time_offset=float(grid[0]),
+    )
+
+
+def _afm_records(path, wanted, segments, from_contact, tip, poisson, time, inputs, output,
+                 trim_column, trim_below, strict, resample):
+    from ._afm import AFM_COLUMNS, read_afm
+
+    missing = [c for c in wanted if c not in AFM_COLUMNS]
+    if missing:
+        raise DataError(
+            f"{path}: an AFM file has no column {missing[0]!r} (columns: {', '.join(AFM_COLUMNS)})."
+        )
+    if "contact_strain" in wanted and tip is None:
+        raise DataError(f"{path}: contact_strain needs a tip: --tip sphere:RADIUS_m or "
+                        "cone:HALF_ANGLE_deg.")
+    records = []
+    for cols, meta in read_afm(path, tip=tip, poisson=poisson):
+        name = meta["name"]
+        keep = np.ones(cols["time_s"].size, bool)
+        if segments is not None:
+            keep &= np.isin(cols["segment"], np.asarray(list(segments), float))
+        derived = {"force_rise_N", "indentation_m", "contact_strain"} & set(wanted)
+        if (from_contact or derived) and meta["contact_index"] is None:
+            raise DataError(
+                f"{path}, curve {name!r}: no contact point found (the approach's force never "
+                "stays above its baseline); use --no-contact with the file's own columns."
+            )
+        if from_contact:
+            keep[: meta["contact_index"]] = False
+        idx = np.flatnonzero(keep)
+        if idx.size < 3:
+            raise DataError(f"{path}, curve {name!r}: fewer than 3 samples in the segments kept.")
+        for c in dict.fromkeys(wanted):
+            bad = np.flatnonzero(~np.isfinite(cols[c][idx]))
+            if bad.size:
+                raise DataError(
+                    f"{path}, curve {name!r}, sample {idx[bad[0]]}: {c} is not finite."
+                )
+        records.append(
+            _record(path, name, cols, idx, np.arange(cols["time_s"].size) + 1, time, inputs,
+                    output, trim_column, trim_below, strict, resample)
         )
     return records

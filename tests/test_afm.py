@@ -1,0 +1,131 @@
+"""AFM force files: read through afmformats, the contact point, the indentation and the Hertz
+contact strain, against the instrument's CSV export and the contact mechanics by hand."""
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax._data import DataError, load_records
+from vojax._data import _afm
+
+HERE = Path(__file__).parent / "data" / "afm"
+RAW = HERE / "brain_creep.jpk-force"
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "afm-brain-gel-creep"
+
+pytest.importorskip("afmformats")
+
+
+def _export(name):
+    """A CSV export (afmformats 0.18.7, 10 significant digits) from the shared data folder."""
+    path = SHARED / name
+    if not path.is_file():
+        pytest.skip(f"{path} is not here")
+    with open(path) as f:
+        rows = list(csv.reader(line for line in f if not line.startswith("#")))
+    return {k: np.array([float(r[j]) for r in rows[1:]]) for j, k in enumerate(rows[0])}
+
+
+@pytest.mark.parametrize(
+    "raw, export",
+    [
+        (RAW, "afm_brain_creep.csv"),
+        (SHARED / "raw" / "fmt-jpk-cc_pr14-polymergel-2021.06.30.jpk-force", "afm_polymergel_creep.csv"),
+        (SHARED / "raw" / "fmt-jpk-sr_cell1-0008.jpk-force", "afm_cell_stress_relaxation.csv"),
+    ],
+)
+def test_the_raw_file_gives_the_columns_of_its_csv_export(raw, export):
+    """Time, segment, force and both heights as the export has them, to its 10 digits (a
+    calibration step applied twice or skipped, or a segment's clock restarted, is off by far
+    more); a JPK file of the older software (4.2, 16-bit channels, four segments) too."""
+    want = _export(export)
+    if not Path(raw).is_file():
+        pytest.skip(f"{raw} is not here")
+    (cols, meta), = _afm.read_afm(raw)
+    for name in ("time_s", "segment", "force_N", "height_measured_m", "height_piezo_m"):
+        np.testing.assert_allclose(cols[name], want[name], rtol=2e-9, atol=0, err_msg=name)
+    assert meta["spring_constant"] == pytest.approx(0.061 if "cell" not in export else 1.0677)
+
+
+def test_contact_indentation_and_hertz_strain():
+    """The brain record: contact during the approach (about 1.6–1.7 s), F₀ the approach's
+    baseline, an indentation ``[h(t_c) − h(t)] − (F − F₀)/k`` computed here from the file's
+    columns, which creeps by about 1.6 µm during the 3 s hold at constant force (the
+    recording's description), and the contact strains of a sphere and a cone against
+    Hertz's forces written out by hand: an elastic half-space of shear modulus G under a
+    sphere, F = 4/3 · E/(1 − ν²) · √R δ^{3/2} with E = 2G(1 + ν), is G times the strain."""
+    (cols, meta), = _afm.read_afm(RAW, tip=("sphere", 5e-6), poisson=0.3)
+    c = meta["contact_index"]
+    assert 1.55 < meta["contact_time"] < 1.75
+    t, f, h, seg = (cols[k] for k in ("time_s", "force_N", "height_measured_m", "segment"))
+    f0 = np.median(f[: int(0.2 * np.argmax(f))])
+    np.testing.assert_allclose(cols["force_rise_N"], f - f0, rtol=0, atol=1e-3 * np.ptp(f))
+    delta = (h[c] - h) - (f - f0) / 0.061
+    np.testing.assert_allclose(cols["indentation_m"], delta, rtol=1e-9, atol=1e-15)
+    hold = seg == 1
+    creep = delta[hold][-50:].mean() - delta[hold][:50].mean()
+    assert 1.2e-6 < creep < 2.0e-6
+    assert np.ptp(f[hold]) < 0.1 * np.ptp(f)  # the force is held during the hold
+    g, nu, radius = 1234.0, 0.3, 5e-6
+    d = np.clip(delta, 0, None)
+    hertz = 4 / 3 * (2 * g * (1 + nu)) / (1 - nu**2) * math.sqrt(radius) * d**1.5
+    np.testing.assert_allclose(g * cols["contact_strain"], hertz, rtol=1e-12, atol=0)
+    (cone, _), = _afm.read_afm(RAW, tip=("cone", 20.0))  # F = 2/π · E/(1 − ν²) · tan θ · δ²
+    hertz = 2 / math.pi * (2 * g * 1.5) / (1 - 0.25) * math.tan(math.radians(20)) * d**2
+    np.testing.assert_allclose(g * cone["contact_strain"], hertz, rtol=1e-12, atol=0)
+    assert np.any(delta < 0) and np.all(cols["contact_strain"][delta <= 0] == 0)
+
+
+def test_records_from_contact_by_segment():
+    """A record keeps the chosen segments from the contact point on, on the file's clock
+    (the time restarts at 0 at contact), and a column that needs a tip says so."""
+    rec, = load_records(RAW, time="time_s", inputs=["force_rise_N"], output="indentation_m",
+                        segments=[0, 1])
+    (cols, meta), = _afm.read_afm(RAW)
+    c = meta["contact_index"]
+    keep = np.flatnonzero(cols["segment"] <= 1)
+    assert rec.output.size == keep[-1] + 1 - c
+    np.testing.assert_array_equal(rec.output, cols["indentation_m"][c : keep[-1] + 1])
+    assert rec.time[0] == 0 and rec.time_offset == pytest.approx(meta["contact_time"])
+    assert rec.name == "brain_creep"
+    with pytest.raises(DataError, match="contact_strain needs a tip"):
+        load_records(RAW, time="time_s", inputs=["force_rise_N"], output="contact_strain")
+    with pytest.raises(DataError, match="has no column 'force'"):
+        load_records(RAW, time="time_s", inputs=["force"], output="indentation_m")
+    with pytest.raises(ValueError, match="a cone's half-angle must lie in"):
+        load_records(RAW, time="time_s", inputs=["force_N"], output="indentation_m", tip=("cone", 95))
+    whole, = load_records(RAW, time="time_s", inputs=["force_N"], output="height_measured_m",
+                          from_contact=False)
+    assert whole.output.size == cols["time_s"].size
+
+
+def test_raw_file_and_csv_export_give_the_same_identification():
+    """The hold of the brain record, force in and measured height out, from the raw file
+    and from its CSV export: the same refit (to the export's 10 digits)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    _export("afm_brain_creep.csv")
+    kw = dict(time="time_s", inputs=["force_N"], output="height_measured_m")
+    raw, = load_records(RAW, segments=[1], from_contact=False, **kw)
+    from_csv = [r for r in load_records(SHARED / "afm_brain_creep.csv", group_by="segment", **kw)
+                if r.name == "1"][0]
+    assert raw.output.size == from_csv.output.size == 3000
+    a = vojax.refit(raw.inputs, raw.output, dt=raw.dt)
+    b = vojax.refit(from_csv.inputs, from_csv.output, dt=from_csv.dt)
+    assert a.order_value == pytest.approx(b.order_value, abs=1e-6)
+    np.testing.assert_allclose(a.p, b.p, rtol=1e-5)
+
+
+def test_bad_afm_files_fail_with_one_line(tmp_path):
+    broken = tmp_path / "broken.jpk-force"
+    broken.write_bytes(RAW.read_bytes()[:5000])
+    with pytest.raises(DataError, match=r"not a readable AFM file"):
+        load_records(broken, time="time_s", inputs=["force_N"], output="indentation_m")
+    with pytest.raises(DataError, match="--segments and --tip are for AFM files"):
+        csv_file = tmp_path / "a.csv"
+        csv_file.write_text("t,u,y\n0,1,2\n1,1,2\n2,1,2\n")
+        load_records(csv_file, time="t", inputs=["u"], output="y", segments=[1])
