@@ -219,7 +219,7 @@ def test_parameters_panel_shows_a_constant_plainly_and_names_the_parameters(tmp_
     columns = {"time": t, "y": np.sin(t), "eta": eta}
     summary = {
         "record": "r", "model": "springpot", "output_column": "strain",
-        "input_columns": ["stress"], "parameter_names": ["eta"], "time_column": "time_s",
+        "input_columns": ["stress_kPa"], "parameter_names": ["eta"], "time_column": "time_s",
     }
     seen = {}
     real = _plotting._save
@@ -228,7 +228,8 @@ def test_parameters_panel_shows_a_constant_plainly_and_names_the_parameters(tmp_
         ax = fig.axes[3]
         fig.canvas.draw()
         seen.update(ylim=ax.get_ylim(), label=ax.get_ylabel(),
-                    offset=ax.yaxis.get_major_formatter().get_offset())
+                    offset=ax.yaxis.get_major_formatter().get_offset(),
+                    time=fig.axes[0].get_xlabel(), input=fig.axes[1].get_ylabel())
         real(fig, path, **kw)
 
     _plotting._save = keep
@@ -239,3 +240,21 @@ def test_parameters_panel_shows_a_constant_plainly_and_names_the_parameters(tmp_
     lo, hi = seen["ylim"]
     assert lo <= 31.9185851 * 0.99 + 1e-12 and hi >= 34.0 and hi < 1e3
     assert seen["offset"] == "" and seen["label"] == "eta"
+    assert seen["time"] == "time (s, from the first sample)" and seen["input"] == "stress (kPa)"
+
+
+def test_axis_labels_carry_the_units_of_the_column_names():
+    from vojax._plotting import axis_label
+
+    cases = {
+        "nominal_shear_stress_kPa": "nominal shear stress (kPa)",
+        "time_s": "time (s)",
+        "force_rise_N": "force rise (N)",
+        "indentation_um": "indentation (µm)",
+        "temperature_C": "temperature (°C)",
+        "contact_strain": "contact_strain",  # no unit: as it is
+        "F": "F",
+        "_s": "_s",
+        "mass_kg_total": "mass_kg_total",
+    }
+    assert {k: axis_label(k) for k in cases} == cases

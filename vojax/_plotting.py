@@ -126,6 +126,25 @@ def _record_axes():
     return fig, axes
 
 
+UNITS = {
+    "s": "s", "ms": "ms", "us": "µs", "min": "min", "h": "h",
+    "N": "N", "kN": "kN", "mN": "mN", "uN": "µN", "nN": "nN", "pN": "pN",
+    "Pa": "Pa", "kPa": "kPa", "MPa": "MPa", "GPa": "GPa", "bar": "bar", "psi": "psi",
+    "m": "m", "mm": "mm", "um": "µm", "µm": "µm", "nm": "nm", "cm": "cm",
+    "V": "V", "mV": "mV", "K": "K", "C": "°C", "degC": "°C", "pct": "%", "percent": "%",
+}
+
+
+def axis_label(column: str) -> str:
+    """An axis label from a column name whose last ``_`` part is a unit (`UNITS`):
+    ``nominal_shear_stress_kPa`` → "nominal shear stress (kPa)", ``x_um`` → "x (µm)"; any
+    other name is used as it is."""
+    quantity, _, unit = str(column).rpartition("_")
+    if quantity and unit in UNITS:
+        return f"{quantity.replace('_', ' ')} ({UNITS[unit]})"
+    return str(column)
+
+
 def warm_record_figure() -> None:
     """Builds this process's record figure and draws it once (imports, fonts, ticks): a batch's
     figure workers do it on starting, while the batch compiles."""
@@ -139,7 +158,12 @@ def record_figure(columns, summary, inputs, path) -> None:
     t = columns["time"]
     tracker = "kalman" if "kalman" in summary else "gradient" if "gradient" in summary else None
     kind = {"gradient": "paper's law", "kalman": "tracker"}.get(tracker, "identified")
-    time_label = f"time ({summary.get('time_column', 't')}, from the first sample)"
+    time_column = summary.get("time_column", "t")
+    unit = axis_label(time_column)
+    time_label = (
+        f"time ({UNITS[time_column.rpartition('_')[2]]}, from the first sample)"
+        if unit != time_column else f"time ({time_column}, from the first sample)"
+    )
     fig, axes = _record_axes()
     ax = axes[0, 0]
     ax.plot(t, columns["y"], "k", lw=1.2, label="measured")
@@ -147,15 +171,16 @@ def record_figure(columns, summary, inputs, path) -> None:
         ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label=kind)
     if "refit_y_hat" in columns:
         ax.plot(t, columns["refit_y_hat"], "C0:", lw=1.2, label="refit")
-    out = summary["output_column"]
+    out = axis_label(summary["output_column"])
     if summary.get("length"):
         out = f"{out} / {summary['length']:g}"
     ax.set(title="output", xlabel=time_label, ylabel=out)
     ax.legend()
     ax = axes[0, 1]
     for i, name in enumerate(summary["input_columns"]):
-        ax.plot(t, inputs[:, i], label=name)
-    ax.set(title="input", xlabel=time_label, ylabel=", ".join(summary["input_columns"]))
+        ax.plot(t, inputs[:, i], label=axis_label(name))
+    ax.set(title="input", xlabel=time_label,
+           ylabel=", ".join(axis_label(c) for c in summary["input_columns"]))
     ax.legend()
     ax = axes[1, 0]
     if "alpha" in columns:
