@@ -582,7 +582,7 @@ def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, s
     rows = [(0.1, 1e-6, 1e-3), (10.0, 1e-6, 1e-2), (1.0, 1e-4, 1e-3)]
     hyper = _track._stack_hypers(rows)
     nominal = jnp.broadcast_to(jnp.asarray(starts)[:, None, :], (3, num, starts.shape[1]))
-    best, i, _, scores, iterations = smoother_batch(
+    best, i, i_alt, scores, iterations, alts = smoother_batch(
         memory, un, yn, mask, steps, horizon, hyper, m0, p0, jnp.asarray(starts), bounds, 400
     )
     alone = [
@@ -595,6 +595,24 @@ def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, s
     assert int(i) == int(np.argmax(want)) and len(set(np.round(want, 6))) == 3
     np.testing.assert_allclose(best.theta, alone[int(i)].theta, rtol=1e-12, atol=1e-12)
     assert [int(k) for k in iterations] == [int(sm.iterations) for sm in alone]
+    # the same runs in shares of two (one padded with a copy of its last run), in threads
+    # once compiled: the same best run, indices and scores, and the same modes
+    monkeypatch.setattr(_track.os, "cpu_count", lambda: 2)
+    from vojax._tracker._smoother import smoother_modes
+
+    modes = smoother_modes(memory, un, yn, mask, steps, horizon, hyper, m0, p0,
+                           jnp.asarray(starts), bounds, 400)
+    for _ in range(2):  # the first time share after share, then side by side
+        b2, i2, alt2, s2 = _track.run_batch_shares(
+            memory, un, yn, mask, steps, horizon, rows, m0, p0, jnp.asarray(starts), bounds, 400
+        )
+        assert (i2, alt2) == (int(i), int(i_alt)) and np.array_equal(s2, np.asarray(scores))
+        np.testing.assert_array_equal(b2.theta, best.theta)
+        shared = _track.run_mode_shares(
+            memory, un, yn, mask, steps, horizon, rows, m0, p0, jnp.asarray(starts), bounds, 400
+        )
+        for a, b in zip(shared, modes):
+            np.testing.assert_array_equal(a, np.asarray(b))
     # the fallback: nothing converges in one iteration, so the pass runs again in full
     t, u, y, *_, dt = ramp
     monkeypatch.setattr(_track, "GRID_MAX_ITER", 1)

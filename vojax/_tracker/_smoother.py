@@ -71,7 +71,8 @@ def smoother_batch(
     Keeps one run, not B: the best by `score` (the evidence of a converged run); of the rest
     only the scores and the index of the best by objective (for when none converges), so that
     memory does not grow with B. Returns ``(best, its index, index of the best by objective,
-    scores (B,), iterations (B,))``; an index is −1 where no run qualifies."""
+    scores (B,), iterations (B,), −objectives (B,))``; an index is −1 where no run
+    qualifies."""
     def one(h, start):
         return _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
 
@@ -87,17 +88,17 @@ def smoother_batch(
             best, jnp.where(s > s_best, i, i_best), jnp.maximum(s, s_best),
             jnp.where(a > s_alt, i, i_alt), jnp.maximum(a, s_alt),
         )
-        return carry, (s, sm.iterations)
+        return carry, (s, a, sm.iterations)
 
     first = jax.tree_util.tree_map(lambda a: a[0], (hyper, starts))
     blank = jax.tree_util.tree_map(
         lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(one, *first)
     )
     none, minus = jnp.asarray(-1), jnp.asarray(-jnp.inf, y.dtype)
-    (best, i_best, _, i_alt, _), (scores, iterations) = lax.scan(
+    (best, i_best, _, i_alt, _), (scores, alts, iterations) = lax.scan(
         body, (blank, none, minus, none, minus), (jnp.arange(starts.shape[0]), hyper, starts)
     )
-    return best, i_best, i_alt, scores, iterations
+    return best, i_best, i_alt, scores, iterations, alts
 
 
 def _from_start(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, max_iter):

@@ -1,7 +1,10 @@
 """The tracker end to end: normalise, start from a constant-order fit, tune the noise
 intensities by the innovation likelihood, then smooth (or filter) with bands."""
 
+import concurrent.futures
 import dataclasses
+import os
+import threading
 
 import equinox as eqx
 import jax
@@ -61,6 +64,9 @@ ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's cha
 TRADE_KNOTS = 8
 TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
 TRADE_CHI2 = 4.0
+# a pass's smoothings are independent: they run side by side in up to this many threads
+# (one per core), each over an equal share of them (one compiled program for all shares)
+RUN_THREADS = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -285,6 +291,71 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     return (float(min(found)), float(max(found))) if found else None
 
 
+_warm: set = set()  # (function, shapes) already compiled: their shares may run in threads
+_warm_lock = threading.Lock()
+
+
+def _in_threads(fn, count, call, key):
+    """``call(lo, hi, size)`` for the runs ``[lo, hi)`` of `count`, each share padded to
+    `size` runs, in threads (`RUN_THREADS`, at most one per core) once `fn` has been compiled
+    for these shapes (`key`); the first time one share after another, so that two threads
+    never compile the same program. Returns the shares' outputs in order, with their
+    ``(lo, hi)``."""
+    workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS))
+    size = -(-count // workers)
+    shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
+    key = (id(fn), size, *key)
+    with _warm_lock:
+        warm = key in _warm
+    if not warm or len(shares) == 1:
+        out = [call(lo, hi, size) for lo, hi in shares]
+        with _warm_lock:
+            _warm.add(key)
+    else:
+        with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
+            out = list(pool.map(lambda share: call(*share, size), shares))
+    return list(zip(shares, out))
+
+
+def _share(rows, firsts, lo, hi, size):
+    """Rows ``[lo, hi)`` of the intensities and starts, padded to `size` with the last one."""
+    pick = list(range(lo, hi)) + [hi - 1] * (size - (hi - lo))
+    return _stack_hypers([rows[i] for i in pick]), firsts[np.asarray(pick)]
+
+
+def run_batch_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+    """`smoother_batch` over the runs ``rows`` × ``firsts`` split into shares run in threads
+    (`_in_threads`); the same result as one call: the best run by score (the first of equal
+    ones), its index, the index of the best by objective, the scores."""
+    def call(lo, hi, size):
+        hyper, first = _share(rows, firsts, lo, hi, size)
+        out = smoother_batch(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds,
+                             budget)
+        return jax.block_until_ready(out)
+
+    parts = _in_threads(smoother_batch, len(rows), call, (u.shape, budget))
+    scores = np.concatenate([np.asarray(o[3])[: hi - lo] for (lo, hi), o in parts])
+    alts = np.concatenate([np.asarray(o[5])[: hi - lo] for (lo, hi), o in parts])
+    i = int(np.argmax(scores)) if np.any(np.isfinite(scores)) else -1
+    i_alt = int(np.argmax(alts)) if np.any(np.isfinite(alts)) else -1
+    holder = next(o for (lo, hi), o in parts if lo <= max(i, 0) < hi)
+    return holder[0], i, i_alt, scores
+
+
+def run_mode_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+    """`smoother_modes` over the runs ``rows`` × ``firsts``, in threads (`_in_threads`)."""
+    def call(lo, hi, size):
+        hyper, first = _share(rows, firsts, lo, hi, size)
+        out = smoother_modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds,
+                             budget)
+        return jax.block_until_ready(out)
+
+    parts = _in_threads(smoother_modes, len(rows), call, (u.shape, budget))
+    return tuple(
+        np.concatenate([np.asarray(o[k])[: hi - lo] for (lo, hi), o in parts]) for k in range(4)
+    )
+
+
 def _stack_hypers(values):
     """A batched `Hyper` from rows ``(q_order, q_params, r)``."""
     arr = jnp.log(jnp.asarray(values))
@@ -311,13 +382,12 @@ def tune(
     passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]
     for noise, budget in passes:
         rows = [(qo, PARAM_DRIFT0, noise) for _ in starts for qo in GRID_ORDER]
-        sm, i, i_alt, scores, _ = smoother_batch(
-            memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0, first, bounds,
-            budget,
+        sm, i, i_alt, scores = run_batch_shares(
+            memory, u, y, mask, steps, horizon, rows, m0, p0, first, bounds, budget
         )
         if np.any(np.isfinite(np.asarray(scores))):
             break
-    i = int(i) if int(i) >= 0 else int(i_alt)
+    i = i if i >= 0 else i_alt
     if i < 0:
         raise ValueError("the tracker diverged from every starting order; check the data.")
     hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
@@ -398,9 +468,9 @@ def mixture(
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores, rss = smoother_modes(
-        memory, u, y, mask, steps, horizon, _stack_hypers(rows), m0, p0,
-        jnp.asarray(firsts, u.dtype), bounds, MAX_ITER,
+    betas, variances, scores, rss = run_mode_shares(
+        memory, u, y, mask, steps, horizon, rows, m0, p0, jnp.asarray(firsts, u.dtype), bounds,
+        MAX_ITER,
     )
     betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
     variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
