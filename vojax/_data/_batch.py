@@ -532,8 +532,11 @@ def _x64():
 def _compute_chunk(chunk, num, dt, config):
     """`_compute_group` as a Dask task: ``[(index in chunk, state, result)]``, a failure as a
     `RuntimeError` holding its one-line reason (an exception of any class travels back)."""
+    from .._tracker._track import run_threads
+
     out = []
-    with _x64():
+    # one record per worker thread: the tracker's smoothings run one after another there
+    with _x64(), run_threads(1):
         for r, state, result in _compute_group(chunk, num, dt, config):
             i = next(k for k, (q, _) in enumerate(chunk) if q is r)
             if isinstance(result, Exception):

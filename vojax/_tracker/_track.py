@@ -2,6 +2,8 @@
 intensities by the innovation likelihood, then smooth (or filter) with bands."""
 
 import concurrent.futures
+import contextlib
+import contextvars
 import dataclasses
 import os
 import threading
@@ -293,6 +295,18 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
 
 _warm: set = set()  # (function, shapes) already compiled: their shares may run in threads
 _warm_lock = threading.Lock()
+_thread_limit = contextvars.ContextVar("vojax_run_threads", default=None)
+
+
+@contextlib.contextmanager
+def run_threads(limit: int):
+    """Within the block the tracker's smoothings use at most `limit` threads (1: one after
+    another), e.g. in a process that already runs one record per core (a Dask worker)."""
+    token = _thread_limit.set(int(limit))
+    try:
+        yield
+    finally:
+        _thread_limit.reset(token)
 
 
 def _in_threads(fn, count, call, key):
@@ -301,7 +315,8 @@ def _in_threads(fn, count, call, key):
     for these shapes (`key`); the first time one share after another, so that two threads
     never compile the same program. Returns the shares' outputs in order, with their
     ``(lo, hi)``."""
-    workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS))
+    limit = _thread_limit.get()
+    workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS, limit or RUN_THREADS))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
     key = (id(fn), size, *key)
