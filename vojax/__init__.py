@@ -14,6 +14,8 @@ from ._adaptive import (
 from ._adaptive import (
     OrderGradient as OrderGradient,
 )
+from ._design import Design as Design
+from ._design import fisher_information as fisher_information
 from ._identify import Diagnostics as Diagnostics
 from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
 from ._identify import Identification as Identification

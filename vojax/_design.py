@@ -1,0 +1,140 @@
+"""Experiment design: the Fisher information of a planned test, from the exact order
+sensitivities.
+
+For the model ``y = x0 + Σ_j p_j Φ_j(b, t) + ε`` with white measurement noise of standard
+deviation σ, the information about ``θ = (c_1 … c_K, p_1 … p_n, x0)`` is ``F = JᵀJ / σ²``,
+``J`` the model's Jacobian. The order is the hypothesised trajectory plus a deviation
+``Σ_k c_k h_k(t)`` on `knots` hat functions (one knot: a constant shift); since ``Φ_k``
+depends on the order at ``t_k`` only (the integral form of the model), the order's columns
+are ``(Σ_j p_j ∂Φ_j/∂b)(t) h_k(t)`` with ``∂Φ/∂b`` from `vojax.order_sensitivity`. ``F⁻¹``
+is the Cramér–Rao bound: no unbiased estimator of these quantities from such a test does
+better, and a least-squares fit (`vojax.refit`) reaches it for small noise.
+"""
+
+import math
+
+import numpy as np
+
+from . import _validate as check
+from ._integral import fractional_integral, order_sensitivity
+
+
+class Design:
+    """What a planned test can tell, before it is run (`fisher_information`).
+
+    - `names`: the quantities, ``order`` (or ``order_knot_1`` … ``order_knot_K``), ``p_1`` …
+      ``p_n``, ``x0`` (when estimated);
+    - `information` (P, P), `covariance` (P, P) = its inverse, `stderr` (P,): the best
+      standard errors any unbiased estimator can reach;
+    - `times` (N,), `order` (N,): the hypothesised order; `order_stderr` (N,): the predicted
+      standard error of the order at each sample; `knot_times` (K,).
+    """
+
+    def __init__(self, names, information, covariance, times, order, order_stderr, knot_times):
+        self.names = tuple(names)
+        self.information = information
+        self.covariance = covariance
+        self.stderr = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+        self.times = times
+        self.order = order
+        self.order_stderr = order_stderr
+        self.knot_times = knot_times
+
+    @property
+    def order_band(self) -> float:
+        """The predicted ±2σ half-width of the order, median over the second half of the
+        test (where `vojax.identify`'s diagnostics measure its band)."""
+        return float(2.0 * np.median(self.order_stderr[self.order_stderr.size // 2 :]))
+
+    def summary(self) -> str:
+        """The quantities with their predicted standard errors, one per line."""
+        lines = [f"{'quantity':<16}{'± 1 SE (best possible)':>24}"]
+        lines += [f"{n:<16}{s:>24.4g}" for n, s in zip(self.names, self.stderr)]
+        lines.append(f"{'order band ±2σ':<16}{self.order_band:>24.4g}")
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return f"Design(order band ±{self.order_band:.3g}, {len(self.names)} quantities)"
+
+
+def _hats(times, knots):
+    """(N, K) hat functions on `knots` knots spread evenly over the times (K = 1: ones)."""
+    if knots == 1:
+        return np.ones((times.size, 1)), np.array([times[0]])
+    places = np.linspace(times[0], times[-1], knots)
+    return np.stack([np.interp(times, places, np.eye(knots)[k]) for k in range(knots)], 1), places
+
+
+def fisher_information(
+    u,
+    order,
+    p,
+    dt=None,
+    *,
+    t=None,
+    noise_std,
+    knots: int = 1,
+    x0: bool = True,
+    rule: str = "trapezoid",
+    memory: str = "direct",
+    order_range=(0.01, 0.99),
+) -> Design:
+    """The Fisher information of a planned test of ``D^{α(t)} x = pᵀu`` (a `Design`).
+
+    - `u` (N,) or (N, n): the planned inputs, at ``t_k = k·dt`` or at the times `t`;
+    - `order`: the hypothesised order, a number or a trajectory (N,); `p` (n,): the
+      hypothesised parameters; `noise_std`: the measurement noise's standard deviation, in
+      the output's units;
+    - `knots`: the order's free shape, 1 (a constant order: one number) or K ≥ 2 hat
+      functions spread evenly over the test (a variable order, as K values);
+    - `x0`: the output's offset estimated too (True) or known (False).
+
+    **Raises:** `ValueError` when the test determines the quantities not at all (the
+    information is singular: e.g. an input that is zero, or more knots than the test can
+    tell apart), naming the least-determined one.
+    """
+    u2 = check.samples(u, "u")
+    u2 = np.asarray(u2).reshape(u2.shape[0], -1)
+    num, n = u2.shape
+    p = np.atleast_1d(np.asarray(p, float))
+    if p.shape != (n,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"`p` must be {n} finite number(s), one per input, got {p!r}.")
+    if not (isinstance(noise_std, (int, float)) and not isinstance(noise_std, bool)
+            and 0 < noise_std < math.inf):
+        raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
+    if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
+        raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
+    grid = dict(dt=dt) if t is None else dict(t=t)
+    kw = dict(rule=rule, memory=memory, order_range=order_range, **grid)
+    order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
+    phi = np.asarray(fractional_integral(u2, order, **kw)).reshape(num, n)
+    dphi = np.asarray(order_sensitivity(u2, order, **kw)).reshape(num, n)
+    times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
+    hats, places = _hats(times, int(knots))
+    columns = [(dphi @ p)[:, None] * hats, phi] + ([np.ones((num, 1))] if x0 else [])
+    jac = np.concatenate(columns, axis=1)
+    names = (["order"] if knots == 1 else [f"order_knot_{k + 1}" for k in range(knots)])
+    names += [f"p_{j + 1}" for j in range(n)] + (["x0"] if x0 else [])
+    information = jac.T @ jac / noise_std**2
+    # inverted in the columns' own scales (the units of p and of the order differ by orders
+    # of magnitude); a direction below 1e-12 of the largest is not determined by the test
+    scale = np.sqrt(np.diag(information))
+    if np.any(scale == 0):
+        zero = ", ".join(name for name, s in zip(names, scale) if s == 0)
+        raise ValueError(
+            f"the planned test does not determine {zero} at all (the model does not change "
+            "with them: an input that is zero throughout)."
+        )
+    unit = information / np.outer(scale, scale)
+    values, vectors = np.linalg.eigh(unit)
+    if values[0] < 1e-12 * values[-1]:
+        worst = names[int(np.argmax(np.abs(vectors[:, 0])))]
+        raise ValueError(
+            f"the planned test does not determine {worst} (its information is singular to "
+            "1e-12): fewer knots, another input, or a longer test."
+        )
+    covariance = (vectors / values) @ vectors.T / np.outer(scale, scale)
+    k = int(knots)
+    order_cov = covariance[:k, :k]
+    order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
+    return Design(names, information, covariance, times, order, order_stderr, places)
