@@ -16,6 +16,7 @@ from ._adaptive import (
 )
 from ._design import Design as Design
 from ._design import fisher_information as fisher_information
+from ._design import optimal_protocol as optimal_protocol
 from ._identify import Diagnostics as Diagnostics
 from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
 from ._identify import Identification as Identification

@@ -138,3 +138,100 @@ def fisher_information(
     order_cov = covariance[:k, :k]
     order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
     return Design(names, information, covariance, times, order, order_stderr, places)
+
+
+def _jacobian(memory, u2, order, p, hats, x0):
+    """The model's Jacobian (N, P) in JAX: the order's columns, Φ, and the offset's."""
+    import jax.numpy as jnp
+
+    from ._integral import scan_memory
+
+    phi, dphi = scan_memory(memory, u2, order, True)
+    cols = [(dphi @ p)[:, None] * hats, phi]
+    if x0:
+        cols.append(jnp.ones((u2.shape[0], 1), u2.dtype))
+    return jnp.concatenate(cols, axis=1)
+
+
+def optimal_protocol(
+    protocol,
+    start,
+    lower,
+    upper,
+    order,
+    p,
+    dt,
+    *,
+    noise_std,
+    knots: int = 1,
+    num_samples: int,
+    criterion: str = "order",
+    x0: bool = True,
+    memory: str = "direct",
+    order_range=(0.01, 0.99),
+    max_steps: int = 200,
+):
+    """The parameters of a loading protocol that make the order best determined.
+
+    `protocol(params, t)` gives the inputs (N,) or (N, n) at the times ``t = k·dt``
+    (k < `num_samples`) for the parameters `params` (k,), written with `jax.numpy` (it is
+    differentiated); `start`, `lower`, `upper` (k,): the first guess and the limits (the
+    search runs on a logistic map of the box, so the limits hold exactly). The criterion is
+    ``"order"`` (A-optimal for the order: the mean predicted variance of α(t) over the second
+    half of the test) or ``"D"`` (D-optimal: the information's log-determinant, every
+    quantity). Minimised by BFGS (optimistix) from `start`; a criterion with several minima
+    needs several starts.
+
+    **Returns:** ``(params, Design)``: the best parameters found and `fisher_information` of
+    the protocol they give.
+    """
+    import jax
+    import jax.numpy as jnp
+    import optimistix as optx
+
+    from ._integral import make_memory
+
+    if criterion not in ("order", "D"):
+        raise ValueError(f"`criterion` must be 'order' or 'D', got {criterion!r}.")
+    lo, hi, x = (np.atleast_1d(np.asarray(a, float)) for a in (lower, upper, start))
+    if not (lo.shape == hi.shape == x.shape) or not np.all(lo < hi):
+        raise ValueError("`start`, `lower` and `upper` must have one shape, with lower < upper.")
+    if not np.all((lo < x) & (x < hi)):
+        raise ValueError("`start` must lie strictly inside (lower, upper).")
+    if not (isinstance(num_samples, (int, np.integer)) and num_samples >= 4):
+        raise ValueError(f"`num_samples` must be an integer ≥ 4, got {num_samples!r}.")
+    if not (isinstance(noise_std, (int, float)) and 0 < noise_std < math.inf):
+        raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
+    t = float(dt) * np.arange(num_samples)
+    mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
+    hats, _ = _hats(t, int(knots))
+    half = num_samples // 2
+    b = jnp.broadcast_to(jnp.asarray(order, float), (num_samples,))
+    pj = jnp.atleast_1d(jnp.asarray(p, float))
+    hats_j = jnp.asarray(hats)
+
+    def params_of(z):
+        return lo + (hi - lo) * jax.nn.sigmoid(z)
+
+    def loss(z, _):
+        u = jnp.asarray(protocol(params_of(z), jnp.asarray(t)), float)
+        u2 = u.reshape(num_samples, -1)
+        jac = _jacobian(mem, u2, b, pj, hats_j, x0)
+        info = jac.T @ jac / noise_std**2
+        scale = jnp.sqrt(jnp.diag(info))
+        unit = info / jnp.outer(scale, scale)
+        if criterion == "D":
+            return -(jnp.linalg.slogdet(unit)[1] + 2 * jnp.sum(jnp.log(scale)))
+        cov = jnp.linalg.inv(unit) / jnp.outer(scale, scale)
+        k = hats_j.shape[1]
+        var = jnp.einsum("ni,ij,nj->n", hats_j[half:], cov[:k, :k], hats_j[half:])
+        return jnp.log(jnp.mean(var))
+
+    z0 = jnp.log((x - lo) / (hi - x))
+    sol = optx.minimise(loss, optx.BFGS(rtol=1e-8, atol=1e-8), z0, max_steps=max_steps,
+                        throw=False)
+    best = np.asarray(params_of(sol.value))
+    u = np.asarray(protocol(jnp.asarray(best), jnp.asarray(t)), float)
+    design = fisher_information(u, order, p, dt, noise_std=noise_std, knots=knots, x0=x0,
+                                memory=memory, order_range=order_range)
+    return best, design
