@@ -14,6 +14,8 @@ from ._adaptive import (
 from ._adaptive import (
     OrderGradient as OrderGradient,
 )
+from ._compare import Comparison as Comparison
+from ._compare import compare as compare
 from ._design import Design as Design
 from ._design import fisher_information as fisher_information
 from ._design import optimal_protocol as optimal_protocol

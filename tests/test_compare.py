@@ -1,0 +1,108 @@
+"""Model comparison: the evidence arithmetic against an independent computation, the verdicts
+on records whose generating model is known, and the validation target on the benchmark."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vojax
+
+
+def _stress(n=240, dt=0.05):
+    t = dt * np.arange(n)
+    return np.minimum(t / 2.0, 1.0) + 0.5 * (t > 6.0), dt  # a ramp, a hold, a second step
+
+
+def test_the_evidence_is_the_schwarz_approximation_of_each_fit():
+    """For each model: log L̂ from its residuals (Gaussian, σ̂² = RSS/N) and −BIC/2 with its
+    free numbers (order knots, coefficients, offset, noise), computed here from the fits; the
+    rows sorted by it, the weights its softmax, and the verdict's Bayes factor the exponential
+    of the first two's difference."""
+    stress, dt = _stress()
+    rng = np.random.default_rng(3)
+    y = np.asarray(vojax.simulate(stress, 0.4, np.array([0.5]), dt))
+    y = y + 0.01 * np.ptp(y) * rng.standard_normal(y.size)
+    c = vojax.compare(stress, y, dt)
+    n = y.size
+    ev = []
+    for r in c.rows:
+        fit = r["refit"]
+        rss = float(np.sum((y - np.asarray(fit.y_hat)) ** 2))
+        k = np.asarray(fit.knots).size + np.asarray(fit.p).size + 2
+        ll = -0.5 * n * (math.log(2 * math.pi * rss / n) + 1)
+        assert r["quantities"] == k and r["log_likelihood"] == pytest.approx(ll, rel=1e-12)
+        assert r["log_evidence"] == pytest.approx(ll - 0.5 * k * math.log(n), rel=1e-12)
+        ev.append(r["log_evidence"])
+    assert ev == sorted(ev, reverse=True)
+    w = np.exp(np.array(ev) - ev[0])
+    np.testing.assert_allclose([r["weight"] for r in c.rows], w / w.sum(), rtol=1e-12)
+    bf = math.exp(ev[0] - ev[1])
+    assert c.bayes_factor(c.rows[0]["model"], c.rows[1]["model"]) == pytest.approx(bf, rel=1e-12)
+    assert (f"{bf:.2g}" in c.verdict) or (f"{bf:.3g}" in c.verdict)
+    variable = next(r for r in c.rows if r["model"] == "variable")
+    assert variable["quantities"] == 3 + 1 + 2  # three knots, η, offset, noise
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_springpot_is_never_outvoted_and_a_moving_order_is_found(seed):
+    """Springpot data (noise 2 %): no model is favoured over the springpot by a Bayes factor
+    above 10 (the larger laws nest it). A moving order (0.25 → 0.55) on the same input: the
+    variable-order springpot ranks first, strongly favoured over the constant order, and its
+    order rises."""
+    stress, dt = _stress()
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(stress.size)
+    for order, want in ((0.4, "springpot"), (0.25 + 0.3 * t / t[-1], "variable")):
+        y = np.asarray(vojax.simulate(stress, order, np.array([0.5]), dt))
+        y = y + 0.02 * np.ptp(y) * rng.standard_normal(y.size)
+        c = vojax.compare(stress, y, dt)
+        if want == "springpot":
+            assert c.bayes_factor(c.best, "springpot") <= 10
+        else:
+            assert c.best == "variable" and c.bayes_factor("variable", "springpot") > 10
+            knots = np.asarray(next(r for r in c.rows if r["model"] == "variable")["refit"].knots)
+            assert knots[-1] > knots[0] + 0.1  # it rises, as the truth does
+
+
+def test_bad_calls_are_refused():
+    stress, dt = _stress(60)
+    with pytest.raises(ValueError, match="`models` must be some of"):
+        vojax.compare(stress, stress, dt, models=("burgers",))
+    with pytest.raises(ValueError, match="give exactly one of `dt` and `t`"):
+        vojax.compare(stress, stress)
+    with pytest.raises(ValueError, match="`holdout` must lie in"):
+        vojax.compare(stress, stress, dt, holdout=0.9)
+    with pytest.raises(ValueError, match="must both have shape"):
+        vojax.compare(stress, stress[:-1], dt)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="records of the fractional Zener law with its springs of the springpot's size are "
+    "explained by simpler laws within the noise (every fit leaves the truth's residual RMS), "
+    "and the Schwarz penalty favours them: scripts/bench_compare.py ranks the Zener first in "
+    "0 of 12 and favours a wrong model by BF > 10 in 10 of 12",
+)
+def test_the_comparison_finds_the_generating_model_on_the_benchmark():
+    """The validation target: over records of every model from the shipped real inputs
+    (one draw per model and input here), the generating model first in ≥ 90 % and no wrong
+    model favoured by a Bayes factor above 10."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "bench_compare.py"
+    spec = importlib.util.spec_from_file_location("bench_compare", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    rng = np.random.default_rng(11)
+    first = wrong = cases = 0
+    for _, stress, dt in bench.inputs():
+        for model in bench.MODELS:
+            y = bench.generate(model, stress, dt, rng, 0.02)
+            c = vojax.compare(stress, y, dt)
+            cases += 1
+            first += c.best == model
+            wrong += c.best != model and c.bayes_factor(c.best, model) > 10
+    assert first >= 0.9 * cases and wrong == 0

@@ -1,0 +1,164 @@
+"""Which model do the data support: constant-order springpot, fractional Kelvin–Voigt,
+Maxwell and Zener laws, and a variable-order springpot (its order on K knots), each fitted
+by `refit` to one stress–strain record and compared by the Schwarz (BIC) approximation of
+the log evidence, AIC, the prediction error on a held-out end of the record, and the
+residuals' lag-1 autocorrelation."""
+
+import math
+
+import numpy as np
+
+from . import _validate as check
+
+MODELS = ("springpot", "kelvin-voigt", "maxwell", "zener", "variable")
+# Bayes factors: below 3 the data cannot tell two models apart; above 10 one is favoured
+# strongly (the conventional scale of Jeffreys, as Kass and Raftery give it)
+UNDECIDED_BF = 3.0
+OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `_fit`)
+STRONG_BF = 10.0
+
+
+class Comparison:
+    """The models fitted to one record, best first (`rows`: one dict per model with
+    ``model``, ``quantities`` (free numbers, the offset and the order's included),
+    ``log_likelihood``, ``aic``, ``bic``, ``log_evidence`` (−BIC/2), ``weight`` (evidence
+    weights, summing to 1), ``holdout_nrmse`` (fitted before the held-out end, predicted over
+    it, RMS error / the output's range there), ``lag1`` (residuals' lag-1 autocorrelation),
+    ``order`` (the refit's order: its value, or the range of a variable order), and the
+    ``refit`` itself), and `verdict`: one sentence."""
+
+    def __init__(self, rows, verdict):
+        self.rows = rows
+        self.verdict = verdict
+
+    @property
+    def best(self) -> str:
+        return self.rows[0]["model"]
+
+    def bayes_factor(self, a: str, b: str) -> float:
+        """The Bayes factor of model `a` over model `b` (Schwarz approximation)."""
+        ev = {r["model"]: r["log_evidence"] for r in self.rows}
+        return float(math.exp(min(ev[a] - ev[b], 700.0)))
+
+    def table(self) -> str:
+        head = (f"{'model':<14}{'quantities':>11}{'log evidence':>14}{'weight':>9}"
+                f"{'AIC':>12}{'held-out NRMSE':>16}{'lag-1':>8}  order")
+        lines = [head]
+        for r in self.rows:
+            lines.append(
+                f"{r['model']:<14}{r['quantities']:>11d}{r['log_evidence']:>14.2f}"
+                f"{r['weight']:>9.3f}{r['aic']:>12.2f}{r['holdout_nrmse']:>16.4g}"
+                f"{r['lag1']:>8.2f}  {r['order']}"
+            )
+        return "\n".join(lines + [self.verdict])
+
+    def __repr__(self):
+        return self.table()
+
+
+def _fit(model, stress, strain, grid, knots, window=None):
+    from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
+    from ._refit import refit
+
+    law = {"springpot": Springpot(), "variable": Springpot(), "kelvin-voigt": KelvinVoigt(),
+           "maxwell": FractionalMaxwell(), "zener": FractionalZener()}[model]
+
+    def once(regressor):
+        return refit(
+            law.inputs(stress, regressor), strain, **grid,
+            order=knots if model == "variable" else "constant",
+            direct=law.direct(stress, regressor), p_signs=law.p_signs, window=window,
+        )
+
+    fit = once(strain)
+    if model in ("kelvin-voigt", "zener"):
+        # these laws feed the strain back through the memory; the measured strain carries
+        # its noise into that regressor and biases the fit (errors in variables): refitted
+        # with the model's own strain in its place until it settles (an output-error fit)
+        for _ in range(OUTPUT_ERROR_ROUNDS):
+            fit = once(np.asarray(fit.y_hat))
+    return fit
+
+
+def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
+            holdout: float = 0.25) -> Comparison:
+    """Fits each of `models` to one record (the strain as output, the stress as input, as
+    in ``σ = η D^{q} ε``) and ranks them by evidence.
+
+    - `models`: any of ``"springpot"``, ``"kelvin-voigt"``, ``"maxwell"``, ``"zener"`` (the
+      constant-order laws of `vojax.Springpot` … `vojax.FractionalZener`, with their sign
+      constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots);
+    - `holdout`: the fraction at the end of the record that a second fit of each model does
+      not see and predicts (the whole loading history still drives it).
+
+    The log evidence is the Schwarz approximation ``log L̂ − (k/2) ln N`` (k the free
+    numbers, the noise level's included; L̂ the Gaussian likelihood at the fit), whose
+    differences are log Bayes factors for large N. The verdict names the best model and its
+    Bayes factor over the next; below 3 it says the data cannot tell them apart.
+    """
+    stress = np.asarray(check.samples(stress, "stress"), float)
+    strain = np.asarray(check.samples(strain, "strain"), float)
+    if stress.ndim != 1 or stress.shape != strain.shape:
+        raise ValueError(
+            f"`stress` and `strain` must both have shape (N,), got {stress.shape} and {strain.shape}."
+        )
+    unknown = [m for m in models if m not in MODELS]
+    if unknown or not models:
+        raise ValueError(f"`models` must be some of {', '.join(MODELS)}, got {models!r}.")
+    if not 0.05 <= holdout <= 0.5:
+        raise ValueError(f"`holdout` must lie in [0.05, 0.5], got {holdout!r}.")
+    if (dt is None) == (t is None):
+        raise ValueError("give exactly one of `dt` and `t`.")
+    num = stress.size
+    times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
+    grid = dict(dt=dt) if t is None else dict(t=times)
+    split = times[int(round((1 - holdout) * (num - 1)))]
+    tail = times > split
+    rows = []
+    for model in dict.fromkeys(models):
+        fit = _fit(model, stress, strain, grid, knots)
+        res = np.asarray(strain - fit.y_hat)
+        rss = float(res @ res)
+        k = np.asarray(fit.knots).size + np.asarray(fit.p).size + 1 + 1  # + x0 + σ
+        loglik = -0.5 * num * (math.log(2 * math.pi * max(rss, 1e-300) / num) + 1.0)
+        early = _fit(model, stress, strain, grid, knots, window=(times[0], split))
+        miss = np.asarray(strain - early.y_hat)[tail]
+        span = float(np.ptp(strain)) or 1.0
+        e = res - res.mean()
+        lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else float("nan")
+        order = np.asarray(fit.order)
+        rows.append(dict(
+            model=model, quantities=int(k), log_likelihood=loglik,
+            aic=-2 * loglik + 2 * k, bic=-2 * loglik + k * math.log(num),
+            log_evidence=loglik - 0.5 * k * math.log(num),
+            holdout_nrmse=float(np.sqrt(np.mean(miss**2)) / span), lag1=lag1,
+            order=(f"{order[0]:.3f}" if np.all(order == order[0])
+                   else f"{order.min():.3f}–{order.max():.3f}"),
+            refit=fit,
+        ))
+    rows.sort(key=lambda r: -r["log_evidence"])
+    top = rows[0]["log_evidence"]
+    weights = np.exp([r["log_evidence"] - top for r in rows])
+    for r, w in zip(rows, weights / weights.sum()):
+        r["weight"] = float(w)
+    if len(rows) == 1:
+        verdict = f"only {rows[0]['model']} was fitted."
+    else:
+        bf = math.exp(min(rows[0]["log_evidence"] - rows[1]["log_evidence"], 700.0))
+        a, b = rows[0]["model"], rows[1]["model"]
+        if bf < UNDECIDED_BF:
+            verdict = (f"the data cannot tell {a} and {b} apart (Bayes factor {bf:.2g}); "
+                       f"prefer the simpler unless the held-out error says otherwise.")
+        else:
+            strength = "strongly " if bf >= STRONG_BF else ""
+            verdict = f"{a} is {strength}favoured over {b} by a Bayes factor of {bf:.3g}."
+    from ._identify import correlation_limit
+
+    limit = correlation_limit(num)
+    if rows[0]["lag1"] > limit:
+        verdict += (
+            f" Its residuals are correlated (lag-1 autocorrelation {rows[0]['lag1']:.2f} > "
+            f"{limit:.2g}): the evidence assumes white noise, so these Bayes factors are too "
+            "large; no model here describes every feature of the record."
+        )
+    return Comparison(rows, verdict)
