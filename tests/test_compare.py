@@ -106,3 +106,37 @@ def test_the_comparison_finds_the_generating_model_on_the_benchmark():
             first += c.best == model
             wrong += c.best != model and c.bayes_factor(c.best, model) > 10
     assert first >= 0.9 * cases and wrong == 0
+
+
+def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tmp_path):
+    """`vojax compare` on springpot data (q = 0.3, noise 1 %): one row per law fitted, sorted
+    by evidence, the springpot first with its order, the weights summing to 1, the verdict
+    printed; `--model`, which the command does not use, is refused before anything is
+    written."""
+    import csv
+
+    from .test_data_cli import _cli
+
+    stress, dt = _stress(160)
+    strain = np.asarray(vojax.simulate(stress, 0.3, np.array([0.25]), dt))
+    strain = strain + 0.01 * np.ptp(strain) * np.random.default_rng(1).standard_normal(160)
+    with open(tmp_path / "r.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_s", "stress", "strain"])
+        w.writerows(zip(dt * np.arange(160), stress, strain))
+    args = ["compare", "r.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
+            "--models", "springpot,maxwell", "--out", "out"]
+    done = _cli(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "out" / "comparison.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["record"] for r in rows] == ["r", "r"]
+    assert {r["model"] for r in rows} == {"springpot", "maxwell"}
+    ev = [float(r["log_evidence"]) for r in rows]
+    assert ev == sorted(ev, reverse=True)
+    assert sum(float(r["weight"]) for r in rows) == pytest.approx(1.0, rel=1e-12)
+    assert rows[0]["verdict"] in done.stdout and rows[0]["model"] == "springpot"
+    assert float(next(r for r in rows if r["model"] == "springpot")["order"]) == pytest.approx(0.3, abs=0.05)
+    refused = _cli(*args[:-1], "again", "--model", "zener", cwd=tmp_path)
+    assert refused.returncode == 1 and "--model does not apply to compare" in refused.stderr
+    assert not (tmp_path / "again").exists()

@@ -594,6 +594,47 @@ def identify_command(args) -> int:
     return 0
 
 
+def compare_command(args) -> int:
+    from ._compare import MODELS, compare
+    from ._data._batch import _write_table
+    from ._data._paths import claim_outputs
+
+    if args.model is not None:
+        raise CLIError("--model does not apply to compare: it fits every model (--models).")
+    models = tuple(m.strip() for m in args.models.split(","))
+    unknown = [m for m in models if m not in MODELS]
+    if unknown or not models:
+        raise CLIError(f"--models takes some of {','.join(MODELS)}, got {args.models!r}.")
+    if not 1 <= args.knots <= 10:
+        raise CLIError(f"--knots must be from 1 to 10, got {args.knots}.")
+    _out_apart(args.out, [args.file])
+    records = _select(_load(args.file, args), args)
+    for record in records:
+        if len(record.input_names) != 1:
+            raise CLIError("compare takes one input column, the stress: give one --input.")
+    out = _new_dir(args.out)
+    claim_outputs(out, ["comparison.csv"])
+    rows = []
+    for record in records:
+        stress, strain = record.inputs[:, 0], record.output
+        if args.area is not None:
+            stress = stress / args.area
+        if args.length is not None:
+            strain = strain / args.length
+        try:
+            result = compare(stress, strain, **record.grid, models=models, knots=args.knots)
+        except ValueError as e:
+            raise CLIError(f"{record.name}: {e}") from None
+        print(f"{record.name}:")
+        print(result.table())
+        for r in result.rows:
+            rows.append({"record": record.name, **{k: v for k, v in r.items() if k != "refit"},
+                         "verdict": result.verdict})
+    _write_table(out / "comparison.csv", rows)
+    print(f"→ {out / 'comparison.csv'}")
+    return 0
+
+
 def batch_command(args) -> int:
     from ._data import DataError
     from ._data._batch import run_batch
@@ -829,6 +870,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="tolerance of central finite differences (order step 1e-5), relative (default 1e-6)",
     )
     c.set_defaults(run=check_command)
+    m = sub.add_parser(
+        "compare",
+        help="which law do the data of one recorded test support: springpot, Kelvin-Voigt, "
+        "Maxwell, Zener and a variable order, ranked by evidence",
+    )
+    m.add_argument("file", help="CSV, NPZ or AFM file")
+    _column_options(m)
+    m.set_defaults(model=None)
+    m.add_argument("--out", required=True, help="output folder for comparison.csv")
+    m.add_argument(
+        "--record", help="with --group-by: the record to compare (default: the only one)"
+    )
+    m.add_argument(
+        "--models", default="springpot,kelvin-voigt,maxwell,zener,variable",
+        help="comma-separated laws to fit (default: all five)",
+    )
+    m.add_argument("--knots", type=int, default=3,
+                   help="knots of the variable order (default 3)")
+    m.set_defaults(run=compare_command)
     e = sub.add_parser(
         "example", help="copy a real recording shipped with vojax into the current folder"
     )
