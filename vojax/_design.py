@@ -15,8 +15,10 @@ import math
 
 import numpy as np
 
+import jax.numpy as jnp
+
 from . import _validate as check
-from ._integral import fractional_integral, order_sensitivity
+from ._integral import DEFAULT_TOL, _prepare
 
 
 class Design:
@@ -104,15 +106,13 @@ def fisher_information(
         raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
     if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
         raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
-    grid = dict(dt=dt) if t is None else dict(t=t)
-    kw = dict(rule=rule, memory=memory, order_range=order_range, **grid)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
-    phi = np.asarray(fractional_integral(u2, order, **kw)).reshape(num, n)
-    dphi = np.asarray(order_sensitivity(u2, order, **kw)).reshape(num, n)
+    # the grid, the orders and the memory checked and built as `fractional_integral` does;
+    # Φ and ∂Φ/∂b from one scan
+    u2, order_j, mem, _ = _prepare(u2, order, dt, t, rule, memory, DEFAULT_TOL, order_range)
     times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
     hats, places = _hats(times, int(knots))
-    columns = [(dphi @ p)[:, None] * hats, phi] + ([np.ones((num, 1))] if x0 else [])
-    jac = np.concatenate(columns, axis=1)
+    jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), jnp.asarray(hats), x0))
     names = (["order"] if knots == 1 else [f"order_knot_{k + 1}" for k in range(knots)])
     names += [f"p_{j + 1}" for j in range(n)] + (["x0"] if x0 else [])
     information = jac.T @ jac / noise_std**2
@@ -142,8 +142,6 @@ def fisher_information(
 
 def _jacobian(memory, u2, order, p, hats, x0):
     """The model's Jacobian (N, P) in JAX: the order's columns, Φ, and the offset's."""
-    import jax.numpy as jnp
-
     from ._integral import scan_memory
 
     phi, dphi = scan_memory(memory, u2, order, True)
@@ -186,7 +184,6 @@ def optimal_protocol(
     the protocol they give.
     """
     import jax
-    import jax.numpy as jnp
     import optimistix as optx
 
     from ._integral import make_memory

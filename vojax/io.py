@@ -58,6 +58,15 @@ def example_file(name: str) -> Path:
     return Path(__file__).parent / "examples" / _EXAMPLES[name]
 
 
+def _check_model(model, area, length):
+    """The model's name, and eq. (35)'s area and length where given, as the command checks them."""
+    if model not in ("springpot", "kelvin-voigt", "linear"):
+        raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
+    for key, value in (("area", area), ("length", length)):
+        if value is not None and not float(value) > 0:
+            raise ValueError(f"`{key}` must be positive, got {value}.")
+
+
 def identify_record(
     record: Record,
     *,
@@ -85,12 +94,8 @@ def identify_record(
     parameters, ``y``, ``y_hat``, the refit's columns), `summary` the estimates with their
     standard errors and the diagnostics (the contents of ``summary.json``).
     """
-    if model not in ("springpot", "kelvin-voigt", "linear"):
-        raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
+    _check_model(model, area, length)
     method = canonical_method(method)
-    for key, value in (("area", area), ("length", length)):
-        if value is not None and not float(value) > 0:
-            raise ValueError(f"`{key}` must be positive, got {value}.")
     return _identify_record(
         record, model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
         parameters=parameters,
@@ -141,8 +146,7 @@ def run_batch(
         with vojax.io.dask_client("local", workers=4) as client:
             report = vojax.io.run_batch(records, "out", client=client)
     """
-    if model not in ("springpot", "kelvin-voigt", "linear"):
-        raise ValueError(f"`model` must be springpot, kelvin-voigt or linear, got {model!r}.")
+    _check_model(model, area, length)
     records = list(records)
     if not all(isinstance(r, Record) for r in records):
         raise TypeError("`records` must be vojax.io.Record objects (see load_records).")
@@ -152,9 +156,6 @@ def run_batch(
         raise ValueError(f"two records share the name {duplicated[0]!r}; each needs its own.")
     if figure_format not in ("png", "svg", "pdf"):
         raise ValueError(f"`figure_format` must be png, svg or pdf, got {figure_format!r}.")
-    for key, value in (("area", area), ("length", length)):
-        if value is not None and not float(value) > 0:
-            raise ValueError(f"`{key}` must be positive, got {value}.")
     for key, value in (("gamma", gamma), ("lam", lam)):
         if value is None or (key == "gamma" and isinstance(value, str) and value == "auto"):
             continue

@@ -535,10 +535,11 @@ def _compute_chunk(chunk, num, dt, config):
     from .._tracker._track import run_threads
 
     out = []
+    index = {id(r): k for k, (r, _) in enumerate(chunk)}
     # one record per worker thread: the tracker's smoothings run one after another there
     with _x64(), run_threads(1):
         for r, state, result in _compute_group(chunk, num, dt, config):
-            i = next(k for k, (q, _) in enumerate(chunk) if q is r)
+            i = index[id(r)]
             if isinstance(result, Exception):
                 text = str(result).splitlines()[0] if str(result) else type(result).__name__
                 result = RuntimeError(text)

@@ -338,19 +338,29 @@ def _share(rows, firsts, lo, hi, size):
     return _stack_hypers([rows[i] for i in pick]), firsts[np.asarray(pick)]
 
 
-def run_batch_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
-    """`smoother_batch` over the runs ``rows`` × ``firsts`` split into shares run in threads
-    (`_in_threads`); the same result as one call: the best run by score (the first of equal
-    ones), its index, the index of the best by objective, the scores."""
+def _run_shares(fn, memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+    """`fn` (`smoother_batch` or `smoother_modes`) over the runs ``rows`` × ``firsts``, split
+    into shares run in threads (`_in_threads`); ``[((lo, hi), output)]``."""
     def call(lo, hi, size):
         hyper, first = _share(rows, firsts, lo, hi, size)
-        out = smoother_batch(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds,
-                             budget)
+        out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget)
         return jax.block_until_ready(out)
 
-    parts = _in_threads(smoother_batch, len(rows), call, (u.shape, budget))
-    scores = np.concatenate([np.asarray(o[3])[: hi - lo] for (lo, hi), o in parts])
-    alts = np.concatenate([np.asarray(o[5])[: hi - lo] for (lo, hi), o in parts])
+    return _in_threads(fn, len(rows), call, (u.shape, budget))
+
+
+def _joined(parts, k):
+    """Output `k` of every share, its padding dropped, end to end."""
+    return np.concatenate([np.asarray(o[k])[: hi - lo] for (lo, hi), o in parts])
+
+
+def run_batch_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+    """`smoother_batch` in shares (`_run_shares`); the same result as one call: the best run
+    by score (the first of equal ones), its index, the index of the best by objective, the
+    scores."""
+    parts = _run_shares(smoother_batch, memory, u, y, mask, steps, horizon, rows, m0, p0,
+                        firsts, bounds, budget)
+    scores, alts = _joined(parts, 3), _joined(parts, 5)
     i = int(np.argmax(scores)) if np.any(np.isfinite(scores)) else -1
     i_alt = int(np.argmax(alts)) if np.any(np.isfinite(alts)) else -1
     holder = next(o for (lo, hi), o in parts if lo <= max(i, 0) < hi)
@@ -358,17 +368,10 @@ def run_batch_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, b
 
 
 def run_mode_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
-    """`smoother_modes` over the runs ``rows`` × ``firsts``, in threads (`_in_threads`)."""
-    def call(lo, hi, size):
-        hyper, first = _share(rows, firsts, lo, hi, size)
-        out = smoother_modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds,
-                             budget)
-        return jax.block_until_ready(out)
-
-    parts = _in_threads(smoother_modes, len(rows), call, (u.shape, budget))
-    return tuple(
-        np.concatenate([np.asarray(o[k])[: hi - lo] for (lo, hi), o in parts]) for k in range(4)
-    )
+    """`smoother_modes` in shares (`_run_shares`): its four outputs, one row per run."""
+    parts = _run_shares(smoother_modes, memory, u, y, mask, steps, horizon, rows, m0, p0,
+                        firsts, bounds, budget)
+    return tuple(_joined(parts, k) for k in range(4))
 
 
 def _stack_hypers(values):
