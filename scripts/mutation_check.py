@@ -502,7 +502,7 @@ MUTATIONS = {
         ["tests/test_outputs.py::test_vojax_overwrites_only_what_it_wrote"],
     ),
     "time left paced from the start": (
-        "vojax/_data/_batch.py",
+        "vojax/_progress.py",
         [("    return (elapsed - first) / (done - 1) * (total - done)",
           "    return elapsed / done * (total - done)")],
         ["tests/test_batch.py::test_time_left_is_paced_after_the_first_record"],

@@ -171,12 +171,15 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
         ref = vojax.identify(stress, strain, 0.1, warn=False, method="gradient")
         assert alpha.shape == (t.size,)
         np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-10)
-    # the progress line announces the bucket's compilation, then counts records and failures
+    # the progress bar announces the bucket's compilation, then counts records and failures;
+    # off by default where stderr is not a terminal (here), on with --progress
     capsys.readouterr()
     assert main([*args[:-1], "--out", str(tmp_path / "again")]) == 0
+    assert capsys.readouterr().err == ""
+    assert main([*args[:-1], "--progress", "--out", str(tmp_path / "third")]) == 0
     err = capsys.readouterr().err
     assert "length bucket 1/1 (3 record(s) padded to 128 samples): compiling" in err
-    assert "3/3 done, 0 failed, 0 up to date" in err
+    assert "vojax batch: 3/3 done" in err and "0 failed, 0 up to date; about 0 s left" in err
 
 
 @pytest.mark.slow
@@ -262,12 +265,49 @@ def test_time_left_is_paced_after_the_first_record():
     """The first record of a batch also compiles: the time left is paced on the records after
     it (3 s each here, after a first one of 40 s), none is guessed after one record, and 0
     is left at the end."""
-    from vojax._data._batch import time_left
+    from vojax._progress import time_left
 
     assert time_left(40.0, 40.0, 1, 10) is None
     assert time_left(46.0, 40.0, 3, 10) == pytest.approx(3.0 * 7)
     assert time_left(67.0, 40.0, 10, 10) == 0.0
 
+
+def test_progress_bar_only_on_a_terminal_unless_asked(tmp_path, monkeypatch):
+    """``progress=None`` draws the bar when stderr is a terminal and nothing otherwise; the
+    bar counts the records done, failed and up to date; True/False force it; anything else
+    is refused before a file is written."""
+    import io
+
+    from vojax._data import load_records
+    from vojax.io import run_batch
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for i in range(3):
+        _springpot_csv(data / f"r{i}.csv", n=40, q=0.4)
+    records = [
+        r for p in sorted(data.glob("r*.csv"))
+        for r in load_records(p, time="time_s", inputs=["stress"], output="strain")
+    ]
+    settings = dict(method="refit", record_figures=False)
+    for where, progress, drawn in (("a", None, True), ("b", False, False)):
+        terminal = Terminal()
+        monkeypatch.setattr(sys, "stderr", terminal)
+        run_batch(records, tmp_path / where, progress=progress, **settings)
+        assert ("vojax batch: 3/3 done" in terminal.getvalue()) is drawn, terminal.getvalue()
+    pipe = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", pipe)
+    run_batch(records[:2], tmp_path / "a", progress=None, **settings)  # up to date, no bar
+    assert pipe.getvalue() == ""
+    run_batch(records, tmp_path / "a", progress=True, **settings)
+    assert "vojax batch: 0/0 done" in pipe.getvalue() and "0 failed, 3 up to date" in pipe.getvalue()
+    with pytest.raises(TypeError, match="progress"):
+        run_batch(records, tmp_path / "c", progress="yes", **settings)
+    assert not (tmp_path / "c").exists()
 
 def _tables(out):
     """Every number a batch wrote: summary.csv by record and column, each record's

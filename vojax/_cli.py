@@ -683,7 +683,7 @@ def batch_command(args) -> int:
                 out,
                 **_settings(args),
                 failures=failures,
-                progress=not args.quiet,
+                progress=False if args.quiet else (True if args.progress else None),
                 loader=_loader(args),
                 overwrite=not args.no_overwrite,
                 figure_format=args.format,
@@ -904,7 +904,13 @@ def build_parser() -> argparse.ArgumentParser:
         "record unless --group-by",
     )
     _data_options(b, many=True)
-    b.add_argument("--quiet", action="store_true", help="no progress line (default: one on stderr)")
+    shown = b.add_mutually_exclusive_group()
+    shown.add_argument(
+        "--progress", action="store_true",
+        help="a progress bar on stderr even when it is not a terminal (default: only on a "
+        "terminal)",
+    )
+    shown.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument(
         "--no-overwrite",
         action="store_true",

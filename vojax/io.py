@@ -25,6 +25,7 @@ from ._data._pipeline import canonical_method, make_provenance, write_outputs
 from ._data._records import DataError, Record, load_records
 from ._data._batch import BatchReport, dask_client
 from ._data._batch import run_batch as _run_batch
+from ._progress import wanted
 
 __all__ = [
     "BatchReport",
@@ -130,13 +131,17 @@ def run_batch(
     overwrite: bool = True,
     figure_format: str = "png",
     record_figures: bool = True,
-    progress: bool = True,
+    progress: bool | None = None,
     client=None,
 ) -> BatchReport:
     """Identifies every `Record` into ``out/<folder>/`` as ``vojax batch`` does (the same
     defaults, outputs, lock, provenance and re-run rules; see the command line's docs) and
     returns a `BatchReport` (records computed, skipped as up to date, redone, failed, and not
     identified). A record that fails is listed in ``out/failures.csv`` and the rest go on.
+
+    `progress`: a progress bar (tqdm) on stderr with the records done, failed and up to date
+    and the time left; ``None`` (the default) shows it when stderr is a terminal, not in a log
+    file or a pipe.
 
     `client`: a Dask ``distributed.Client`` to compute the records on its workers
     (``pip install "vojax[dask]"``); `dask_client` makes one (``"local"``: worker processes on
@@ -147,6 +152,7 @@ def run_batch(
             report = vojax.io.run_batch(records, "out", client=client)
     """
     _check_model(model, area, length)
+    wanted(progress)  # True, False or None
     records = list(records)
     if not all(isinstance(r, Record) for r in records):
         raise TypeError("`records` must be vojax.io.Record objects (see load_records).")

@@ -14,7 +14,6 @@ import dataclasses
 import io
 import json
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -35,22 +34,23 @@ from .._identify import (
 from .._integral import make_memory
 from .._io import atomic_path
 from .._plotting import warm_record_figure
+from .._progress import Bar, wanted
 from .._stats import noise_variance
-from ._paths import claim_outputs, check_out_holds_no_input, inside, record_folder
+from ._paths import check_out_holds_no_input, claim_outputs, inside, record_folder
 from ._pipeline import (
     adaptive_part,
     canonical_method,
     check_finite,
     check_parameters,
     disagreement,
+    estimator,
     finish_outputs,
     identify_record,
     make_provenance,
     plan_buckets,
-    estimator,
     record_header,
-    runs_refit,
     regressors,
+    runs_refit,
     write_table,
 )
 
@@ -200,7 +200,7 @@ def run_batch(
     area=None,
     length=None,
     failures=(),
-    progress=True,
+    progress=None,
     loader=None,
     overwrite=True,
     buckets=True,
@@ -295,11 +295,9 @@ def run_batch(
         figures = _Figures(figure_workers if record_figures else 0, len(todo))
         cleanup.callback(figures.close)  # an interrupted run stops its workers too
 
-        started = time.perf_counter()
-        total = len(todo)
-
+        bar = cleanup.enter_context(Bar(len(todo), wanted(progress)))
+        bar.update(0, failed=report.failed, skipped=report.skipped)
         last_table = [time.perf_counter()]
-        first_at = [started]
 
         def finished(r, state, ok):
             if ok:
@@ -317,20 +315,7 @@ def run_batch(
                     last_table[0] = time.perf_counter()
             else:
                 report.failed += 1
-            if progress:
-                n = report.computed + report.redone + report.failed - len(failures)
-                now = time.perf_counter()
-                if n == 1:
-                    first_at[0] = now
-                left = time_left(now - started, first_at[0] - started, n, total)
-                left = "estimating the time left" if left is None else f"about {left:.0f} s left"
-                print(
-                    f"\rvojax batch: {n}/{total} done, {report.failed} failed, "
-                    f"{report.skipped} up to date; {left}   ",
-                    end="",
-                    file=sys.stderr,
-                    flush=True,
-                )
+            bar.update(failed=report.failed, skipped=report.skipped)
 
         def fail(r, e):
             failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
@@ -389,29 +374,22 @@ def run_batch(
 
         if client is None:
             for b, ((num, dt), group) in enumerate(groups.items()):
-                if progress:  # the first record of a bucket compiles its programs: say so
-                    what = (
-                        f"{len(group)} record(s) padded to {num} samples" if num is not None
-                        else f"record {dt!r} on its own irregular clock"
-                    )
-                    print(
-                        f"\rvojax batch: length bucket {b + 1}/{len(groups)} ({what}): "
-                        "compiling…   ",
-                        end="",
-                        file=sys.stderr,
-                        flush=True,
-                    )
+                # the first record of a bucket compiles its programs: say so
+                what = (
+                    f"{len(group)} record(s) padded to {num} samples" if num is not None
+                    else f"record {dt!r} on its own irregular clock"
+                )
+                bar.note(f"length bucket {b + 1}/{len(groups)} ({what}): compiling")
                 for r, state, result in _compute_group(group, num, dt, config, mesh):
                     settle(r, state, result)
         else:
-            for chunk, results in _on_dask(client, groups, config, progress):
+            for chunk, results in _on_dask(client, groups, config, bar):
                 for i, state, result in results:
                     settle(chunk[i][0], state, result)
         for _ in figures.drain():
             settled()
         settled()
-        if progress:
-            print(file=sys.stderr)
+        bar.close()
         rows = _write_summary_table(
             out_dir, records, folders, provenance, rows_cache, failed, overwrite
         )
@@ -550,7 +528,7 @@ def _compute_chunk(chunk, num, dt, config):
     return out
 
 
-def _on_dask(client, groups, config, progress):
+def _on_dask(client, groups, config, bar):
     """Submits every bucket to `client`'s workers, cut into chunks (about
     `DASK_TASKS_PER_WORKER` per worker: a bucket's programs compile once per worker that
     runs it), and yields ``(chunk, results)`` as tasks finish. A task lost with its worker
@@ -564,14 +542,10 @@ def _on_dask(client, groups, config, progress):
         for k in range(0, len(group), size):
             chunk = group[k : k + size]
             futures[client.submit(_compute_chunk, chunk, num, dt, config, pure=False)] = chunk
-    if progress:
-        print(
-            f"\rvojax batch: {len(futures)} task(s) of {len(groups)} length bucket(s) on "
-            f"{workers} Dask worker thread(s)…   ",
-            end="",
-            file=sys.stderr,
-            flush=True,
-        )
+    bar.note(
+        f"{len(futures)} task(s) of {len(groups)} length bucket(s) on {workers} Dask worker "
+        "thread(s)"
+    )
     try:
         for future in as_completed(futures):
             chunk = futures[future]
@@ -815,15 +789,6 @@ class BatchReport:
     # records in summary.csv whose tracker did not identify the order (the law's never does:
     # it is not counted)
     unidentified: int = 0
-
-
-def time_left(elapsed, first, done, total):
-    """Seconds left in a batch, from the pace after its first record (`first`: seconds to the
-    end of it), which also compiled the programs: timed from the start, the first estimate
-    was 8 times too long. None until two records are done."""
-    if done < 2 or total <= done:
-        return None if done < 2 and total > done else 0.0
-    return (elapsed - first) / (done - 1) * (total - done)
 
 
 def _pad_to(a, num, value):
