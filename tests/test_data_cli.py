@@ -470,3 +470,47 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
         flags = {r["record"]: r["kalman_identified"] for r in csv.DictReader(f)}
     assert flags == {"clean": "True", "noise": "False"}
     assert "2 computed" in proc.stdout and "1 of them with the order not identified" in proc.stdout
+
+
+def test_units_label_the_figures_and_change_no_number(tmp_path, capsys, monkeypatch):
+    """``--units stress=kPa,strain=1`` puts the units on the figure's axes and in
+    summary.json and changes no number; a malformed spec or a column the record does not use
+    is refused in one line, before anything is identified."""
+    from vojax import _plotting
+    from vojax._cli import main
+
+    _springpot_csv(tmp_path / "s.csv", n=60)
+    labels = []
+    real = _plotting._save
+
+    def keep(fig, path, **kw):
+        if path.name.startswith("identification"):
+            labels.append((fig.axes[0].get_ylabel(), fig.axes[1].get_ylabel()))
+        real(fig, path, **kw)
+
+    monkeypatch.setattr(_plotting, "_save", keep)
+    args = ["identify", str(tmp_path / "s.csv"), "--time", "time_s", "--input", "stress",
+            "--output", "strain", "--method", "refit"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert main([*args, "--units", "stress=kPa, strain=1", "--out", str(tmp_path / "b")]) == 0
+    assert labels == [("strain", "stress"), ("strain (1)", "stress (kPa)")]
+    a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in "ab")
+    assert "units" not in a and b["units"] == {"strain": "1", "stress": "kPa"}
+    assert a["refit"]["order"] == b["refit"]["order"]
+    assert (tmp_path / "a" / "identification.csv").read_bytes() == (
+        tmp_path / "b" / "identification.csv"
+    ).read_bytes()
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main([*args, "--units", "stress", "--out", str(tmp_path / "c")])
+    assert "COLUMN=UNIT" in capsys.readouterr().err
+    assert main([*args, "--units", "force=N", "--out", str(tmp_path / "d")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--units names 'force'" in err
+    assert not (tmp_path / "d").exists()
+    with pytest.raises(ValueError, match="short printable"):
+        load_records(tmp_path / "s.csv", time="time_s", inputs=["stress"], output="strain",
+                     units={"stress": "k\nPa"})
+    (rec,) = load_records(tmp_path / "s.csv", time="time_s", inputs=["stress"],
+                          output="strain", units={"time_s": "ms"})
+    assert rec.units == (("time_s", "ms"),)

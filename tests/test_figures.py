@@ -258,3 +258,31 @@ def test_axis_labels_carry_the_units_of_the_column_names():
         "mass_kg_total": "mass_kg_total",
     }
     assert {k: axis_label(k) for k in cases} == cases
+
+
+def test_the_record_figure_says_why_the_order_was_not_identified(tmp_path, monkeypatch):
+    """The title carries the verdict and, when not identified, the first sentence of the
+    reason (cut to one line); an identified record's title has no second line."""
+    from vojax import _plotting
+
+    columns, summary, inputs = _records()["c"]
+    titles = []
+    real = _plotting._save
+
+    def keep(fig, path, **kw):
+        titles.append(fig._suptitle.get_text())
+        real(fig, path, **kw)
+
+    monkeypatch.setattr(_plotting, "_save", keep)
+    reason = ("the order band is wider than a third of the order range: a longer hold or a "
+              "second input would help. Its gains sit at the edge of their search box " + "x" * 200)
+    for identified in (True, False):
+        part = {"method": "kalman", "identified": identified, "message": "" if identified else reason}
+        _plotting.record_figure(columns, {**summary, "kalman": part}, inputs, tmp_path / "f.png")
+    ok, refused = titles
+    assert ok == "c — linear (order identified)"
+    head, line = refused.split("\n")
+    assert head == "c — linear (order not identified)"
+    assert line.startswith("the order band is wider") and line.endswith("would help.")
+    long = _plotting.first_sentence("x" * 300)
+    assert len(long) == 110 and long.endswith("…")

@@ -234,6 +234,19 @@ def _segments(text: str):
     return values
 
 
+def _units(text: str):
+    """``--units stress=kPa,time=ms`` as a dict."""
+    out = {}
+    for part in text.split(","):
+        column, eq, unit = part.partition("=")
+        if not eq or not column.strip() or not unit.strip():
+            raise argparse.ArgumentTypeError(
+                f"expected COLUMN=UNIT pairs separated by commas (stress=kPa,time=ms), got {text!r}"
+            )
+        out[column.strip()] = unit.strip()
+    return out
+
+
 def _column_options(p):
     """How a file is read and turned into the model's signals (identify, batch, check)."""
     p.add_argument("--time", required=True, help="name of the time column (its unit is the time unit)")
@@ -358,6 +371,14 @@ def _data_options(p, *, many: bool):
     _column_options(p)
     _refit_options(p)
     p.add_argument(
+        "--units",
+        type=_units,
+        metavar="COLUMN=UNIT,…",
+        help="units of columns whose names do not end in one, for the figures' axis labels, "
+        "e.g. stress=kPa,strain=1,time=ms (a name such as stress_kPa already says it); "
+        "changes no number",
+    )
+    p.add_argument(
         "--parameters",
         choices=("drifting", "constant"),
         default=None,
@@ -449,30 +470,22 @@ FIT_OPTIONS = ("origin", "fit_from", "fit_to")
 
 def _load(path, args):
     from ._data import load_records
+    from ._data._records import check_units
 
     if (args.trim_column is None) != (args.trim_below is None):
         raise CLIError("--trim-column and --trim-below go together.")
     if args.decimal_comma and args.delimiter == ",":
         raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
+    try:
+        check_units(getattr(args, "units", None), [args.time, *args.inputs, args.output])
+    except ValueError as e:
+        raise CLIError(str(e).replace("`units`", "--units")) from None
     import warnings
 
     # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        records = load_records(
-            path,
-            time=args.time,
-            inputs=args.inputs,
-            output=args.output,
-            group_by=args.group_by,
-            strict=args.strict,
-            resample=args.resample,
-            trim_column=args.trim_column,
-            trim_below=args.trim_below,
-            delimiter=args.delimiter,
-            decimal="," if args.decimal_comma else ".",
-            **_afm_loader(args),
-        )
+        records = load_records(path, **_loader(args))
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
     return records
@@ -506,6 +519,7 @@ def _loader(args) -> dict:
         delimiter=args.delimiter,
         decimal="," if args.decimal_comma else ".",
         **_afm_loader(args),
+        **({"units": args.units} if getattr(args, "units", None) else {}),
     )
 
 

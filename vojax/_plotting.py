@@ -135,14 +135,25 @@ UNITS = {
 }
 
 
-def axis_label(column: str) -> str:
+def axis_label(column: str, units=None) -> str:
     """An axis label from a column name whose last ``_`` part is a unit (`UNITS`):
-    ``nominal_shear_stress_kPa`` → "nominal shear stress (kPa)", ``x_um`` → "x (µm)"; any
-    other name is used as it is."""
+    ``nominal_shear_stress_kPa`` → "nominal shear stress (kPa)", ``x_um`` → "x (µm)"; a unit
+    given in `units` ({column: unit}) wins: ``stress`` with ``{"stress": "kPa"}`` → "stress
+    (kPa)"; any other name is used as it is."""
+    if units and column in units:
+        return f"{str(column).replace('_', ' ')} ({units[column]})"
     quantity, _, unit = str(column).rpartition("_")
     if quantity and unit in UNITS:
         return f"{quantity.replace('_', ' ')} ({UNITS[unit]})"
     return str(column)
+
+
+def first_sentence(text: str, limit: int = 110) -> str:
+    """The first sentence of a diagnostic message, cut at `limit` characters (a title)."""
+    text = " ".join(str(text).split())
+    end = text.find(". ")
+    text = text if end < 0 else text[: end + 1]
+    return text if len(text) <= limit else text[: limit - 1].rstrip() + "…"
 
 
 def warm_record_figure() -> None:
@@ -159,11 +170,11 @@ def record_figure(columns, summary, inputs, path) -> None:
     tracker = "kalman" if "kalman" in summary else "gradient" if "gradient" in summary else None
     kind = {"gradient": "paper's law", "kalman": "tracker"}.get(tracker, "identified")
     time_column = summary.get("time_column", "t")
-    unit = axis_label(time_column)
-    time_label = (
-        f"time ({UNITS[time_column.rpartition('_')[2]]}, from the first sample)"
-        if unit != time_column else f"time ({time_column}, from the first sample)"
-    )
+    units = summary.get("units") or {}
+    time_unit = units.get(time_column) or UNITS.get(time_column.rpartition("_")[2])
+    if not time_column.rpartition("_")[0] and time_column not in units:
+        time_unit = None
+    time_label = f"time ({time_unit or time_column}, from the first sample)"
     fig, axes = _record_axes()
     ax = axes[0, 0]
     ax.plot(t, columns["y"], "k", lw=1.2, label="measured")
@@ -171,16 +182,16 @@ def record_figure(columns, summary, inputs, path) -> None:
         ax.plot(t, columns["y_hat"], "C3--", lw=1.0, label=kind)
     if "refit_y_hat" in columns:
         ax.plot(t, columns["refit_y_hat"], "C0:", lw=1.2, label="refit")
-    out = axis_label(summary["output_column"])
+    out = axis_label(summary["output_column"], units)
     if summary.get("length"):
         out = f"{out} / {summary['length']:g}"
     ax.set(title="output", xlabel=time_label, ylabel=out)
     ax.legend()
     ax = axes[0, 1]
     for i, name in enumerate(summary["input_columns"]):
-        ax.plot(t, inputs[:, i], label=axis_label(name))
+        ax.plot(t, inputs[:, i], label=axis_label(name, units))
     ax.set(title="input", xlabel=time_label,
-           ylabel=", ".join(axis_label(c) for c in summary["input_columns"]))
+           ylabel=", ".join(axis_label(c, units) for c in summary["input_columns"]))
     ax.legend()
     ax = axes[1, 0]
     if "alpha" in columns:
@@ -236,7 +247,9 @@ def record_figure(columns, summary, inputs, path) -> None:
     if summary.get("disagreement"):
         verdict.append("the estimators' bands are disjoint")
     title = f"{summary['record']} — {summary['model']}"
-    fig.suptitle(title + (f" ({'; '.join(verdict)})" if verdict else ""))
+    title += f" ({'; '.join(verdict)})" if verdict else ""
+    reason = first_sentence(part.get("message", "")) if part and not part.get("identified", True) else ""
+    fig.suptitle(title + (f"\n{reason}" if reason else ""))
     _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
 
 

@@ -247,6 +247,7 @@ def record_header(record, model, method, area, length):
         "output_column": record.output_name,
         "area": area,
         "length": length,
+        **({"units": dict(record.units)} if record.units else {}),
     }
 
 

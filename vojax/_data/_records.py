@@ -42,6 +42,7 @@ class Record:
     time_name: str = "time"
     uniform: bool = True
     time_offset: float = 0.0
+    units: tuple[tuple[str, str], ...] = ()
 
     @property
     def grid(self) -> dict:
@@ -239,6 +240,7 @@ def load_records(
     from_contact: bool = True,
     tip=None,
     poisson: float = 0.5,
+    units: dict | None = None,
 ) -> list[Record]:
     """Reads the records of one CSV, NPZ or AFM file.
 
@@ -265,9 +267,59 @@ def load_records(
       the approach and the hold; default all); `from_contact`: drop the samples before the
       contact point (default); `tip`: ``("sphere", R)`` with R in m or ``("cone", θ)`` with
       the half-angle in degrees, and `poisson`, for ``contact_strain``.
+    - `units`: the units of columns whose names do not end in one, for the figures' axis
+      labels, e.g. ``{"stress": "kPa", "time": "ms"}`` (a name such as ``stress_kPa`` already
+      says it). They change no number.
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
+    pairs = check_units(units, [time, *inputs, output])
+    records = _load_records(
+        path, time=time, inputs=inputs, output=output, group_by=group_by, strict=strict,
+        resample=resample, trim_column=trim_column, trim_below=trim_below,
+        delimiter=delimiter, decimal=decimal, segments=segments, from_contact=from_contact,
+        tip=tip, poisson=poisson,
+    )
+    return [dataclasses.replace(r, units=pairs) for r in records] if pairs else records
+
+
+def check_units(units, columns) -> tuple[tuple[str, str], ...]:
+    """`units` ({column: unit}) checked against the record's columns, as sorted pairs."""
+    if units is None:
+        return ()
+    if not isinstance(units, dict):
+        raise TypeError(f"`units` must be a dict of column: unit, got {type(units).__name__}.")
+    for column, unit in units.items():
+        if column not in columns:
+            raise ValueError(
+                f"`units` names {column!r}, which is not the time, an input or the output "
+                f"column ({', '.join(columns)})."
+            )
+        if not isinstance(unit, str) or not unit.strip() or len(unit) > 24 or not unit.isprintable():
+            raise ValueError(
+                f"the unit of {column!r} must be a short printable text, got {unit!r}."
+            )
+    return tuple(sorted((c, u.strip()) for c, u in units.items()))
+
+
+def _load_records(
+    path,
+    *,
+    time: str,
+    inputs: list[str],
+    output: str,
+    group_by: str | None = None,
+    strict: bool = False,
+    resample: float | None = None,
+    trim_column: str | None = None,
+    trim_below: float | None = None,
+    delimiter: str = ",",
+    decimal: str = ".",
+    segments=None,
+    from_contact: bool = True,
+    tip=None,
+    poisson: float = 0.5,
+) -> list[Record]:
     if delimiter not in (",", ";", "\t"):
         raise ValueError(f"`delimiter` must be ',', ';' or a tab, got {delimiter!r}.")
     if decimal not in (".", ","):
