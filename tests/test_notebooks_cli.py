@@ -102,6 +102,11 @@ def test_demo_writes_figures_and_summary(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["samples"] == 3001 and summary["gamma"] == 0.01 and summary["lam"] == 0.9
     assert 0 < summary["order_rms_t_gt_50"] < 0.05
+    # the tracker on the same record: its band holds the true order where the law's does not
+    tracker = summary["tracker"]
+    assert tracker["identified"] and tracker["order_rms_t_gt_50"] < 0.03
+    assert tracker["band_coverage_t_gt_50"] >= 0.9 > summary["band_coverage_t_gt_50"]
+    assert "tracker's ±2σ band: coverage, half-width" in proc.stdout
     assert summary["versions"]["vojax"] == vojax.__version__
     assert "order RMS error, t > 50 s" in proc.stdout
     assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporaries

@@ -153,7 +153,7 @@ def demo(args) -> int:
     from ._io import write_json
     from ._data._paths import claim_outputs
     from ._plotting import STUDY_FIGURES, study_figures
-    from ._study import simulate_study, study_errors
+    from ._study import band_coverage, simulate_study, study_errors
 
     if not args.dt > 0 or 300.0 / args.dt > 2e6:
         raise CLIError(
@@ -176,11 +176,26 @@ def demo(args) -> int:
         memory=args.memory,
         rule=args.rule,
         x0=0.0,
+        warn=False,  # its band is described in the table, as what it is
     )
     result.alpha.block_until_ready()
     identified = time.perf_counter()
     errors = study_errors(data["t"], data["alpha"], data["p"], result)
-    figures = study_figures(data["t"], data["alpha"], data["p"], data["x"], data["y"], result, out)
+    law_band = band_coverage(data["t"], data["alpha"], result)
+    tracker, tracked = None, {}
+    if args.tracker:  # vojax's default estimator on the same record, with its band
+        tracker = identify(data["u"], data["y"], args.dt, warn=False)
+        tracker.alpha.block_until_ready()
+        tracked = {
+            **study_errors(data["t"], data["alpha"], data["p"], tracker),
+            **band_coverage(data["t"], data["alpha"], tracker),
+            "identified": bool(tracker.diagnostics.identified),
+            "message": tracker.diagnostics.message,
+            "time_identify_s": time.perf_counter() - identified,
+        }
+    figures = study_figures(
+        data["t"], data["alpha"], data["p"], data["x"], data["y"], result, out, tracker
+    )
     summary = {
         "study": "paper eq. (34): u = [sin 0.5t, cos 0.2t], noise variance 0.25",
         "dt": args.dt,
@@ -196,8 +211,10 @@ def demo(args) -> int:
         "output_rms_error_vs_noise_free": float(
             np.sqrt(np.mean((np.asarray(result.y_hat) - data["x"]) ** 2))
         ),
+        **law_band,
         "time_simulate_s": simulated - started,
         "time_identify_s": identified - simulated,
+        **({"tracker": tracked} if tracked else {}),
         "figures": figures,
         "versions": versions(),
     }
@@ -210,10 +227,25 @@ def demo(args) -> int:
         ("gains γ, λ", f"{float(result.gamma):.4g}, {float(result.lam):.4g}"),
         ("samples, h", f"{data['t'].size}, {args.dt:g} s"),
         (
+            "law's ±2σ (noise only): coverage, half-width",
+            f"{law_band['band_coverage_t_gt_50']:.2f}, {law_band['band_halfwidth_t_gt_50']:.4f}",
+        ),
+        (
             "time: simulate, identify",
             f"{simulated - started:.2f} s, {identified - simulated:.2f} s (incl. compile)",
         ),
     ]
+    if tracked:
+        rows += [
+            ("tracker: order RMS error, t > 50 s", f"{tracked['order_rms_t_gt_50']:.4f}"),
+            (
+                "tracker's ±2σ band: coverage, half-width",
+                f"{tracked['band_coverage_t_gt_50']:.2f}, "
+                f"{tracked['band_halfwidth_t_gt_50']:.4f}",
+            ),
+            ("tracker: identified, time", f"{'yes' if tracked['identified'] else 'no'}, "
+             f"{tracked['time_identify_s']:.1f} s (incl. compile)"),
+        ]
     width = max(len(r[0]) for r in rows)
     print(f"vojax demo: the simulation study (34) of the paper → {out}/")
     for name, value in rows:
@@ -818,6 +850,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--lam", type=_gain, default=0.9, help="forgetting factor λ (default 0.9, the paper's)"
     )
     d.add_argument("--alpha0", type=_order, default=0.5, help="initial order estimate (default 0.5)")
+    d.add_argument(
+        "--tracker",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="also run vojax's tracker (identify's default) on the same record and draw its "
+        "band (default; about 30 s on 2 cores); --no-tracker: the paper's law alone",
+    )
     d.add_argument(
         "--memory",
         choices=("exponential", "direct"),

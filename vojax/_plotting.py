@@ -31,8 +31,12 @@ def _save(fig, path, dpi=110, compress_level=None):
 STUDY_FIGURES = ("fig2_order.png", "fig3_output.png", "fig4_parameters.png")
 
 
-def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[str]:
-    """Writes Figs. 2–4 of the paper (order, output, parameters) as PNG files; returns names."""
+def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir, tracker=None) -> list[str]:
+    """Writes Figs. 2–4 of the paper (order, output, parameters) as PNG files; returns names.
+    `result` is the paper's law, drawn with its ±2σ (the spread over the noise alone, not a
+    confidence band); `tracker`, when given, vojax's tracker with its ±2σ band."""
+    import numpy as np
+
     written = []
 
     def save(fig, name):
@@ -43,26 +47,44 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir) -> list[s
         fig = _figure(figsize=figsize, layout="constrained")
         return fig, fig.subplots(*shape, **options)
 
-    fig, ax = subplots(figsize=(7, 3.5))
+    fig, ax = subplots(figsize=(7, 3.8))
     ax.plot(t, truth_alpha, "k", lw=1.5, label=r"$\alpha^*$")
-    ax.plot(t, result.alpha, "C3--", lw=1.2, label=r"$\hat\alpha$")
-    ax.set(xlabel="t (s)", ylabel="order", title="Fig. 2: actual and identified order")
-    ax.legend()
+    ax.fill_between(t, result.alpha_lower, result.alpha_upper, color="C3", alpha=0.25, lw=0,
+                    label="law ±2σ (noise only)")
+    ax.plot(t, result.alpha, "C3--", lw=1.2, label=r"$\hat\alpha$, paper's law")
+    if tracker is not None:
+        ax.fill_between(t, tracker.alpha_lower, tracker.alpha_upper, color="C0", alpha=0.2,
+                        lw=0, label="tracker ±2σ band")
+        ax.plot(t, tracker.alpha, "C0", lw=1.0, label=r"$\hat\alpha$, tracker")
+    ax.set(xlabel="t (s)", ylabel="order α", title="Fig. 2: actual and identified order")
+    ax.legend(ncols=2 if tracker is not None else 1, fontsize="small")
     save(fig, STUDY_FIGURES[0])
 
     fig, ax = subplots(figsize=(7, 3.5))
     ax.plot(t, y, color="0.7", lw=0.6, label="measured $x^*+\\nu$")
     ax.plot(t, x_true, "k", lw=1.2, label="$x^*$")
-    ax.plot(t, result.y_hat, "C3--", lw=1.0, label=r"$\hat x$")
-    ax.set(xlabel="t (s)", ylabel="output", title="Fig. 3: actual and identified output")
-    ax.legend(ncols=3)
+    ax.plot(t, result.y_hat, "C3--", lw=1.0, label=r"$\hat x$, paper's law")
+    if tracker is not None:
+        ax.plot(t, tracker.y_hat, "C0:", lw=1.0, label=r"$\hat x$, tracker")
+    ax.set(xlabel="t (s)", ylabel="output x", title="Fig. 3: actual and identified output")
+    ax.legend(ncols=2, fontsize="small")
     save(fig, STUDY_FIGURES[1])
 
-    fig, axes = subplots(2, 1, figsize=(7, 5), sharex=True)
+    fig, axes = subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    shown = [("paper's law", result, "C3", "--")]
+    if tracker is not None:
+        shown.append(("tracker", tracker, "C0", "-"))
     for i, ax in enumerate(axes):
         ax.plot(t, truth_p[:, i], "k", lw=1.5, label=f"$p^*_{i + 1}$")
-        ax.plot(t, result.p[:, i], "C3--", lw=1.0, label=f"$\\hat p_{i + 1}$")
-        ax.legend()
+        series = [truth_p[:, i]]
+        for name, res, colour, style in shown:
+            p, sd = np.asarray(res.p)[:, i], np.asarray(res.p_std)[:, i]
+            ax.fill_between(t, p - 2 * sd, p + 2 * sd, color=colour, alpha=0.2, lw=0)
+            ax.plot(t, p, colour, ls=style, lw=1.0, label=f"$\\hat p_{i + 1}$, {name} (±2σ)")
+            series.append(p)
+        _robust_limits(ax, series)
+        ax.set_ylabel(f"$p_{i + 1}$")
+        ax.legend(fontsize="small")
     axes[0].set_title("Fig. 4: actual and identified parameters")
     axes[1].set_xlabel("t (s)")
     save(fig, STUDY_FIGURES[2])

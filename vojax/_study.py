@@ -60,3 +60,15 @@ def study_errors(t, alpha_true, p_true, result):
         "p1_rms_t_gt_50": rms(ep[:, 0], t > 50),
         "p2_rms_t_gt_50": rms(ep[:, 1], t > 50),
     }
+
+
+def band_coverage(t, alpha_true, result, after=50.0):
+    """The fraction of the samples after `after` s whose true order lies in the result's ±2σ
+    band, and the band's median half-width there."""
+    m = np.asarray(t) > after
+    lo, hi = np.asarray(result.alpha_lower)[m], np.asarray(result.alpha_upper)[m]
+    truth = np.asarray(alpha_true)[m]
+    return {
+        "band_coverage_t_gt_50": float(np.mean((truth >= lo) & (truth <= hi))),
+        "band_halfwidth_t_gt_50": float(np.median(hi - lo) / 2),
+    }
