@@ -75,6 +75,19 @@ def test_bad_calls_are_refused():
         vojax.compare(stress, stress, dt, holdout=0.9)
     with pytest.raises(ValueError, match="must both have shape"):
         vojax.compare(stress, stress[:-1], dt)
+    with pytest.raises(ValueError, match="must both have shape"):
+        vojax.compare(np.c_[stress, stress], stress, dt)  # two inputs: not a stress
+
+
+def test_a_records_input_column_is_taken_as_the_stress():
+    """`compare(rec.inputs, rec.output)` (an (N, 1) column) equals the 1-D call."""
+    stress, dt = _stress(80)
+    y = np.asarray(vojax.simulate(stress, 0.4, np.array([0.5]), dt))
+    y = y + 0.01 * np.ptp(y) * np.random.default_rng(3).standard_normal(y.size)
+    a = vojax.compare(stress, y, dt, models=("springpot", "kelvin-voigt"))
+    b = vojax.compare(stress[:, None], y, dt, models=("springpot", "kelvin-voigt"))
+    assert [r["model"] for r in a.rows] == [r["model"] for r in b.rows]
+    assert [r["log_evidence"] for r in a.rows] == [r["log_evidence"] for r in b.rows]
 
 
 @pytest.mark.slow

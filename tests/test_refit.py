@@ -26,6 +26,7 @@ def test_constant_order_recovered_within_standard_errors():
     assert fit.result == optx.RESULTS.successful
     se = float(fit.order_stderr[0])
     assert 0 < se < 1e-3
+    assert float(fit.knots_stderr[0]) == pytest.approx(se, rel=1e-12)
     assert abs(float(fit.order[0]) - 0.62) < 4 * se
     assert np.all(np.abs(np.asarray(fit.p) - P) < 4 * np.asarray(fit.p_stderr))
     assert abs(float(fit.sigma) - NOISE) < 0.1 * NOISE
@@ -161,6 +162,15 @@ def test_knot_standard_errors_from_an_autodiff_jacobian(monkeypatch):
         fit.order_stderr, np.sqrt(np.einsum("ni,ij,nj->n", grad, cov[:3, :3], grad)), rtol=1e-5
     )
     np.testing.assert_allclose(fit.p_stderr, np.sqrt(np.diag(cov)[3:]), rtol=1e-5)
+    # the knots' own errors (the summary's), by the delta method through the logistic map
+    s = (np.asarray(fit.knots) - lo) / (hi - lo)
+    np.testing.assert_allclose(
+        fit.knots_stderr, (hi - lo) * s * (1 - s) * np.sqrt(np.diag(cov)[:3]), rtol=1e-5
+    )
+    table = fit.summary()
+    assert [v["stderr"] for k, v in table.items() if k.startswith("order at knot")] == [
+        float(v) for v in np.asarray(fit.knots_stderr)
+    ]
     monkeypatch.setattr(_exponential, "HISTORY_LIMIT", 0)
     scanned = vojax.refit(u, y, DT, order=3, x0=0.0, max_steps=201)  # a new program
     for name in ("order", "order_stderr", "p", "p_stderr"):

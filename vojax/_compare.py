@@ -98,9 +98,12 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
     """
     stress = np.asarray(check.samples(stress, "stress"), float)
     strain = np.asarray(check.samples(strain, "strain"), float)
+    if stress.ndim == 2 and stress.shape[1] == 1:  # one input column, as a Record holds it
+        stress = stress[:, 0]
     if stress.ndim != 1 or stress.shape != strain.shape:
         raise ValueError(
-            f"`stress` and `strain` must both have shape (N,), got {stress.shape} and {strain.shape}."
+            f"`stress` and `strain` must both have shape (N,) (or the stress (N, 1)), got "
+            f"{stress.shape} and {strain.shape}."
         )
     unknown = [m for m in models if m not in MODELS]
     if unknown or not models:

@@ -29,7 +29,8 @@ class Refit(eqx.Module):
       interval then spans `order_bounds`.
     - `x0`, `x0_stderr`: the output offset (at `origin` when given), estimated unless given
       (then its error is 0).
-    - `knots` (K,), `knot_times` (K,): the fitted orders at the knots (K = 1: constant), and
+    - `knots` (K,), `knots_stderr` (K,), `knot_times` (K,): the fitted orders at the knots
+      (K = 1: constant), their standard errors (delta method; ``inf`` where undetermined) and
       their times.
     - `y_hat` (N,), `residuals` (N,) = y − y_hat, `sigma`: residual standard deviation.
     - `result`: optimistix's result code (`optx.RESULTS.successful` when it converged),
@@ -46,6 +47,7 @@ class Refit(eqx.Module):
     x0: Float[Array, ""]
     x0_stderr: Float[Array, ""]
     knots: Float[Array, " K"]
+    knots_stderr: Float[Array, " K"]
     knot_times: Float[Array, " K"]
     y_hat: Float[Array, " N"]
     residuals: Float[Array, " N"]
@@ -92,8 +94,9 @@ class Refit(eqx.Module):
             out["order"] = row(self.order_value, self.order_value_stderr, note)
         else:
             knots = np.asarray(self.knots)
-            for k, (q, tk) in enumerate(zip(knots, np.asarray(self.knot_times))):
-                out[f"order at knot {k + 1} (t = {float(tk):.4g})"] = row(q)
+            ses = np.asarray(self.knots_stderr)
+            for k, (q, se, tk) in enumerate(zip(knots, ses, np.asarray(self.knot_times))):
+                out[f"order at knot {k + 1} (t = {float(tk):.4g})"] = row(q, se)
         p, se = np.asarray(self.p), np.asarray(self.p_stderr)
         names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.size)]
         if len(names) != p.size:
@@ -512,6 +515,12 @@ def _fit(
         offset=theta[-1] if estimate else jnp.zeros((), theta.dtype),
         x0_stderr=jnp.sqrt(jnp.maximum(cov[-1, -1], 0.0)) if estimate else jnp.zeros(()),
         knots=lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots]),
+        knots_stderr=jnp.where(
+            loose[:num_knots],
+            jnp.inf,
+            (hi - lo) * jax.nn.sigmoid(theta[:num_knots]) * (1 - jax.nn.sigmoid(theta[:num_knots]))
+            * jnp.sqrt(jnp.maximum(jnp.diag(cov)[:num_knots], 0.0)),
+        ),
         fit=fit,
         residuals=residuals,
         sigma=jnp.sqrt(sigma2),
@@ -557,6 +566,7 @@ def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
         x0=x0 + (p[-1] if estimate else 0.0),
         x0_stderr=jnp.sqrt(cov[-1, -1]) if estimate else jnp.zeros(()),
         knots=fixed[:0],
+        knots_stderr=fixed[:0],
         knot_times=fixed[:0],
         y_hat=fit + x0,
         residuals=residuals,
