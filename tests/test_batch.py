@@ -459,3 +459,24 @@ def test_run_batch_in_python_checks_its_arguments_before_writing(tmp_path):
         with pytest.raises(error, match=text.replace("(", r"\(")):
             vojax.io.run_batch(kwargs.pop("records"), out, **kwargs)
         assert not out.exists()
+
+
+def test_run_batch_lists_the_files_that_could_not_be_loaded(tmp_path):
+    """`failures=` (file, record, reason) from a loader go into failures.csv and the report,
+    with the records that fail here; anything but text triples is refused before writing."""
+    from vojax._data import load_records
+    from vojax.io import run_batch
+
+    _springpot_csv(tmp_path / "r.csv", n=40, q=0.4)
+    records = load_records(tmp_path / "r.csv", time="time_s", inputs=["stress"], output="strain")
+    lost = [("bad.csv", "", "bad.csv, line 2: row has 2 fields")]
+    report = run_batch(records, tmp_path / "o", method="refit", record_figures=False,
+                       progress=False, failures=lost)
+    assert (report.computed, report.failed) == (1, 1)
+    with open(tmp_path / "o" / "failures.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["file"], r["record"], r["reason"]) for r in rows] == lost
+    for bad in (["bad.csv"], [("a", "b")], [("a", "b", 3)], ["abc"]):
+        with pytest.raises(ValueError, match="triples"):
+            run_batch(records, tmp_path / "p", method="refit", failures=bad)
+    assert not (tmp_path / "p").exists()

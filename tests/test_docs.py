@@ -69,3 +69,19 @@ def test_no_page_points_outside_the_repository():
     texts += [p.read_text() for p in (ROOT / "notebooks").glob("*.ipynb")]
     for text in texts:
         assert "../shared" not in text and "NOTES.md" not in text and "NOTES §" not in text
+
+
+def test_every_diagnostic_message_has_a_troubleshooting_section():
+    """Each kind of message that `identify` can give opens a section of the troubleshooting
+    page (its first words, after any number it starts with, in a heading)."""
+    source = (ROOT / "vojax" / "_identify.py").read_text()
+    openings = re.findall(r'problems\.append\(\s*f?"(?:\{[^}]*\})?([^"{]*)', source)
+    openings.append(re.search(r'LAW_BAND = \(\s*"([^"]*)', source).group(1))
+    headings = " ".join(
+        line for line in (ROOT / "docs" / "troubleshooting.md").read_text().splitlines()
+        if line.startswith("## ")
+    )
+    assert len(openings) >= 10
+    for text in openings:
+        words = " ".join(text.split()[:4]).rstrip(":,(±")
+        assert words and words in headings, f"no section for {text!r}"

@@ -98,8 +98,9 @@ def test_figures_leave_pyplot_alone(tmp_path):
            "kalman_nrmse": 0.01, "refit_nrmse": 0.02}
     _plotting.overview_figure([row, dict(row, record="b")], tmp_path / "o.png")
     t = np.linspace(0.0, 1.0, 20)
-    result = types.SimpleNamespace(alpha=t, y_hat=t, p=np.c_[t, t])
-    _plotting.study_figures(t, t, np.c_[t, t], t, t, result, tmp_path)
+    result = types.SimpleNamespace(alpha=t, alpha_lower=t - 0.1, alpha_upper=t + 0.1, y_hat=t,
+                                   p=np.c_[t, t], p_std=np.full((20, 2), 0.1))
+    _plotting.study_figures(t, t, np.c_[t, t], t, t, result, tmp_path, tracker=result)
     assert plt.get_fignums() == before
     assert matplotlib.get_backend() == backend
     for name in ("r.png", "o.png", "fig2_order.png", "fig3_output.png", "fig4_parameters.png"):

@@ -341,7 +341,12 @@ def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
         d = diagnose(alpha, lo, hi, (0.01, 0.99), converged, edge)
         assert not d.identified and text in d.message
     drift = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("order_drift",))
-    assert drift.identified and "order_drift at the edge" in drift.message
+    assert drift.identified and "order_drift at the upper edge" in drift.message
+    # a drift at its lower edge (none found) is a finding: no message, nothing refused
+    still = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("parameter_drift (lower edge)",))
+    assert still.identified and still.message == ""
+    gains = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("gamma",))
+    assert "gamma at the edge of the search box (give the gains" in gains.message
     wide = diagnose(alpha, alpha - 0.3, alpha + 0.3, (0.01, 0.99), True, ())
     assert not wide.identified and "±0.3 wide" in wide.message
     stuck = diagnose(np.full(100, 0.99), lo, hi, (0.01, 0.99), True, ())

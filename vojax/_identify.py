@@ -66,7 +66,10 @@ class Diagnostics:
       order band (order units).
     - `at_bound_fraction`: fraction of samples whose order lies at a bound of `alpha_bounds`.
     - `converged`: the tracker's smoother (or the gain tuning) converged.
-    - `at_edge`: names of automatically chosen settings that sit at the edge of their search box.
+    - `at_edge`: names of automatically chosen settings that sit at the edge of their search box;
+      a tracker's drift at the lower edge is named ``"order_drift (lower edge)"`` (or
+      ``"parameter_drift (lower edge)"``): the data show no such drift, which is a finding,
+      not a problem, and it is not in `message`.
     - `identified`: the band is a confidence band (the tracker's; never the paper's
       law's, whose band leaves out its tracking error), narrower than ±0.1, the order
       is at a bound for < 5 % of samples, the estimation converged, and the measurement noise
@@ -157,9 +160,14 @@ class Identification(eqx.Module):
         for j, name in enumerate(names):
             out[f"{name} (final)"] = row(p[-1, j], p_std[-1, j])
         out["x0"] = row(self.x0, self.x0_std)
-        out["identified"] = row(
-            "yes" if self.diagnostics.identified else "no", None, self.diagnostics.message
+        still = [
+            name.split()[0].replace("_", " ") for name in self.diagnostics.at_edge
+            if name.endswith("(lower edge)")
+        ]
+        note = self.diagnostics.message or (
+            f"no {' or '.join(still)} found (tuned to its lower edge)" if still else ""
         )
+        out["identified"] = row("yes" if self.diagnostics.identified else "no", None, note)
         return out
 
     def plot(self, ax=None, *, t=None):
@@ -424,9 +432,25 @@ def diagnose(
             f"moves by {held_shift:.2g}, more than its band (±{width:.2g}); a second input or "
             "a test with another loading would separate them"
         )
-    others = [name for name in at_edge if name != "noise"]
+    # a tracker's drift at its lower edge (the data show none) is no problem: not in the
+    # message; at its upper edge the states move as fast as the search allows
+    drifts = [name for name in at_edge if name in ("order_drift", "parameter_drift")]
+    if drifts:
+        problems.append(
+            f"{', '.join(drifts)} at the upper edge of the search box: the states move as fast "
+            "as the model allows, which suggests the model misses part of the physics (another "
+            "element, a nonlinearity; compare models with vojax.compare)"
+        )
+    others = [
+        name for name in at_edge
+        if name not in ("noise", "order_drift", "parameter_drift")
+        and not name.endswith("(lower edge)")
+    ]
     if others:
-        problems.append(f"{', '.join(others)} at the edge of the search box")
+        problems.append(
+            f"{', '.join(others)} at the edge of the search box (give the gains yourself, or "
+            "use method='kalman')"
+        )
     limit = correlation_limit(samples)
     coloured = calibrated and correlation > limit
     if coloured:

@@ -133,11 +133,16 @@ def run_batch(
     record_figures: bool = True,
     progress: bool | None = None,
     client=None,
+    failures=(),
 ) -> BatchReport:
     """Identifies every `Record` into ``out/<folder>/`` as ``vojax batch`` does (the same
     defaults, outputs, lock, provenance and re-run rules; see the command line's docs) and
     returns a `BatchReport` (records computed, skipped as up to date, redone, failed, and not
     identified). A record that fails is listed in ``out/failures.csv`` and the rest go on.
+
+    `failures`: ``(file, record, reason)`` triples of what could not be loaded (a
+    `DataError` from `load_records`), listed in ``out/failures.csv`` with the records that
+    fail here and counted in the report.
 
     `progress`: a progress bar (tqdm) on stderr with the records done, failed and up to date
     and the time left; ``None`` (the default) shows it when stderr is a terminal, not in a log
@@ -153,6 +158,12 @@ def run_batch(
     """
     _check_model(model, area, length)
     wanted(progress)  # True, False or None
+    failures = list(failures)
+    if not all(
+        isinstance(f, (tuple, list)) and len(f) == 3 and all(isinstance(x, str) for x in f)
+        for f in failures
+    ):
+        raise ValueError("`failures` must be (file, record, reason) triples of text.")
     records = list(records)
     if not all(isinstance(r, Record) for r in records):
         raise TypeError("`records` must be vojax.io.Record objects (see load_records).")
@@ -171,5 +182,5 @@ def run_batch(
         records, out, model=model, method=canonical_method(method), gamma=gamma, lam=lam,
         area=area, length=length, parameters=parameters, overwrite=overwrite,
         figure_format=figure_format, record_figures=record_figures, progress=progress,
-        client=client,
+        client=client, failures=[tuple(f) for f in failures],
     )

@@ -36,6 +36,7 @@ BOX = {
     "parameter_drift": (np.log(1e-10), np.log(1e2)),
     "noise": (np.log(NOISE_MIN), np.log(2.0)),
 }
+LOWER_EDGE = " (lower edge)"  # suffix of a drift tuned to the bottom of its search box
 GRID_ORDER = (1e-1, 1.0, 1e1)  # variance of the change of β over the record, first pass
 PARAM_DRIFT0 = 1e-6  # parameters nearly constant in the first pass (the model's p is constant)
 START_ORDERS = (0.15, 0.35, 0.5, 0.65, 0.85)  # starting orders, as fractions of the range
@@ -427,8 +428,10 @@ def tune(
         cand = (ll, hyper, sm)
     _, hyper, sm = cand
     x = np.asarray(hyper.as_array())
+    # a drift at the lower edge is a finding (the data show no drift), named as such; the
+    # noise at either edge, or a drift at the upper one, is a problem (`diagnose`)
     edges = tuple(
-        name
+        name + (LOWER_EDGE if name != "noise" and v - limits[name][0] < limits[name][1] - v else "")
         for name, v in zip(limits, x)
         if limits[name][1] > limits[name][0]
         and min(v - limits[name][0], limits[name][1] - v) < 0.05 * (BOX[name][1] - BOX[name][0])
