@@ -480,3 +480,44 @@ def test_run_batch_lists_the_files_that_could_not_be_loaded(tmp_path):
         with pytest.raises(ValueError, match="triples"):
             run_batch(records, tmp_path / "p", method="refit", failures=bad)
     assert not (tmp_path / "p").exists()
+
+
+def test_batch_takes_folders_by_pattern_and_quoted_globs(tmp_path, capsys):
+    """A folder stands for its own CSV files; ``--pattern '**/*.csv'`` recurses and names a
+    record in a subfolder ``subfolder/name`` (two ``test.csv`` stay apart); a quoted glob is
+    expanded; vojax's outputs inside a searched folder are not taken as inputs on a re-run;
+    a pattern or a glob that finds nothing is one line, exit 1."""
+    from vojax._cli import main
+
+    data = tmp_path / "data"
+    for sub, q in (("a", 0.3), ("b", 0.5)):
+        (data / sub).mkdir(parents=True)
+        _springpot_csv(data / sub / "test.csv", n=40, q=q)
+    _springpot_csv(data / "top.csv", n=40, q=0.4)
+    common = ["--time", "time_s", "--input", "stress", "--output", "strain", "--method",
+              "refit", "--figures", "overview", "--quiet"]
+
+    def names(out):
+        with open(out / "summary.csv", newline="") as f:
+            return sorted(r["record"] for r in csv.DictReader(f))
+
+    assert main(["batch", str(data), *common, "--out", str(tmp_path / "flat")]) == 0
+    assert names(tmp_path / "flat") == ["top"]
+    out = data / "results"  # inside the folder searched
+    args = ["batch", str(data), "--pattern", "**/*.csv", *common, "--out", str(out)]
+    assert main(args) == 0
+    assert names(out) == ["a/test", "b/test", "top"]
+    assert main(args) == 0  # its own outputs are not inputs now
+    assert names(out) == ["a/test", "b/test", "top"]
+    assert main(["batch", str(data / "*" / "test.csv"), *common, "--out", str(tmp_path / "g")]) == 1
+    assert "share the name 'test'" in capsys.readouterr().err  # a glob gives no prefix
+    assert main(["batch", str(data / "a" / "*.csv"), *common, "--out", str(tmp_path / "g")]) == 0
+    assert names(tmp_path / "g") == ["test"]
+    for bad, message in (
+        (["batch", str(data), "--pattern", "*.npz"], "without files matching '*.npz'"),
+        (["batch", str(data / "*.npz")], "no file matches"),
+        (["batch", str(data / "top.csv"), "--pattern", "*.csv"], "give a folder as input"),
+    ):
+        assert main([*bad, *common, "--out", str(tmp_path / "bad")]) == 1
+        err = capsys.readouterr().err.strip()
+        assert message in err and "\n" not in err, err

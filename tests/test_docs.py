@@ -55,6 +55,10 @@ def test_code_blocks_run(name, lang, tmp_path):
         cmd = ["bash", "-euo", "pipefail", "-c", code]
     done = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, f"{name} ({lang}) failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    # what a reader sees is short: no printed array of more than 10 values (or cut by NumPy)
+    for group in re.findall(r"\[[^\[\]]*\]", done.stdout):
+        numbers = re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", group)
+        assert len(numbers) <= 10 and "..." not in group, f"{name} prints {group[:200]}"
 
 
 def test_the_runner_finds_the_blocks_it_must_run():

@@ -29,22 +29,47 @@ def _new_dir(out: str | None) -> Path:
     return path
 
 
-def _expand(paths):
-    """The batch's inputs: a folder stands for its ``.csv`` and ``.npz`` files (not those of
-    its subfolders), sorted by name; a folder without any is an error."""
+def _expand(paths, pattern=None, out=None):
+    """The batch's inputs as ``(file, prefix)``: a folder stands for its CSV, NPZ and AFM files
+    (not those of its subfolders), or with `pattern` for the files that glob matches in it
+    (``**/*.csv`` recurses); a path that does not exist and holds ``*``, ``?`` or ``[`` is a
+    glob itself. A file found in a subfolder of a given folder has that subfolder as
+    `prefix`, which heads its records' names (``specimen_2/test``): names stay apart. Files
+    found inside `out` (vojax's own outputs, when --out lies in a folder searched) are left
+    out; a file named explicitly is taken as it is."""
+    import glob
+
+    from ._data._afm import AFM_SUFFIXES
+
+    kinds = (".csv", ".npz", *AFM_SUFFIXES)
+    inside_out = (lambda p: False) if out is None else (
+        lambda p, o=Path(out).resolve(): Path(p).resolve().is_relative_to(o)
+    )
     files = []
     for path in paths:
         folder = Path(path)
         if folder.is_dir():
+            if pattern is None:
+                found = [p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in kinds]
+            else:
+                found = [p for p in folder.glob(pattern) if p.is_file()]
+            found = [p for p in found if not inside_out(p)]
+            if not found:
+                what = f"files matching {pattern!r}" if pattern else "CSV, NPZ or AFM files"
+                raise CLIError(f"{path} is a folder without {what}.")
+            for p in sorted(found):
+                prefix = p.parent.relative_to(folder).as_posix()
+                files.append((str(p), "" if prefix == "." else prefix))
+        elif not folder.exists() and any(c in str(path) for c in "*?["):
             found = sorted(
-                str(p) for p in folder.iterdir()
-                if p.is_file() and p.suffix.lower() in (".csv", ".npz")
+                p for p in glob.glob(str(path), recursive=True)
+                if Path(p).is_file() and not inside_out(p)
             )
             if not found:
-                raise CLIError(f"{path} is a folder without .csv or .npz files.")
-            files.extend(found)
+                raise CLIError(f"no file matches {path!r}.")
+            files.extend((p, "") for p in found)
         else:
-            files.append(str(path))
+            files.append((str(path), ""))
     return files
 
 
@@ -692,16 +717,23 @@ def batch_command(args) -> int:
         raise CLIError(f"--workers must be at least 1, got {args.workers}.")
     if args.scheduler is not None and not args.scheduler.strip():
         raise CLIError("--scheduler needs 'local' or a scheduler's address (tcp://host:8786).")
-    files = _expand(args.files)
+    import dataclasses
+
+    if args.pattern is not None and not any(Path(f).is_dir() for f in args.files):
+        raise CLIError("--pattern chooses the files of a folder: give a folder as input.")
+    found = _expand(args.files, args.pattern, args.out)
+    files = [path for path, _ in found]
     _out_apart(args.out, files)
     out = _new_dir(args.out)
     records, failures = [], []
-    for path in files:
+    for path, prefix in found:
         try:
             loaded = _load(path, args)
         except DataError as e:
             failures.append((str(path), "", str(e)))
             continue
+        if prefix:
+            loaded = [dataclasses.replace(r, name=f"{prefix}/{r.name}") for r in loaded]
         records.extend(loaded)
     names = [r.name for r in records]
     duplicated = sorted({n for n in names if names.count(n) > 1})
@@ -953,8 +985,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.add_argument(
         "files", nargs="+",
-        help="CSV or NPZ files, or folders of them (their .csv and .npz files); each file is a "
-        "record unless --group-by",
+        help="CSV, NPZ or AFM files, folders of them (their files, not their subfolders'; "
+        "see --pattern) or quoted globs ('runs/*/test_*.csv'); each file is a record "
+        "unless --group-by or an AFM map",
+    )
+    b.add_argument(
+        "--pattern",
+        metavar="GLOB",
+        help="the files to take from each folder given, as a glob inside it: '*.txt.csv', or "
+        "'**/*.csv' to recurse (a record in a subfolder is named subfolder/name) (default: "
+        "the folder's .csv, .npz and AFM files)",
     )
     _data_options(b, many=True)
     shown = b.add_mutually_exclusive_group()
