@@ -89,3 +89,55 @@ def test_every_diagnostic_message_has_a_troubleshooting_section():
     for text in openings:
         words = " ".join(text.split()[:4]).rstrip(":,(±")
         assert words and words in headings, f"no section for {text!r}"
+
+
+def _markdown_tables(text):
+    """The rows of every table of a page, as lists of cells, table by table."""
+    tables, current = [], []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not set("".join(cells)) <= set("-: "):
+                current.append(cells)
+        elif current:
+            tables.append(current)
+            current = []
+    return tables
+
+
+def _calibration_rows(path, method):
+    """A results table of scripts/bench_calibration.py, in the docs' columns."""
+    rows = []
+    for line in path.read_text().splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 9 and cells[0] == method:
+            _, family, _, identified, coverage, _, z, order, wrong = cells
+            rows.append([family, identified.split()[0], *(
+                "–" if v == "nan" else v for v in (coverage, z)
+            ), order, wrong])
+    return rows
+
+
+def test_the_docs_calibration_tables_are_the_benchmarks_results():
+    """The four calibration tables of the identifiability page, and the README's summary of
+    the held-out draws, are those of scripts/results/ (the benchmark's own output)."""
+    results = ROOT / "scripts" / "results"
+    tables = [
+        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
+        if t[0][:2] == ["family", "identified"]
+    ]
+    expected = [
+        _calibration_rows(results / name, method)
+        for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")
+        for method in ("tracker", "tracker-constant")
+    ]
+    assert len(tables) == 4 and all(len(rows) == 10 for rows in expected)
+    assert [t[1:] for t in tables] == expected
+    pooled = dict(zip(["family", "identified", "coverage", "z", "order", "wrong"],
+                      expected[2][-1]))
+    done, total = map(int, pooled["identified"].split("/"))
+    wrong = pooled["wrong"].split("/")[0]
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (f"{wrong} of the {done} records it calls identified is confidently wrong" in readme
+            and f"pooled coverage {pooled['coverage']}" in readme
+            and f"it identifies {round(100 * done / total)} % of the {total} records" in readme)
