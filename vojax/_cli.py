@@ -870,7 +870,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"vojax {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser(
-        "demo", help="simulate and identify the paper's study (34); write Figs. 2–4 and a summary"
+        "demo", help="simulate the paper's study (34), identify it with the paper's law and with "
+        "vojax's tracker; write Figs. 2–4 with their bands and a summary"
     )
     d.add_argument("--out", help="output folder (default: a new vojax-demo-<time> folder here)")
     d.add_argument("--dt", type=_positive, default=0.05, help="sampling step h in s (default 0.05)")
