@@ -71,10 +71,53 @@ def test_fractional_integral_traces_once(monkeypatch):
 
 @pytest.mark.slow
 def test_tracker_traces_once(monkeypatch):
-    names = ("smoother_batch", "iterated_smoother", "_refine_compiled", "_constant_profile")
-    limited = [_once(monkeypatch, _track, name) for name in names]
+    from vojax._tracker import _smoother
+
+    # every smoothing (first pass, refinement, mixture, held order) runs one program
+    limited = [_once(monkeypatch, _smoother, "smooth_compiled")]
+    limited += [_once(monkeypatch, _track, name) for name in ("_refine_compiled", "_constant_profile")]
     u, y = _record(120, 0.4, 6)
     vojax.identify(u, y, 0.1, method="kalman", warn=False)
     u2, y2 = _record(120, 0.6, 7)
     vojax.identify(u2, y2, 0.1 * 1.01, method="kalman", warn=False)
-    assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1, 1]
+    assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1]
+
+
+def test_the_first_tracker_call_compiles_a_handful_of_programs():
+    """A fresh process's first `identify` (the tracker) compiles one smoothing program for
+    all its smoothings, the refinement, the trade-off's profile and the constant fit, and
+    next to nothing else: an eager JAX operation on the host side (each compiles a program
+    of its own, ~0.05 s) or a second way of running the smoother (~1 s) shows up here."""
+    import subprocess
+    import sys
+
+    code = r"""
+import logging, re, jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np, vojax
+names = []
+class Keep(logging.Handler):
+    def emit(self, record):
+        m = re.search(r"Finished XLA compilation of jit\((\w+)\)", record.getMessage())
+        if m:
+            names.append(m.group(1))
+logging.getLogger("jax").addHandler(Keep())
+logging.getLogger("jax").setLevel(logging.WARNING)
+dt = 0.1
+t = np.arange(200) * dt
+u = np.minimum(t, 5.0) + 0.2 * np.sin(t)
+y = np.asarray(vojax.reference.fractional_integral(u, 0.3 + 0.3 * t / t[-1], dt))
+y = y + 0.01 * np.ptp(y) * np.random.default_rng(0).standard_normal(t.size)
+jax.config.update("jax_log_compiles", True)
+vojax.identify(u, y, dt, warn=False)
+print(",".join(names))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    names = done.stdout.strip().splitlines()[-1].split(",")
+    heavy = ["smooth_compiled", "_refine_compiled", "_drift_profile", "_constant_profile"]
+    assert [names.count(n) for n in heavy] == [1, 1, 1, 1], names
+    # besides them only JAX's own moves of host arrays onto the device (`jnp.asarray`)
+    moves = {"stage", "convert_element_type", "broadcast_in_dim"}
+    assert [n for n in names if n not in heavy and n not in moves] == [], names

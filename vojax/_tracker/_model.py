@@ -15,6 +15,7 @@ per sample, which one scan of a memory kernel gives for a whole trajectory.
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 
@@ -23,6 +24,21 @@ def order_of(beta, bounds):
     lo, hi = bounds
     s = jax.nn.sigmoid(beta)
     return lo + (hi - lo) * s, (hi - lo) * s * (1.0 - s)
+
+
+def order_of_np(beta, bounds):
+    """`order_of` in NumPy: for the host-side steps before and after the compiled programs
+    (an eager JAX operation compiles a program of its own on the first call)."""
+    lo, hi = bounds
+    s = 1.0 / (1.0 + np.exp(-np.asarray(beta, dtype=float)))
+    return lo + (hi - lo) * s, (hi - lo) * s * (1.0 - s)
+
+
+def beta_of_np(alpha, bounds):
+    """`beta_of` in NumPy."""
+    lo, hi = bounds
+    z = (np.asarray(alpha, dtype=float) - lo) / (hi - lo)
+    return np.log(z) - np.log1p(-z)
 
 
 def beta_of(alpha, bounds):

@@ -11,7 +11,6 @@ tune the noise intensities.
 """
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
@@ -19,7 +18,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
-from ._model import Hyper, linearise, objective, order_of, predict
+from ._model import Hyper, linearise, objective, order_of
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
@@ -54,57 +53,87 @@ def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, damping=None):
     return filtered, rts_smoother(filtered, q), jac, z
 
 
-@eqx.filter_jit
 def iterated_smoother(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
-    """See `_iterate`; one run, compiled."""
-    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
+    """See `_iterate`; one run. Every smoothing of the tracker runs this one compiled program
+    (`smooth_compiled`, the iteration budget an argument, not a constant of the program):
+    the first call in a process compiles the smoother once, not once per way of running it."""
+    return smooth_compiled(
+        memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds,
+        jnp.asarray(max_iter, jnp.int32),
+    )
 
 
 @eqx.filter_jit
+def smooth_compiled(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter):
+    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
+
+
+def _rows(hyper, starts, num):
+    """The runs of a batch: each row's intensities (a `Hyper` of scalars) and its constant
+    starting trajectory (N, d), made on the host (no program compiled for them)."""
+    values = [np.asarray(a) for a in (hyper.log_q_order, hyper.log_q_params, hyper.log_r)]
+    starts = np.asarray(starts)
+    for b in range(starts.shape[0]):
+        h = Hyper(*(jnp.asarray(v[b]) for v in values))
+        yield h, jnp.asarray(np.broadcast_to(starts[b], (num, starts.shape[1])))
+
+
+def host_score(sm):
+    """`score` of one run, on the host (an eager JAX expression would compile a program)."""
+    ll, value = float(sm.log_likelihood), float(sm.objective)
+    ok = bool(sm.converged) and np.isfinite(ll) and np.isfinite(value)
+    return ll if ok else -np.inf
+
+
 def smoother_batch(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int
 ):
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B), each
-    from the constant trajectory of its row of `starts` (B, d), in one compiled program.
-    Keeps one run, not B: the best by `score` (the evidence of a converged run); of the rest
-    only the scores and the index of the best by objective (for when none converges), so that
-    memory does not grow with B. Returns ``(best, its index, index of the best by objective,
-    scores (B,), iterations (B,), −objectives (B,))``; an index is −1 where no run
-    qualifies."""
-    def one(h, start):
-        return _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
-
-    # one after the other (a scan), not vmapped: each run stops at its own convergence, where
-    # a vmapped loop runs every member until the slowest is done
-    def body(carry, item):
-        best, i_best, s_best, i_alt, s_alt = carry
-        i, h, start = item
-        sm = one(h, start)
-        s, a = score(sm), jnp.where(jnp.isfinite(sm.objective), -sm.objective, -jnp.inf)
-        best = jax.tree_util.tree_map(lambda x, z: jnp.where(s > s_best, x, z), sm, best)
-        carry = (
-            best, jnp.where(s > s_best, i, i_best), jnp.maximum(s, s_best),
-            jnp.where(a > s_alt, i, i_alt), jnp.maximum(a, s_alt),
-        )
-        return carry, (s, a, sm.iterations)
-
-    first = jax.tree_util.tree_map(lambda a: a[0], (hyper, starts))
-    blank = jax.tree_util.tree_map(
-        lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(one, *first)
-    )
-    none, minus = jnp.asarray(-1), jnp.asarray(-jnp.inf, y.dtype)
-    (best, i_best, _, i_alt, _), (scores, alts, iterations) = lax.scan(
-        body, (blank, none, minus, none, minus), (jnp.arange(starts.shape[0]), hyper, starts)
-    )
-    return best, i_best, i_alt, scores, iterations, alts
+    from the constant trajectory of its row of `starts` (B, d), one after the other. Keeps
+    one run, not B: the best by `score` (the evidence of a converged run; the first of equal
+    ones); of the rest only the scores and the index of the best by objective (for when none
+    converges). Returns ``(best, its index, index of the best by objective, scores (B,),
+    iterations (B,), −objectives (B,))``; an index is −1 where no run qualifies (then `best`
+    is the last run)."""
+    best, i_best, s_best, i_alt, a_best = None, -1, -np.inf, -1, -np.inf
+    scores, alts, iterations = [], [], []
+    for b, (h, nominal) in enumerate(_rows(hyper, starts, u.shape[0])):
+        sm = iterated_smoother(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds,
+                               max_iter)
+        s, value = host_score(sm), float(sm.objective)
+        a = -value if np.isfinite(value) else -np.inf
+        if s > s_best:
+            best, i_best, s_best = sm, b, s
+        if a > a_best:
+            i_alt, a_best = b, a
+        scores.append(s)
+        alts.append(a)
+        iterations.append(int(sm.iterations))
+    if best is None:
+        best = sm
+    return best, i_best, i_alt, np.array(scores), np.array(iterations), np.array(alts)
 
 
-def _from_start(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, max_iter):
-    """`_iterate` from the constant trajectory `start` (d,)."""
-    nominal = jnp.broadcast_to(start, (u.shape[0], start.shape[0]))
-    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
+def smoother_modes(
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int
+):
+    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
+    the constant trajectory of its row of `starts` (C, d), one after the other. Returns, per
+    run, only what a mixture of them needs: the order coordinate β of the mode (C, N), its
+    smoothed variance (C, N), the run's `score` (C,) and its residual sum of squares over the
+    fitted samples (C,)."""
+    n, w, yy = u.shape[1], np.asarray(mask), np.asarray(y)
+    out = []
+    for h, nominal in _rows(hyper, starts, u.shape[0]):
+        sm = iterated_smoother(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds,
+                               max_iter)
+        theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
+        res = yy - (theta[:, -1] + np.sum(theta[:, 1 : 1 + n] * phi, axis=-1))
+        out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm),
+                    float(np.sum(w * res * res))))
+    return tuple(np.array([o[k] for o in out]) for k in range(4))
 
 
 def score(sm):
@@ -185,24 +214,6 @@ def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0
     of the noise intensities (differentiable: one filter scan)."""
     q = hyper.process(steps, horizon, jac.shape[1] - 2)
     return kalman_filter(jac, z, hyper.r, q, m0, p0, mask).log_likelihood
-
-
-@eqx.filter_jit
-def smoother_modes(
-    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int
-):
-    """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
-    the constant trajectory of its row of `starts` (C, d), one after the other in one compiled
-    program. Returns, per run, only what a mixture of them needs: the order coordinate β of
-    the mode (C, N), its smoothed variance (C, N), the run's `score` (C,) and its residual
-    sum of squares over the fitted samples (C,)."""
-    def one(item):
-        h, start = item
-        sm = _from_start(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds, max_iter)
-        res = y - predict(sm.theta, sm.phi, u.shape[1])
-        return sm.theta[:, 0], sm.cov[:, 0, 0], score(sm), jnp.sum(mask * res * res)
-
-    return lax.map(one, (hyper, starts))
 
 
 def mix_modes(betas, variances, scores, best, span, same=0.25):

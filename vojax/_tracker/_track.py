@@ -17,12 +17,12 @@ from jax import lax
 
 from .._stats import noise_variance
 from ._filter import KalmanTracker
-from ._model import Hyper, beta_of, order_of
+from ._model import Hyper, beta_of_np, order_of_np
 from ._smoother import (
+    host_score,
     iterated_smoother,
     linearised_log_likelihood,
     mix_modes,
-    score,
     smoother_batch,
     smoother_modes,
 )
@@ -130,8 +130,8 @@ def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
     betas = np.linspace(-4.5, 4.5, num_grid)
 
     def at(beta):
-        alpha, _ = order_of(jnp.asarray(beta), bounds)
-        return _constant_profile(memory, u, y, mask, alpha)
+        alpha, _ = order_of_np(beta, bounds)
+        return _constant_profile(memory, u, y, mask, jnp.asarray(alpha, u.dtype))
 
     values = [float(at(b)[0]) for b in betas]
     i = int(np.nanargmin(values))
@@ -152,7 +152,7 @@ def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
     if values[i] < min(fa, fb):
         best = betas[i]
     rss, coef, rms_phi = at(best)
-    alpha, _ = order_of(jnp.asarray(best), bounds)
+    alpha, _ = order_of_np(best, bounds)
     return float(alpha), np.asarray(coef), float(rss), np.asarray(rms_phi)
 
 
@@ -185,7 +185,7 @@ def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, limits, max_steps=60)
     hi = jnp.asarray([v[1] for v in limits.values()], smoothed.pseudo.dtype)
     # a strongly typed start: a weakly typed one (from Python numbers) would compile anew
     return _refine_compiled(
-        jnp.asarray(hyper.as_array(), lo.dtype), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
+        jnp.asarray(_host_hyper(hyper), lo.dtype), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
         hi, max_steps,
     )
 
@@ -222,7 +222,7 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     for f in fracs:
         alpha = lo + (hi - lo) * f
         _, coef, _ = _constant_profile(memory, u, y, mask, jnp.asarray(alpha, u.dtype))
-        out.append(np.concatenate([[float(beta_of(jnp.asarray(alpha), bounds))], np.asarray(coef)]))
+        out.append(np.concatenate([[float(beta_of_np(alpha, bounds))], np.asarray(coef)]))
     return np.stack(out)
 
 
@@ -333,17 +333,16 @@ def _in_threads(fn, count, call, key):
     return list(zip(shares, out))
 
 
-def _share(rows, firsts, lo, hi, size):
-    """Rows ``[lo, hi)`` of the intensities and starts, padded to `size` with the last one."""
-    pick = list(range(lo, hi)) + [hi - 1] * (size - (hi - lo))
-    return _stack_hypers([rows[i] for i in pick]), firsts[np.asarray(pick)]
+def _share(rows, firsts, lo, hi):
+    """Rows ``[lo, hi)`` of the intensities and starts."""
+    return _stack_hypers(rows[lo:hi]), np.asarray(firsts)[lo:hi]
 
 
 def _run_shares(fn, memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
     """`fn` (`smoother_batch` or `smoother_modes`) over the runs ``rows`` × ``firsts``, split
     into shares run in threads (`_in_threads`); ``[((lo, hi), output)]``."""
     def call(lo, hi, size):
-        hyper, first = _share(rows, firsts, lo, hi, size)
+        hyper, first = _share(rows, firsts, lo, hi)
         out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget)
         return jax.block_until_ready(out)
 
@@ -375,10 +374,15 @@ def run_mode_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bo
     return tuple(_joined(parts, k) for k in range(4))
 
 
+def _host_hyper(hyper):
+    """``hyper.as_array()`` on the host."""
+    return np.array([float(hyper.log_q_order), float(hyper.log_q_params), float(hyper.log_r)])
+
+
 def _stack_hypers(values):
     """A batched `Hyper` from rows ``(q_order, q_params, r)``."""
-    arr = jnp.log(jnp.asarray(values))
-    return Hyper(arr[:, 0], arr[:, 1], arr[:, 2])
+    arr = np.log(np.asarray(values, dtype=float))
+    return Hyper(*(jnp.asarray(arr[:, i]) for i in range(3)))
 
 
 def tune(
@@ -409,12 +413,12 @@ def tune(
     i = i if i >= 0 else i_alt
     if i < 0:
         raise ValueError("the tracker diverged from every starting order; check the data.")
-    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in rows[i]))
+    hyper = Hyper(*(jnp.asarray(np.log(float(v))) for v in rows[i]))
     if not np.isfinite(np.asarray(scores)[i]):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
         sm = smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, first[i], bounds)
-    cand = (float(score(sm)), hyper, sm)
+    cand = (host_score(sm), hyper, sm)
     for _ in range(rounds):
         # the refinement maximises the likelihood of the model linearised at this mode;
         # keep it only if the re-smoothed mode's own evidence is higher
@@ -422,12 +426,12 @@ def tune(
         sm = iterated_smoother(
             memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
         )
-        ll = float(score(sm))
+        ll = host_score(sm)
         if not ll > cand[0]:
             break
         cand = (ll, hyper, sm)
     _, hyper, sm = cand
-    x = np.asarray(hyper.as_array())
+    x = _host_hyper(hyper)
     # a drift at the lower edge is a finding (the data show no drift), named as such; the
     # noise at either edge, or a drift at the upper one, is a problem (`diagnose`)
     edges = tuple(
@@ -449,12 +453,13 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
                  jnp.log(jnp.asarray(noise, u.dtype)))
     sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
-    return order_of(sm.theta[:, 0], bounds)[0] if bool(sm.converged) else None
+    return jnp.asarray(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
 
 
 def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds):
     """One smoothing at fixed intensities `hyper`, from the constant trajectory `start` (d,)."""
-    nominal = jnp.broadcast_to(jnp.asarray(start, u.dtype), (u.shape[0], len(start)))
+    start = np.asarray(start, np.dtype(u.dtype))
+    nominal = jnp.asarray(np.broadcast_to(start, (u.shape[0], start.shape[0])))
     return iterated_smoother(
         memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
     )
@@ -495,7 +500,7 @@ def mixture(
     )
     betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
     variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
-    scores = np.concatenate([[float(score(sm))], np.asarray(scores)])
+    scores = np.concatenate([[host_score(sm)], np.asarray(scores)])
     variance, weights = mix_modes(betas, variances, scores, 0, span)
     # the alternatives that explain the data (a χ² test at 2σ, at the noise `fit_noise`):
     # the band covers each one's ±2σ, whatever its evidence (evidence under the random-walk
@@ -538,9 +543,9 @@ def prior(num_inputs, dtype):
     """Prior of θ_0 in normalised units, the same whatever the start: the order's β centred
     on the middle of the range, parameters and offset centred on zero, all wide."""
     d = num_inputs + 2
-    m0 = jnp.zeros((d,), dtype)
-    p0 = jnp.diag(jnp.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1), dtype))
-    return m0, p0
+    m0 = np.zeros((d,), dtype)
+    p0 = np.diag(np.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1), dtype))
+    return jnp.asarray(m0), jnp.asarray(p0)
 
 
 class TrackResult(eqx.Module):
@@ -583,31 +588,33 @@ def track(
         hyper is not None and float(hyper["parameter_drift"]) <= PARAM_DRIFT0
     )
     num, n = u.shape
-    mask = jnp.ones((num,), u.dtype) if mask is None else jnp.asarray(mask, u.dtype)
+    dtype = np.dtype(u.dtype)
+    mask = jnp.asarray(np.ones((num,), dtype) if mask is None else np.asarray(mask, dtype))
     scales = data_scales(u, y, mask)
-    un = u / jnp.asarray(scales.u_scale)
-    yn = (y - scales.y_ref) / scales.y_scale
-    alpha_c, _, rss, rms_phi = constant_fit(memory, un, yn, mask, bounds)
+    # host arithmetic before the compiled programs (an eager JAX operation compiles its own)
+    un = np.asarray(u) / np.asarray(scales.u_scale)
+    yn = jnp.asarray((np.asarray(y) - scales.y_ref) / scales.y_scale)
+    alpha_c, _, rss, rms_phi = constant_fit(memory, jnp.asarray(un), yn, mask, bounds)
     if not np.all(rms_phi > 0):
         raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
     # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
-    un = un / jnp.asarray(rms_phi)
+    un = jnp.asarray(un / np.asarray(rms_phi))
     p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
     m0, p0 = prior(n, u.dtype)
     # the step after each sample, t_{k+1} − t_k (the last one repeated); arrays, not Python
     # numbers: a new record length or step must not recompile
     if times is None:
-        steps = jnp.full((num,), float(dt), u.dtype)
+        steps = jnp.asarray(np.full((num,), float(dt), dtype))
         times = float(dt) * np.arange(num)
     else:
         gaps = np.diff(np.asarray(times))
-        steps = jnp.asarray(np.concatenate([gaps, gaps[-1:]]), u.dtype)
+        steps = jnp.asarray(np.concatenate([gaps, gaps[-1:]]).astype(dtype))
     # the record's span up to its last fitted sample (padding after it does not count)
     last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
     span = float(np.asarray(times)[last] - np.asarray(times)[0])
     horizon = jnp.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype)
     starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
-    dof = max(float(jnp.sum(mask)) - n - 2, 1.0)
+    dof = max(float(np.sum(np.asarray(mask))) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
     noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
     misfit = max(rss / dof, NOISE_MIN)
@@ -632,7 +639,7 @@ def track(
             jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
         sm = smooth_from(memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds)
-        tuning = Tuning(*map(float, np.exp(np.asarray(hyper.as_array()))), (), float(sm.log_likelihood), False)
+        tuning = Tuning(*map(float, np.exp(_host_hyper(hyper))), (), float(sm.log_likelihood), False)
     alpha_held = None
     if smooth and tuning.tuned and tuning.parameter_drift > HELD_RATIO * PARAM_DRIFT0:
         alpha_held = held_order(
@@ -645,13 +652,12 @@ def track(
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
-        beta_var = cov[:, 0, 0]
+        beta_var = np.asarray(cov)[:, 0, 0]
         if tuning.tuned:
             beta_var, weights, envelope, drifting = mixture(
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
                 last + 1, hold, fit_noise,
             )
-            beta_var = jnp.asarray(beta_var)
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
@@ -661,37 +667,41 @@ def track(
         )
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
         converged = True
-        beta_var = cov[:, 0, 0]
+        beta_var = np.asarray(cov)[:, 0, 0]
+    # the results assembled on the host (NumPy: no program compiled for them)
+    theta, cov = np.asarray(theta), np.asarray(cov)
     if y_hat_n is None:
-        y_hat_n = theta[:, -1] + jnp.sum(theta[:, 1 : 1 + n] * sm.phi, axis=1)
-    beta_sd = jnp.sqrt(jnp.maximum(beta_var, 0.0))
-    alpha, dalpha = order_of(theta[:, 0], bounds)
+        y_hat_n = theta[:, -1] + np.sum(theta[:, 1 : 1 + n] * np.asarray(sm.phi), axis=1)
+    beta_sd = np.sqrt(np.maximum(np.asarray(beta_var), 0.0))
+    alpha, dalpha = order_of_np(theta[:, 0], bounds)
     alpha_std = dalpha * beta_sd
-    lower = order_of(theta[:, 0] - 2 * beta_sd, bounds)[0]
-    upper = order_of(theta[:, 0] + 2 * beta_sd, bounds)[0]
+    lower = order_of_np(theta[:, 0] - 2 * beta_sd, bounds)[0]
+    upper = order_of_np(theta[:, 0] + 2 * beta_sd, bounds)[0]
     if envelope is not None:
-        lower = jnp.minimum(lower, order_of(jnp.asarray(envelope[0]), bounds)[0])
-        upper = jnp.maximum(upper, order_of(jnp.asarray(envelope[1]), bounds)[0])
+        lower = np.minimum(lower, order_of_np(envelope[0], bounds)[0])
+        upper = np.maximum(upper, order_of_np(envelope[1], bounds)[0])
     trade = None if hold else trade_interval(
         memory, un, yn, mask, times, last, bounds, fit_noise
     )
     if trade is not None:  # the band covers the constant orders a drifting parameter allows
-        lower, upper = jnp.minimum(lower, trade[0]), jnp.maximum(upper, trade[1])
+        lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])
     if trade is not None or envelope is not None:
-        alpha_std = jnp.maximum(alpha_std, (upper - lower) / 4)
-    scale = jnp.asarray(p_scale)
-    var = jnp.maximum(jnp.diagonal(cov, axis1=1, axis2=2), 0.0)
+        alpha_std = np.maximum(alpha_std, (upper - lower) / 4)
+    scale = np.asarray(p_scale)
+    var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
+    y_hat_n, y_pred_n = np.asarray(y_hat_n), np.asarray(y_pred_n)
+    as_jax = jnp.asarray  # the fields are JAX arrays, as everywhere in vojax
     return TrackResult(
-        alpha=alpha,
-        alpha_std=alpha_std,
-        alpha_lower=lower,
-        alpha_upper=upper,
-        p=theta[:, 1 : 1 + n] * scale,
-        p_std=jnp.sqrt(var[:, 1 : 1 + n]) * scale,
-        x0=scales.y_ref + scales.y_scale * theta[-1, -1],
-        x0_std=scales.y_scale * jnp.sqrt(var[-1, -1]),
-        y_hat=scales.y_ref + scales.y_scale * y_hat_n,
-        y_pred=scales.y_ref + scales.y_scale * y_pred_n,
+        alpha=as_jax(alpha),
+        alpha_std=as_jax(alpha_std),
+        alpha_lower=as_jax(lower),
+        alpha_upper=as_jax(upper),
+        p=as_jax(theta[:, 1 : 1 + n] * scale),
+        p_std=as_jax(np.sqrt(var[:, 1 : 1 + n]) * scale),
+        x0=as_jax(scales.y_ref + scales.y_scale * theta[-1, -1]),
+        x0_std=as_jax(scales.y_scale * np.sqrt(var[-1, -1])),
+        y_hat=as_jax(scales.y_ref + scales.y_scale * y_hat_n),
+        y_pred=as_jax(scales.y_ref + scales.y_scale * y_pred_n),
         converged=converged,
         tuning=tuning,
         constant_order=alpha_c,
