@@ -447,7 +447,7 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
     (tmp_path / "empty").mkdir()
     proc = _cli("batch", "empty", "--time", "t", "--input", "u", "--output", "y",
                 "--out", "o2", cwd=tmp_path)
-    assert proc.returncode == 1 and "without .csv or .npz files" in proc.stderr
+    assert proc.returncode == 1 and "without CSV, NPZ or AFM files" in proc.stderr
 
 
 @pytest.mark.slow

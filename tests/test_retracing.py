@@ -120,4 +120,5 @@ print(",".join(names))
     assert [names.count(n) for n in heavy] == [1, 1, 1, 1], names
     # besides them only JAX's own moves of host arrays onto the device (`jnp.asarray`)
     moves = {"stage", "convert_element_type", "broadcast_in_dim"}
-    assert [n for n in names if n not in heavy and n not in moves] == [], names
+    # (JAX 0.4.30 also compiles one `add` while it traces the constant fit)
+    assert [n for n in names if n not in heavy and n not in moves] in ([], ["add"]), names

@@ -61,7 +61,7 @@ def iterated_smoother(
     the first call in a process compiles the smoother once, not once per way of running it."""
     return smooth_compiled(
         memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds,
-        jnp.asarray(max_iter, jnp.int32),
+        jnp.asarray(np.int32(max_iter)),  # a host value: no conversion program
     )
 
 
