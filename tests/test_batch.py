@@ -1,6 +1,7 @@
 """`vojax batch`: bad files reported while the rest go on, re-runs, and the sharded path."""
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -9,6 +10,7 @@ import textwrap
 import numpy as np
 import pytest
 
+import vojax
 from .test_data_cli import _cli, _springpot_csv
 
 
@@ -521,3 +523,42 @@ def test_batch_takes_folders_by_pattern_and_quoted_globs(tmp_path, capsys):
         assert main([*bad, *common, "--out", str(tmp_path / "bad")]) == 1
         err = capsys.readouterr().err.strip()
         assert message in err and "\n" not in err, err
+
+
+def test_batch_compare_ranks_the_laws_of_each_record_as_compare_does(tmp_path):
+    """``--compare`` adds each record's ranking of the laws to its summary.json and to
+    summary.csv, equal to `vojax.compare` on that record; it enters the provenance only
+    when on (a run without it leaves the outputs of a run without it current); a record with
+    two input columns fails alone, saying why."""
+    from vojax._cli import main
+    from vojax._data import load_records
+
+    data = tmp_path / "data"
+    data.mkdir()
+    _springpot_csv(data / "a.csv", n=80, q=0.35)
+    common = ["--time", "time_s", "--input", "stress", "--output", "strain", "--method",
+              "refit", "--figures", "overview", "--quiet", "--out", str(tmp_path / "o")]
+    assert main(["batch", str(data), *common]) == 0
+    assert main(["batch", str(data), *common, "--compare"]) == 0  # redone: other settings
+    summary = json.loads((tmp_path / "o" / "a" / "summary.json").read_text())
+    (rec,) = load_records(data / "a.csv", time="time_s", inputs=["stress"], output="strain")
+    c = vojax.compare(rec.inputs, rec.output, **rec.grid)
+    block = summary["compare"]
+    assert block["best"] == c.best and block["verdict"] == c.verdict
+    for r in c.rows:
+        assert block["log_evidence"][r["model"]] == pytest.approx(r["log_evidence"], rel=1e-9)
+    with open(tmp_path / "o" / "summary.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert row["compare_best"] == c.best
+    assert float(row["compare_weight_" + c.best]) == pytest.approx(max(r["weight"] for r in c.rows))
+    # two input columns: that record fails with the reason, the batch goes on
+    two = data / "two.csv"
+    two.write_text("time_s,stress,strain,temp\n" + "".join(
+        f"{0.1 * k!r},{1.0 + 0.01 * k!r},{0.02 * k!r},{20 + 0.1 * k!r}\n" for k in range(40)))
+    args = ["batch", str(two), "--time", "time_s", "--input", "stress", "--input", "temp",
+            "--output", "strain", "--model", "linear", "--method", "refit", "--figures",
+            "overview", "--quiet", "--compare", "--out", str(tmp_path / "p")]
+    assert main(args) == 2  # a record failed (exit 2), written in failures.csv
+    with open(tmp_path / "p" / "failures.csv", newline="") as f:
+        (failure,) = list(csv.DictReader(f))
+    assert "--compare takes one input column" in failure["reason"]

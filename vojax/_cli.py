@@ -559,6 +559,7 @@ def _settings(args) -> dict:
         length=args.length,
         **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
         **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
+        **({"compare": True} if getattr(args, "compare", False) else {}),
     )
 
 
@@ -989,6 +990,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="CSV, NPZ or AFM files, folders of them (their files, not their subfolders'; "
         "see --pattern) or quoted globs ('runs/*/test_*.csv'); each file is a record "
         "unless --group-by or an AFM map",
+    )
+    b.add_argument(
+        "--compare",
+        action="store_true",
+        help="also rank the laws each record supports (as vojax compare: springpot, "
+        "Kelvin-Voigt, Maxwell, Zener, a variable order), in summary.json and the compare_* "
+        "columns of summary.csv (one input column; about 2 s a record)",
     )
     b.add_argument(
         "--pattern",

@@ -134,6 +134,7 @@ def run_batch(
     progress: bool | None = None,
     client=None,
     failures=(),
+    compare: bool = False,
 ) -> BatchReport:
     """Identifies every `Record` into ``out/<folder>/`` as ``vojax batch`` does (the same
     defaults, outputs, lock, provenance and re-run rules; see the command line's docs) and
@@ -143,6 +144,12 @@ def run_batch(
     `failures`: ``(file, record, reason)`` triples of what could not be loaded (a
     `DataError` from `load_records`), listed in ``out/failures.csv`` with the records that
     fail here and counted in the report.
+
+    `compare`: also rank the laws each record supports (`vojax.compare`: springpot,
+    Kelvin–Voigt, Maxwell, Zener and a variable order, by evidence), as the ``compare``
+    block of its ``summary.json`` and the ``compare_*`` columns of ``summary.csv`` (the best
+    law, the next, the Bayes factor between them, each law's weight). Records with one
+    input column only.
 
     `progress`: a progress bar (tqdm) on stderr with the records done, failed and up to date
     and the time left; ``None`` (the default) shows it when stderr is a terminal, not in a log
@@ -158,6 +165,8 @@ def run_batch(
     """
     _check_model(model, area, length)
     wanted(progress)  # True, False or None
+    if not isinstance(compare, bool):
+        raise TypeError(f"`compare` must be True or False, got {compare!r}.")
     failures = list(failures)
     if not all(
         isinstance(f, (tuple, list)) and len(f) == 3 and all(isinstance(x, str) for x in f)
@@ -182,5 +191,5 @@ def run_batch(
         records, out, model=model, method=canonical_method(method), gamma=gamma, lam=lam,
         area=area, length=length, parameters=parameters, overwrite=overwrite,
         figure_format=figure_format, record_figures=record_figures, progress=progress,
-        client=client, failures=[tuple(f) for f in failures],
+        client=client, failures=[tuple(f) for f in failures], compare=compare,
     )

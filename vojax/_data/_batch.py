@@ -42,6 +42,7 @@ from ._pipeline import (
     canonical_method,
     check_finite,
     check_parameters,
+    compare_part,
     disagreement,
     estimator,
     finish_outputs,
@@ -212,6 +213,7 @@ def run_batch(
     fit_to=None,
     parameters=None,
     client=None,
+    compare=False,
 ):
     """Identifies every record into ``out_dir/<folder>/`` (`record_folder` of its name);
     returns a `BatchReport`.
@@ -259,6 +261,7 @@ def run_batch(
     settings = dict(
         model=model, method=method, gamma=gamma, lam=lam, area=area, length=length,
         figure_format=figure_format, **(loader or {}), **fit,
+        **({"compare": True} if compare else {}),
     )
     for name in ("summary.csv", "failures.csv", f"overview.{figure_format}"):
         if (out_dir / name).is_dir() and not (out_dir / name).is_symlink():
@@ -337,7 +340,8 @@ def run_batch(
                 finished(r, state, False)
 
         config = dict(
-            model=model, method=method, gamma=gamma, lam=lam, area=area, length=length, fit=fit
+            model=model, method=method, gamma=gamma, lam=lam, area=area, length=length, fit=fit,
+            compare=bool(compare),
         )
         # records are padded to a few bucket lengths (m·2^k, neighbours merged where a compile
         # costs more than the padding: `plan_buckets`) and masked or cut back, so that a batch
@@ -487,6 +491,8 @@ def _compute_group(group, num, dt, config, mesh=None):
                 columns, summary = identify_record(
                     r, model=model, method=method, area=area, length=length, pad_to=num, **fit,
                 )
+            if config.get("compare"):
+                summary["compare"] = compare_part(r, area, length)
             check_finite(summary, columns)
         except Exception as e:  # noqa: BLE001
             yield r, state, e
@@ -822,6 +828,12 @@ def _summary_row(summary):
     }
     if "disagreement" in summary:
         row["disagreement"] = summary["disagreement"]
+    if "compare" in summary:
+        block = summary["compare"]
+        for k in ("best", "second", "bayes_factor"):
+            row[f"compare_{k}"] = block.get(k)
+        for name, w in (block.get("weight") or {}).items():
+            row[f"compare_weight_{name}"] = w
     for part in ("kalman", "gradient", "refit"):
         if part not in summary:
             continue

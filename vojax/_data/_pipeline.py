@@ -363,6 +363,33 @@ def _padded(fn, u, y, pad_to, **kwargs):
     )
 
 
+def compare_part(record, area=None, length=None):
+    """`vojax.compare` of one record (its one input as the stress, its output as the strain,
+    through `area` and `length` as eq. (35)) as the ``compare`` block of its summary: the
+    best law, the next one and the Bayes factor between them, the verdict, and each law's
+    log evidence, weight and held-out NRMSE."""
+    from .._compare import compare
+
+    if record.inputs.shape[1] != 1:
+        raise ValueError(
+            f"--compare takes one input column (the stress); this record has "
+            f"{record.inputs.shape[1]}."
+        )
+    stress = record.inputs[:, 0] / (area or 1.0)
+    strain = record.output / (length or 1.0)
+    c = compare(stress, strain, **record.grid)
+    rows = c.rows
+    out = {
+        "best": rows[0]["model"],
+        "second": rows[1]["model"] if len(rows) > 1 else None,
+        "bayes_factor": c.bayes_factor(rows[0]["model"], rows[1]["model"]) if len(rows) > 1 else None,
+        "verdict": c.verdict,
+    }
+    for key in ("log_evidence", "weight", "holdout_nrmse"):
+        out[key] = {r["model"]: float(r[key]) for r in rows}
+    return out
+
+
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
