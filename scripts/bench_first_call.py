@@ -1,7 +1,8 @@
 """The user's wall clock for the default `vojax.identify` (the tracker): the first call of a
 fresh process (compilation included), the second call, and the first call of a new process
 with the persistent compilation cache (`vojax.use_compilation_cache`) empty and then warm;
-and the cost per sample of a warm call at several record lengths.
+and the cost per sample of a warm call at several record lengths; each with XLA's default
+loops and with `vojax.use_fast_cpu_loops()` (what the command line uses).
 
 Each case runs in its own fresh Python process; the record is a ramp-and-hold input driving
 a slowly moving order with 1 % noise. Times are wall-clock seconds on this machine; the
@@ -26,6 +27,8 @@ import numpy as np
 import jax
 jax.config.update("jax_enable_x64", True)
 import vojax
+if sys.argv[3] == "fast":
+    vojax.use_fast_cpu_loops()
 imported = time.perf_counter()
 cache = sys.argv[2]
 if cache != "none":
@@ -49,9 +52,9 @@ print(json.dumps(dict(samples=n, imported=imported - started, first=first - prep
 """
 
 
-def run(n, cache="none"):
+def run(n, cache="none", loops="default"):
     env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
-    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache], capture_output=True,
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops], capture_output=True,
                          text=True, env=env, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -62,27 +65,43 @@ def main(argv=None):
     parser.add_argument("--lengths", type=int, nargs="*", default=[1000, 10000])
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
-    rows = []
-    cold = run(args.samples)
-    rows.append(("fresh process, no cache: first call", cold["first"]))
-    rows.append(("same process: second call", cold["second"]))
-    with tempfile.TemporaryDirectory() as folder:
-        empty = run(args.samples, folder)
-        warm = run(args.samples, folder)
-    rows.append(("fresh process, empty cache: first call", empty["first"]))
-    rows.append(("fresh process, warm cache: first call", warm["first"]))
+    results = {}
+    for loops in ("default", "fast"):
+        cold = run(args.samples, loops=loops)
+        with tempfile.TemporaryDirectory() as folder:
+            empty = run(args.samples, folder, loops)
+            warm = run(args.samples, folder, loops)
+        results[loops] = dict(
+            cold=cold, rows=[
+                ("fresh process, no cache: first call", cold["first"]),
+                ("same process: second call", cold["second"]),
+                ("fresh process, empty cache: first call", empty["first"]),
+                ("fresh process, warm cache: first call", warm["first"]),
+            ],
+            lengths=[run(n, loops=loops) for n in args.lengths],
+        )
+    base, fast = results["default"], results["fast"]
     lines = [
         f"# bench_first_call: identify (default: the tracker), {args.samples} samples; "
-        f"import of vojax and JAX {cold['imported']:.2f} s; {os.cpu_count()} CPUs",
-        "| case | wall s | ÷ second call |",
-        "|---|---|---|",
+        f"import of vojax and JAX {base['cold']['imported']:.2f} s; {os.cpu_count()} CPUs; "
+        "XLA's default loops, and vojax.use_fast_cpu_loops()",
+        "| case | default s | ÷ second call | fast loops s | ÷ second call (fast) | default ÷ fast |",
+        "|---|---|---|---|---|---|",
     ]
-    for name, value in rows:
-        lines.append(f"| {name} | {value:.2f} | {value / cold['second']:.1f} |")
-    lines += ["", "| samples | first call s | warm call s | µs per sample (warm) |", "|---|---|---|---|"]
-    for n in args.lengths:
-        r = run(n)
-        lines.append(f"| {n} | {r['first']:.2f} | {r['second']:.2f} | {1e6 * r['second'] / n:.0f} |")
+    for (name, a), (_, b) in zip(base["rows"], fast["rows"]):
+        lines.append(
+            f"| {name} | {a:.2f} | {a / base['cold']['second']:.1f} | {b:.2f} | "
+            f"{b / fast['cold']['second']:.1f} | {a / b:.1f} |"
+        )
+    lines += ["", "| samples | first call s | warm call s | µs per sample (warm) | fast loops: "
+              "first call s | warm call s | µs per sample | default ÷ fast (warm) |",
+              "|---|---|---|---|---|---|---|---|"]
+    for n, a, b in zip(args.lengths, base["lengths"], fast["lengths"]):
+        lines.append(
+            f"| {n} | {a['first']:.2f} | {a['second']:.2f} | {1e6 * a['second'] / n:.0f} | "
+            f"{b['first']:.2f} | {b['second']:.2f} | {1e6 * b['second'] / n:.0f} | "
+            f"{a['second'] / b['second']:.1f} |"
+        )
     text = "\n".join(lines)
     print(text)
     if args.out:
