@@ -22,8 +22,8 @@ PAPER_LAM = 0.9
 
 
 IDENTIFIED_HALFWIDTH = 0.1  # median ±2σ half-width of the order band above which it is "not identified"
-# the tracker's longest record: its cost is about 6 ms a sample (2-core CPU, 1e4 samples),
-# so this is about 5 min
+# the tracker's longest record: its cost is about 4 ms a sample (2-core CPU, 1e4 samples,
+# XLA's default loops; 1 ms with `use_fast_cpu_loops`), so this is about 3 min
 TRACKER_MAX_SAMPLES = 50_000
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
 # lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
@@ -729,8 +729,8 @@ def _identify_kalman(
         span = int(np.flatnonzero(mask)[-1]) + 1
     if span > TRACKER_MAX_SAMPLES:
         raise ValueError(
-            f"the tracker takes about 6 ms a sample on a CPU core, so {span:,} samples would "
-            f"take about {span * 6e-3 / 60:.0f} min: resample the record to at most "
+            f"the tracker takes about 4 ms a sample on a CPU core, so {span:,} samples would "
+            f"take about {span * 4e-3 / 60:.0f} min: resample the record to at most "
             f"{TRACKER_MAX_SAMPLES:,} samples (an order changes slowly; `load_records(..., "
             "resample=STEP)`, the CLI's --resample STEP), or use the paper's law or the "
             "refit (method='gradient' or `vojax.refit`; --method gradient or refit)."
