@@ -81,7 +81,9 @@ law = build_law(0.1, u.shape[0], lam=0.9, gamma=0.01, alpha0=0.5, alpha_bounds=(
 compiled = jax.jit(lambda u, y: run_law(law, u, y)).lower(u, y).compile()
 out = compiled(u, y)
 phi = vojax.order_sensitivity(s["u"], s["alpha"], 0.1, memory="exponential")
+tracker = vojax.identify(s["u"][:200], s["y"][:200], 0.1, warn=False)  # the default
 print(json.dumps(dict(alpha=out.alpha.tolist(), p=out.p.tolist(), dphi=phi.tolist(),
+                      tracker=tracker.alpha.tolist(), band=tracker.alpha_upper.tolist(),
                       one_kernel="xla_cpu_small_call" in compiled.as_text())))
 """
 
@@ -103,3 +105,8 @@ def test_fast_loops_take_effect_and_change_nothing_but_speed():
     for key in ("alpha", "p", "dphi"):
         a, b = np.asarray(default[key]), np.asarray(fast[key])
         assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
+    # the tracker (iterative: its smoothings stop at a relative decrease of 1e-9) agrees far
+    # inside its band
+    for key in ("tracker", "band"):
+        a, b = np.asarray(default[key]), np.asarray(fast[key])
+        assert np.max(np.abs(a - b)) <= 1e-6, (key, np.max(np.abs(a - b)))
