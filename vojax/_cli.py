@@ -669,6 +669,7 @@ def identify_command(args) -> int:
 def compare_command(args) -> int:
     from ._compare import MODELS, compare
     from ._data._batch import _write_table
+    from ._data._pipeline import stress_strain
     from ._data._paths import claim_outputs
 
     if args.model is not None:
@@ -688,11 +689,7 @@ def compare_command(args) -> int:
     claim_outputs(out, ["comparison.csv"])
     rows = []
     for record in records:
-        stress, strain = record.inputs[:, 0], record.output
-        if args.area is not None:
-            stress = stress / args.area
-        if args.length is not None:
-            strain = strain / args.length
+        stress, strain = stress_strain(record, args.area, args.length)
         try:
             result = compare(stress, strain, **record.grid, models=models, knots=args.knots)
         except ValueError as e:

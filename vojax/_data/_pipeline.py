@@ -363,6 +363,12 @@ def _padded(fn, u, y, pad_to, **kwargs):
     )
 
 
+def stress_strain(record, area=None, length=None):
+    """A one-input record's stress σ = F/a and strain ε = d/l (eq. 35; a and l 1 if None)."""
+    stress, strain = record.inputs[:, 0], record.output
+    return (stress if area is None else stress / area), (strain if length is None else strain / length)
+
+
 def compare_part(record, area=None, length=None):
     """`vojax.compare` of one record (its one input as the stress, its output as the strain,
     through `area` and `length` as eq. (35)) as the ``compare`` block of its summary: the
@@ -375,9 +381,7 @@ def compare_part(record, area=None, length=None):
             f"--compare takes one input column (the stress); this record has "
             f"{record.inputs.shape[1]}."
         )
-    stress = record.inputs[:, 0] / (area or 1.0)
-    strain = record.output / (length or 1.0)
-    c = compare(stress, strain, **record.grid)
+    c = compare(*stress_strain(record, area, length), **record.grid)
     rows = c.rows
     out = {
         "best": rows[0]["model"],

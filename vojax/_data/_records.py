@@ -274,13 +274,10 @@ def load_records(
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
     pairs = check_units(units, [time, *inputs, output])
-    records = _load_records(
-        path, time=time, inputs=inputs, output=output, group_by=group_by, strict=strict,
-        resample=resample, trim_column=trim_column, trim_below=trim_below,
-        delimiter=delimiter, decimal=decimal, segments=segments, from_contact=from_contact,
-        tip=tip, poisson=poisson,
-    )
-    return [dataclasses.replace(r, units=pairs) for r in records] if pairs else records
+    return [dataclasses.replace(r, units=pairs) for r in _read_records(
+        path, time, inputs, output, group_by, strict, resample, trim_column, trim_below,
+        delimiter, decimal, segments, from_contact, tip, poisson,
+    )]
 
 
 def check_units(units, columns) -> tuple[tuple[str, str], ...]:
@@ -302,24 +299,9 @@ def check_units(units, columns) -> tuple[tuple[str, str], ...]:
     return tuple(sorted((c, u.strip()) for c, u in units.items()))
 
 
-def _load_records(
-    path,
-    *,
-    time: str,
-    inputs: list[str],
-    output: str,
-    group_by: str | None = None,
-    strict: bool = False,
-    resample: float | None = None,
-    trim_column: str | None = None,
-    trim_below: float | None = None,
-    delimiter: str = ",",
-    decimal: str = ".",
-    segments=None,
-    from_contact: bool = True,
-    tip=None,
-    poisson: float = 0.5,
-) -> list[Record]:
+def _read_records(path, time, inputs, output, group_by, strict, resample, trim_column,
+                  trim_below, delimiter, decimal, segments, from_contact, tip, poisson):
+    """The records of one file, as `load_records` describes (without `units`)."""
     if delimiter not in (",", ";", "\t"):
         raise ValueError(f"`delimiter` must be ',', ';' or a tab, got {delimiter!r}.")
     if decimal not in (".", ","):

@@ -294,7 +294,7 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     return (float(min(found)), float(max(found))) if found else None
 
 
-_warm: set = set()  # (function, shapes) already compiled: their shares may run in threads
+_warm: set = set()  # record shapes whose smoothing is compiled: shares may run in threads
 _warm_lock = threading.Lock()
 _thread_limit = contextvars.ContextVar("vojax_run_threads", default=None)
 
@@ -310,26 +310,24 @@ def run_threads(limit: int):
         _thread_limit.reset(token)
 
 
-def _in_threads(fn, count, call, key):
-    """``call(lo, hi, size)`` for the runs ``[lo, hi)`` of `count`, each share padded to
-    `size` runs, in threads (`RUN_THREADS`, at most one per core) once `fn` has been compiled
-    for these shapes (`key`); the first time one share after another, so that two threads
-    never compile the same program. Returns the shares' outputs in order, with their
-    ``(lo, hi)``."""
+def _in_threads(count, call, key):
+    """``call(lo, hi)`` for equal shares ``[lo, hi)`` of the `count` runs, in threads
+    (`RUN_THREADS`, at most one per core) once a call has run for these shapes (`key`); the
+    first time one share after another, so that two threads never compile the same
+    program. Returns the shares' outputs in order, with their ``(lo, hi)``."""
     limit = _thread_limit.get()
     workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS, limit or RUN_THREADS))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
-    key = (id(fn), size, *key)
     with _warm_lock:
         warm = key in _warm
     if not warm or len(shares) == 1:
-        out = [call(lo, hi, size) for lo, hi in shares]
+        out = [call(lo, hi) for lo, hi in shares]
         with _warm_lock:
             _warm.add(key)
     else:
         with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
-            out = list(pool.map(lambda share: call(*share, size), shares))
+            out = list(pool.map(lambda share: call(*share), shares))
     return list(zip(shares, out))
 
 
@@ -341,12 +339,13 @@ def _share(rows, firsts, lo, hi):
 def _run_shares(fn, memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
     """`fn` (`smoother_batch` or `smoother_modes`) over the runs ``rows`` × ``firsts``, split
     into shares run in threads (`_in_threads`); ``[((lo, hi), output)]``."""
-    def call(lo, hi, size):
+    def call(lo, hi):
         hyper, first = _share(rows, firsts, lo, hi)
         out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget)
         return jax.block_until_ready(out)
 
-    return _in_threads(fn, len(rows), call, (u.shape, budget))
+    # every smoothing runs one program (`iterated_smoother`): compiled once per record shape
+    return _in_threads(len(rows), call, (u.shape, u.dtype))
 
 
 def _joined(parts, k):
