@@ -294,7 +294,7 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     return (float(min(found)), float(max(found))) if found else None
 
 
-_warm: set = set()  # record shapes whose smoothing is compiled: shares may run in threads
+_warm: set = set()  # (function, shapes) already run: their shares may run in threads
 _warm_lock = threading.Lock()
 _thread_limit = contextvars.ContextVar("vojax_run_threads", default=None)
 
@@ -310,15 +310,16 @@ def run_threads(limit: int):
         _thread_limit.reset(token)
 
 
-def _in_threads(count, call, key):
+def _in_threads(fn, count, call, key):
     """``call(lo, hi)`` for equal shares ``[lo, hi)`` of the `count` runs, in threads
-    (`RUN_THREADS`, at most one per core) once a call has run for these shapes (`key`); the
+    (`RUN_THREADS`, at most one per core) once `fn` has run for these shapes (`key`); the
     first time one share after another, so that two threads never compile the same
     program. Returns the shares' outputs in order, with their ``(lo, hi)``."""
     limit = _thread_limit.get()
     workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS, limit or RUN_THREADS))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
+    key = (id(fn), size, *key)
     with _warm_lock:
         warm = key in _warm
     if not warm or len(shares) == 1:
@@ -344,8 +345,7 @@ def _run_shares(fn, memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bo
         out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget)
         return jax.block_until_ready(out)
 
-    # every smoothing runs one program (`iterated_smoother`): compiled once per record shape
-    return _in_threads(len(rows), call, (u.shape, u.dtype))
+    return _in_threads(fn, len(rows), call, (u.shape, budget))
 
 
 def _joined(parts, k):
