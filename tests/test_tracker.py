@@ -969,3 +969,21 @@ def test_band_covers_a_moving_order_with_a_drifting_gain_or_refuses():
     assert "parameters='constant'" in d.message
     held = vojax.identify(u, y, dt, parameters="constant", warn=False)
     assert held.diagnostics.identified and coverage(held) < 0.5  # confidently wrong
+
+
+def test_threaded_smoothings_leave_sys_stderr_as_they_found_it():
+    """A second tracker call on a record shape runs its smoothings in threads. Libraries that
+    swap ``sys.stderr`` around a compiled call without a lock (equinox before 0.11.6) leave a
+    wrapper behind when two threads overlap, and the process then exits with status 120 at
+    shutdown (the wrapper has no ``flush``). Both calls here must leave ``sys.stderr`` as it was."""
+    import sys
+
+    dt = 0.1
+    t = np.arange(187) * dt  # a length no other test uses: the first call compiles, the second threads
+    u = np.minimum(t, 5.0) + 0.2 * np.sin(t)
+    y = np.asarray(vojax.reference.fractional_integral(u, 0.3 + 0.3 * t / t[-1], dt))
+    y = y + 0.01 * np.ptp(y) * np.random.default_rng(0).standard_normal(t.size)
+    before = sys.stderr
+    for scale in (1.0, 1.01):
+        vojax.identify(u, scale * y, dt, method="kalman", warn=False)
+        assert sys.stderr is before
