@@ -398,10 +398,10 @@ def diagnose(
         )
         problems.append(
             f"the order band is ±{width:.2g} wide because a drifting parameter explains the "
-            f"data as well{where}: with one input an order and a drifting parameter trade "
-            "off, and the band covers both; if the parameters are known not to drift, say so "
-            "(parameters='constant', --parameters constant), otherwise a second input or a "
-            "test with another loading would separate them"
+            f"data as well{where}: an order and a drifting parameter can trade off (with one "
+            "input they always do), and the band covers both; if the parameters are known not "
+            "to drift, say so (parameters='constant', --parameters constant), otherwise "
+            "another input or a test with another loading would separate them"
         )
     elif width > IDENTIFIED_HALFWIDTH:
         problems.append(
