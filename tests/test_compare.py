@@ -94,10 +94,11 @@ def test_a_records_input_column_is_taken_as_the_stress():
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="records of the fractional Zener law with its springs of the springpot's size are "
-    "explained by simpler laws within the noise (every fit leaves the truth's residual RMS), "
-    "and the Schwarz penalty favours them: scripts/bench_compare.py ranks the Zener first in "
-    "0 of 12 and favours a wrong model by BF > 10 in 10 of 12",
+    reason="the fractional Zener's feature on these inputs (a Maxwell law's best fit to the "
+    "noise-free record) is 0.012-0.11 % of the strain's range, 10-400x below the 1-5 % noise: "
+    "no comparison can find it, and the evidence rightly prefers the simpler law; "
+    "scripts/bench_compare.py ranks the Zener first in 0 of 12 (12 of 12 with the noise at "
+    "half the feature: test_the_comparison_finds_each_law_with_the_noise_below_its_feature)",
 )
 def test_the_comparison_finds_the_generating_model_on_the_benchmark():
     """The validation target: over records of every model from the shipped real inputs
@@ -120,6 +121,27 @@ def test_the_comparison_finds_the_generating_model_on_the_benchmark():
             first += c.best == model
             wrong += c.best != model and c.bayes_factor(c.best, model) > 10
     assert first >= 0.9 * cases and wrong == 0
+
+
+@pytest.mark.slow
+def test_the_comparison_finds_each_law_with_the_noise_below_its_feature():
+    """Records of the Zener and of the Maxwell law (one draw each from the two shipped inputs)
+    with the noise at half of their feature, measured independently of the ranking (the
+    noise-free record's misfit by the laws that do not contain the generating one): the
+    generating law first on all four, and no wrong one favoured by a Bayes factor above 10.
+    At the benchmark's 1-5 % noise the Zener is found on none (the xfail above)."""
+    from .helpers import load_script
+
+    bench = load_script("bench_compare")
+    rng = np.random.default_rng(5)
+    for _, stress, dt in bench.inputs():
+        for model in ("zener", "maxwell"):
+            clean = bench.generate(model, stress, dt, rng, 0.0)
+            size = bench.feature(model, stress, clean, dt)
+            assert size < 0.01  # below the benchmark's noise: the point of the test
+            y = clean + 0.5 * size * np.ptp(clean) * rng.standard_normal(clean.size)
+            c = vojax.compare(stress, y, dt)
+            assert c.best == model, c.table()
 
 
 def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tmp_path):
