@@ -75,7 +75,7 @@ def test_tracker_traces_once(monkeypatch):
 
     # every smoothing (first pass, refinement, mixture, held order) runs one program
     limited = [_once(monkeypatch, _smoother, "smooth_compiled")]
-    limited += [_once(monkeypatch, _track, name) for name in ("_refine_compiled", "_constant_profile")]
+    limited += [_once(monkeypatch, _track, name) for name in ("_refine_compiled", "_phi_constant")]
     u, y = _record(120, 0.4, 6)
     vojax.identify(u, y, 0.1, method="kalman", warn=False)
     u2, y2 = _record(120, 0.6, 7)
@@ -85,9 +85,11 @@ def test_tracker_traces_once(monkeypatch):
 
 def test_the_first_tracker_call_compiles_a_handful_of_programs():
     """A fresh process's first `identify` (the tracker) compiles one smoothing program for
-    all its smoothings, the refinement, the trade-off's profile and the constant fit, and
-    next to nothing else: an eager JAX operation on the host side (each compiles a program
-    of its own, ~0.05 s) or a second way of running the smoother (~1 s) shows up here."""
+    all its smoothings, the refinement, and one program of Φ at a constant order for the
+    constant fit and the trade-off's profile, and next to nothing else: an eager JAX
+    operation on the host side (each compiles a program of its own, ~0.05 s), a second way
+    of running the smoother (~1 s) or a profile compiled for its own shapes (~0.3 s) shows
+    up here."""
     import subprocess
     import sys
 
@@ -116,8 +118,8 @@ print(",".join(names))
                           timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     names = done.stdout.strip().splitlines()[-1].split(",")
-    heavy = ["smooth_compiled", "_refine_compiled", "_drift_profile", "_constant_profile"]
-    assert [names.count(n) for n in heavy] == [1, 1, 1, 1], names
+    heavy = ["smooth_compiled", "_refine_compiled", "_phi_constant"]
+    assert [names.count(n) for n in heavy] == [1, 1, 1], names
     # besides them only JAX's own moves of host arrays onto the device (`jnp.asarray`)
     moves = {"stage", "convert_element_type", "broadcast_in_dim"}
     # (JAX 0.4.30 also compiles one `add` while it traces the constant fit)

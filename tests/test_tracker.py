@@ -987,3 +987,22 @@ def test_threaded_smoothings_leave_sys_stderr_as_they_found_it():
     for scale in (1.0, 1.01):
         vojax.identify(u, scale * y, dt, method="kalman", warn=False)
         assert sys.stderr is before
+
+
+def test_phi_of_each_column_equals_the_memory_run_on_all_columns():
+    """`phi_columns` (the constant fit's and the trade-off profile's Φ, one input column at
+    a time through one compiled program) equals one run of the memory over all the columns
+    at once, and the direct sum of `vojax.reference` to the memory's accuracy."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+
+    n, dt = 240, 0.05
+    t = dt * np.arange(n)
+    x = np.stack([np.sin(t) + 1.0, np.minimum(t, 4.0), np.cos(0.3 * t)], axis=1)
+    memory = make_memory("exponential", dt, n, order_range=(0.01, 0.99))
+    got = _track.phi_columns(memory, x, 0.37)
+    whole = np.asarray(memory.run(jnp.asarray(x), jnp.full((n,), 0.37), False))
+    np.testing.assert_allclose(got, whole, rtol=1e-13, atol=1e-13)
+    direct = np.stack([np.asarray(vojax.reference.fractional_integral(x[:, j], 0.37, dt))
+                       for j in range(3)], axis=1)
+    np.testing.assert_allclose(got, direct, rtol=1e-6, atol=1e-6 * np.abs(direct).max())

@@ -67,6 +67,7 @@ ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's cha
 TRADE_KNOTS = 8
 TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
 TRADE_CHI2 = 4.0
+PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
 # a pass's smoothings are independent: they run side by side in up to this many threads
 # (one per core), each over an equal share of them (one compiled program for all shares)
 RUN_THREADS = 8
@@ -114,14 +115,44 @@ def data_scales(u, y, mask) -> Scales:
 
 
 @eqx.filter_jit
-def _constant_profile(memory, u, y, mask, alpha):
-    """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order."""
-    phi = memory.run(u, jnp.full((u.shape[0],), alpha), False)
-    x = jnp.concatenate([phi, jnp.ones((u.shape[0], 1), phi.dtype)], axis=1)
-    w = jnp.sqrt(mask)
-    coef = jnp.linalg.lstsq(x * w[:, None], y * w)[0]
+def _phi_constant(memory, x, alpha):
+    """``Φ`` of the input columns `x` (N, `PHI_BLOCK`) at the constant order `alpha`."""
+    return memory.run(x, jnp.full((x.shape[0],), alpha, x.dtype), False)
+
+
+def phi_columns(memory, x, alpha):
+    """``Φ`` (N, m) of each column of `x` (N, m) at the constant order `alpha`, in blocks of
+    `PHI_BLOCK` columns (the last padded with zeros): the constant fit and the trade-off's
+    profile share one compiled program whatever the number of inputs, and one scan of the
+    memory costs about the same for one column as for nine."""
+    x = np.asarray(x)
+    num, m = x.shape
+    padded = np.zeros((num, -(-m // PHI_BLOCK) * PHI_BLOCK), x.dtype)
+    padded[:, :m] = x
+    a = jnp.asarray(alpha, x.dtype)
+    return np.concatenate(
+        [np.asarray(_phi_constant(memory, jnp.asarray(padded[:, j : j + PHI_BLOCK]), a))
+         for j in range(0, padded.shape[1], PHI_BLOCK)],
+        axis=1,
+    )[:, :m]
+
+
+def _least_squares(x, y, mask):
+    """Weighted least squares with an offset column, on the host: ``(rss, coef)``."""
+    x = np.concatenate([x, np.ones((x.shape[0], 1), x.dtype)], axis=1)
+    w = np.sqrt(mask)
+    coef = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)[0]
     res = (y - x @ coef) * w
-    return jnp.sum(res * res), coef, jnp.sqrt(jnp.sum(mask[:, None] * phi**2, 0) / jnp.sum(mask))
+    return float(res @ res), coef
+
+
+def _constant_profile(memory, u, y, mask, alpha):
+    """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order,
+    and the RMS of each column of ``Φ``."""
+    phi = phi_columns(memory, u, alpha)
+    mask, y = np.asarray(mask), np.asarray(y)
+    rss, coef = _least_squares(phi, y, mask)
+    return rss, coef, np.sqrt(np.sum(mask[:, None] * phi**2, 0) / np.sum(mask))
 
 
 def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
@@ -131,7 +162,7 @@ def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
 
     def at(beta):
         alpha, _ = order_of_np(beta, bounds)
-        return _constant_profile(memory, u, y, mask, jnp.asarray(alpha, u.dtype))
+        return _constant_profile(memory, u, y, mask, alpha)
 
     values = [float(at(b)[0]) for b in betas]
     i = int(np.nanargmin(values))
@@ -221,7 +252,7 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     out = []
     for f in fracs:
         alpha = lo + (hi - lo) * f
-        _, coef, _ = _constant_profile(memory, u, y, mask, jnp.asarray(alpha, u.dtype))
+        _, coef, _ = _constant_profile(memory, u, y, mask, alpha)
         out.append(np.concatenate([[float(beta_of_np(alpha, bounds))], np.asarray(coef)]))
     return np.stack(out)
 
@@ -239,31 +270,23 @@ def hat_basis(times, last, knots=TRADE_KNOTS):
     return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
 
 
-@eqx.filter_jit
 def _drift_profile(memory, u, y, mask, alphas, basis):
     """Weighted residual sums of squares (A, 2) of least squares at each constant order of
     `alphas` with an offset and the parameters free to drift, ``p_j(t) = Σ_k a_jk B_k(t)``:
     as a gain on the memory term (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral
     (``y ≈ c + Σ a_jk I^α(B_k u_j)``)."""
+    u, y, mask, basis = (np.asarray(a) for a in (u, y, mask, basis))
     num, n = u.shape
     k = basis.shape[1]
-    w = jnp.sqrt(mask)
     inside_u = (u[:, :, None] * basis[:, None, :]).reshape(num, n * k)
-    ones = jnp.ones((num, 1), u.dtype)
-
-    def rss(x):
-        x = jnp.concatenate([x, ones], axis=1) * w[:, None]
-        coef = jnp.linalg.lstsq(x, y * w)[0]
-        res = y * w - x @ coef
-        return res @ res
-
-    def one(alpha):
-        order = jnp.full((num,), alpha, u.dtype)
-        phi = memory.run(u, order, False)
+    out = []
+    for alpha in np.asarray(alphas):
+        # one block of `PHI_BLOCK` = k + 1 columns an input: its own and its k drifting ones
+        both = phi_columns(memory, np.concatenate([u, inside_u], axis=1), alpha)
+        phi, inside = both[:, :n], both[:, n:]
         gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
-        return jnp.stack([rss(gain), rss(memory.run(inside_u, order, False))])
-
-    return lax.map(one, alphas)
+        out.append([_least_squares(gain, y, mask)[0], _least_squares(inside, y, mask)[0]])
+    return np.asarray(out)
 
 
 def trade_interval(memory, u, y, mask, times, last, bounds, noise):
@@ -272,8 +295,8 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     same scale as `y`), over the forms (gain, inside) whose best fit passes a χ² test at 2σ
     (``χ² ≤ dof + 2√(2 dof)``); None when neither explains the data."""
     lo, hi = bounds
-    alphas = jnp.asarray(np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1], u.dtype)
-    basis = jnp.asarray(hat_basis(times, last), u.dtype)
+    alphas = np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1]
+    basis = hat_basis(times, last)
     chi2 = np.asarray(_drift_profile(memory, u, y, mask, alphas, basis)) / noise
     dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
     grid = np.asarray(alphas)
