@@ -484,7 +484,7 @@ MUTATIONS = {
     "trade interval ends on grid orders": (
         "vojax/_tracker/_track.py",
         [("        found.append(lo if i == 0 else crossing(i, i - 1))",
-          "        found.append(lo if i == 0 else grid[i - 1])")],
+          "        found.append(lo if i == 0 else alphas[i - 1])")],
         ["tests/test_tracker.py::test_trade_interval_against_an_independent_profile"],
     ),
     "trade interval not widening the band": (

@@ -696,12 +696,13 @@ def test_constant_fit_finds_the_least_squares_order_of_a_dense_scan():
     alpha, coef, rss, _ = _track.constant_fit(memory, u, y, mask, bounds)
     betas = np.linspace(-5.0, 5.0, 2001)
     alphas = np.asarray(order_of(jnp.asarray(betas), bounds)[0])
-    dense = np.array([float(_track._constant_profile(memory, u, y, mask, a)[0]) for a in alphas])
+    host = [np.asarray(a) for a in (u, y, mask)]
+    dense = np.array([float(_track._constant_profile(memory, *host, a)[0]) for a in alphas])
     k = int(np.argmin(dense))
     assert 0 < k < 2000  # an interior minimum
     assert rss <= dense[k] * (1 + 1e-12)
     assert abs(alpha - alphas[k]) <= abs(alphas[k + 1] - alphas[k - 1])
-    refit = _track._constant_profile(memory, u, y, mask, jnp.asarray(alpha))
+    refit = _track._constant_profile(memory, *host, alpha)
     np.testing.assert_allclose(coef, refit[1], rtol=1e-10)
 
 

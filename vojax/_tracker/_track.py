@@ -148,9 +148,8 @@ def _least_squares(x, y, mask):
 
 def _constant_profile(memory, u, y, mask, alpha):
     """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order,
-    and the RMS of each column of ``Φ``."""
+    and the RMS of each column of ``Φ`` (`u`, `y`, `mask`: host arrays)."""
     phi = phi_columns(memory, u, alpha)
-    mask, y = np.asarray(mask), np.asarray(y)
     rss, coef = _least_squares(phi, y, mask)
     return rss, coef, np.sqrt(np.sum(mask[:, None] * phi**2, 0) / np.sum(mask))
 
@@ -159,6 +158,7 @@ def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
     """Constant-order least squares with offset: a grid in β, then golden-section search in β
     between the best grid point's neighbours. Returns ``(α, coef, rss, rms of Φ columns)``."""
     betas = np.linspace(-4.5, 4.5, num_grid)
+    u, y, mask = (np.asarray(a) for a in (u, y, mask))  # once, not at each of ~40 orders
 
     def at(beta):
         alpha, _ = order_of_np(beta, bounds)
@@ -249,6 +249,7 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     frac = (alpha_c - lo) / (hi - lo)
     # always the same number of starts: one compiled program for every record of a shape
     fracs = [float(np.clip(frac, START_ORDERS[0], START_ORDERS[-1])), *START_ORDERS]
+    u, y, mask = (np.asarray(a) for a in (u, y, mask))
     out = []
     for f in fracs:
         alpha = lo + (hi - lo) * f
@@ -279,10 +280,11 @@ def _drift_profile(memory, u, y, mask, alphas, basis):
     num, n = u.shape
     k = basis.shape[1]
     inside_u = (u[:, :, None] * basis[:, None, :]).reshape(num, n * k)
+    # one block of `PHI_BLOCK` = k + 1 columns an input: its own and its k drifting ones
+    columns = np.concatenate([u, inside_u], axis=1)
     out = []
-    for alpha in np.asarray(alphas):
-        # one block of `PHI_BLOCK` = k + 1 columns an input: its own and its k drifting ones
-        both = phi_columns(memory, np.concatenate([u, inside_u], axis=1), alpha)
+    for alpha in alphas:
+        both = phi_columns(memory, columns, alpha)
         phi, inside = both[:, :n], both[:, n:]
         gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
         out.append([_least_squares(gain, y, mask)[0], _least_squares(inside, y, mask)[0]])
@@ -297,9 +299,8 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
     lo, hi = bounds
     alphas = np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1]
     basis = hat_basis(times, last)
-    chi2 = np.asarray(_drift_profile(memory, u, y, mask, alphas, basis)) / noise
+    chi2 = _drift_profile(memory, u, y, mask, alphas, basis) / noise
     dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
-    grid = np.asarray(alphas)
     found = []
     for form in range(chi2.shape[1]):
         c = chi2[:, form]
@@ -309,11 +310,11 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise):
         inside = np.flatnonzero(excess <= 0)
 
         def crossing(a, b):  # where Δχ² crosses the limit between grid orders a (in), b (out)
-            return grid[a] + (grid[b] - grid[a]) * -excess[a] / (excess[b] - excess[a])
+            return alphas[a] + (alphas[b] - alphas[a]) * -excess[a] / (excess[b] - excess[a])
 
         i, j = inside[0], inside[-1]
         found.append(lo if i == 0 else crossing(i, i - 1))
-        found.append(hi if j == grid.size - 1 else crossing(j, j + 1))
+        found.append(hi if j == alphas.size - 1 else crossing(j, j + 1))
     return (float(min(found)), float(max(found))) if found else None
 
 
