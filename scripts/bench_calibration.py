@@ -247,11 +247,15 @@ def draw_case(family, index, signals):
 # ---------------------------------------------------------------- the methods
 
 
-def run_method(method, case):
-    """``(alpha, std, lower, upper, identified, message)`` of one method on one case."""
+def run_method(method, case, max_points=None):
+    """``(alpha, std, lower, upper, identified, message)`` of one method on one case;
+    `max_points`: the tracker's (None: `identify`'s default)."""
     import vojax
+    from vojax._stats import noise_variance
 
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
+    if max_points is not None and method.startswith("tracker"):
+        grid["max_points"] = max_points
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if method == "tracker":
@@ -268,6 +272,12 @@ def run_method(method, case):
     extra = dict(
         innovation_r1=_lag1(case["y"] - np.asarray(res.y_pred)),
         residual_r1=_lag1(case["y"] - np.asarray(res.y_hat)),
+        # the residual variance over the noise the data's second differences show, and over
+        # the true noise (< 1: the fit follows the noise)
+        chi2_data=float(np.mean((case["y"] - np.asarray(res.y_hat)) ** 2)
+                        / max(noise_variance(case["y"]), 1e-300)),
+        chi2_true=float(np.mean((case["y"] - np.asarray(res.y_hat)) ** 2)
+                        / max(float(np.var(case["y"] - case["x"])), 1e-300)),
     )
     return (np.asarray(res.alpha), np.asarray(res.alpha_std), np.asarray(res.alpha_lower),
             np.asarray(res.alpha_upper), bool(d.identified), d.message, extra)
@@ -298,7 +308,7 @@ def score(case, out):
 
 
 def _worker(job):
-    family, index, methods, data = job
+    family, index, methods, data, max_points = job
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -310,7 +320,7 @@ def _worker(job):
     for method in methods:
         started = time.perf_counter()
         try:
-            out = run_method(method, case)
+            out = run_method(method, case, max_points)
             row = score(case, out)
         except ValueError as e:  # a refusal by error counts as not identified
             row = dict(coverage=float("nan"), inside=0, count=0, z_rms=float("nan"),
@@ -368,11 +378,14 @@ def main(argv=None):
     parser.add_argument("--methods", nargs="*", default=["tracker", "tracker-constant", "law"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--data", default=str(DATA))
+    parser.add_argument("--max-points", type=int, default=None,
+                        help="the tracker's max_points (default: identify's): longer records "
+                        "are fitted as block means")
     parser.add_argument("--out", default=None, help="write the table and the rows (JSON) here")
     args = parser.parse_args(argv)
     if not Path(args.data).is_dir():
         sys.exit(f"no data folder at {args.data}: the suite draws its inputs from ../shared/data")
-    jobs = [(f, i, tuple(args.methods), args.data)
+    jobs = [(f, i, tuple(args.methods), args.data, args.max_points)
             for i in range(args.first, args.first + args.per_family) for f in args.families]
     started = time.perf_counter()
     rows = []
@@ -392,7 +405,9 @@ def main(argv=None):
     lines = [
         f"# bench_calibration: {args.per_family} draws per family (indices {args.first}–"
         f"{args.first + args.per_family - 1}), seeds from family/index; "
-        f"{os.cpu_count()} CPUs, {args.workers} workers, {wall:.0f} s wall",
+        f"{os.cpu_count()} CPUs, {args.workers} workers, {wall:.0f} s wall"
+        + ("" if args.max_points is None else
+           f"; the tracker at max_points={args.max_points} (longer records as block means)"),
         *summarise(rows, args.methods, args.families),
     ]
     print("\n".join(lines))

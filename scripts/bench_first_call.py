@@ -8,7 +8,8 @@ Each case runs in its own fresh Python process; the record is a ramp-and-hold in
 a slowly moving order with 1 % noise. Times are wall-clock seconds on this machine; the
 table gives ratios measured in the same run.
 
-    python scripts/bench_first_call.py [--samples 370] [--lengths 1000 10000] [--out FILE]
+    python scripts/bench_first_call.py [--samples 400] [--lengths 1000 10000 100000 1000000]
+        [--out FILE]
 """
 
 import argparse
@@ -21,7 +22,7 @@ import time
 from pathlib import Path
 
 CHILD = r"""
-import json, sys, time
+import json, resource, sys, time
 started = time.perf_counter()
 import numpy as np
 import jax
@@ -47,22 +48,32 @@ first = time.perf_counter()
 res = vojax.identify(u, 1.001 * y, dt, warn=False)
 res.alpha.block_until_ready()
 second = time.perf_counter()
+law = float("nan")
+if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, given its gains
+    for _ in range(2):  # the second call, warm
+        begun = time.perf_counter()
+        vojax.identify(u, y, dt, method="gradient", gamma=0.01, lam=0.9, warn=False
+                       ).alpha.block_until_ready()
+        law = time.perf_counter() - begun
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
-                      second=second - first)))
+                      second=second - first, law=law, rss_mb=rss,
+                      block=res.diagnostics.block)))
 """
 
 
-def run(n, cache="none", loops="default"):
+def run(n, cache="none", loops="default", law=False):
     env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
-    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops], capture_output=True,
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops, "law" if law else "-"],
+                         capture_output=True,
                          text=True, env=env, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--samples", type=int, default=370)
-    parser.add_argument("--lengths", type=int, nargs="*", default=[1000, 10000])
+    parser.add_argument("--samples", type=int, default=400)
+    parser.add_argument("--lengths", type=int, nargs="*", default=[1000, 10000, 100000, 1000000])
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
     results = {}
@@ -78,7 +89,7 @@ def main(argv=None):
                 ("fresh process, empty cache: first call", empty["first"]),
                 ("fresh process, warm cache: first call", warm["first"]),
             ],
-            lengths=[run(n, loops=loops) for n in args.lengths],
+            lengths=[run(n, loops=loops, law=True) for n in args.lengths],
         )
     base, fast = results["default"], results["fast"]
     lines = [
@@ -93,15 +104,22 @@ def main(argv=None):
             f"| {name} | {a:.2f} | {a / base['cold']['second']:.1f} | {b:.2f} | "
             f"{b / fast['cold']['second']:.1f} | {a / b:.1f} |"
         )
-    lines += ["", "| samples | first call s | warm call s | µs per sample (warm) | fast loops: "
-              "first call s | warm call s | µs per sample | default ÷ fast (warm) |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += ["", "Longer records: the tracker fits at most `max_points` (default 1,000) block "
+              "means; law: one pass of the paper's law at given gains (warm), the unit of cost.",
+              "", "| samples | block | first call s | warm call s | µs per sample (warm) | ÷ law "
+              "pass | peak RSS MB | fast loops: first call s | warm call s | µs per sample | "
+              "÷ law pass | peak RSS MB |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n, a, b in zip(args.lengths, base["lengths"], fast["lengths"]):
         lines.append(
-            f"| {n} | {a['first']:.2f} | {a['second']:.2f} | {1e6 * a['second'] / n:.0f} | "
-            f"{b['first']:.2f} | {b['second']:.2f} | {1e6 * b['second'] / n:.0f} | "
-            f"{a['second'] / b['second']:.1f} |"
+            f"| {n} | {a['block']} | {a['first']:.2f} | {a['second']:.2f} | "
+            f"{1e6 * a['second'] / n:.3g} | {a['second'] / a['law']:.2g} | {a['rss_mb']:.0f} | "
+            f"{b['first']:.2f} | {b['second']:.2f} | {1e6 * b['second'] / n:.3g} | "
+            f"{b['second'] / b['law']:.2g} | {b['rss_mb']:.0f} |"
         )
+    lines += ["", "law pass s (default, fast loops): " + ", ".join(
+        f"{n}: {a['law']:.3g}, {b['law']:.3g}" for n, a, b in
+        zip(args.lengths, base["lengths"], fast["lengths"]))]
     text = "\n".join(lines)
     print(text)
     if args.out:

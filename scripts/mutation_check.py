@@ -516,10 +516,30 @@ MUTATIONS = {
           "    return elapsed / done * (total - done)")],
         ["tests/test_batch.py::test_time_left_is_paced_after_the_first_record"],
     ),
-    "tracker length limit off by the padding": (
+    "block size from the padded length": (
         "vojax/_identify.py",
-        [("    if span > TRACKER_MAX_SAMPLES:", "    if u2.shape[0] > TRACKER_MAX_SAMPLES:")],
-        ["tests/test_tracker.py::test_a_record_too_long_for_the_tracker_is_refused_at_once"],
+        [("    length = u2.shape[0] if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1",
+          "    length = u2.shape[0]")],
+        ["tests/test_blocks.py::test_blocks_on_a_non_uniform_clock_and_with_padding"],
+    ),
+    "block mean read at the block's first time": (
+        "vojax/_tracker/_blocks.py",
+        [("    t_b = np.add.reduceat(times, starts) / counts", "    t_b = times[starts]")],
+        ["tests/test_blocks.py::test_block_means_by_hand",
+         "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
+    ),
+    "first sample not kept alone": (
+        "vojax/_tracker/_blocks.py",
+        [("    starts = np.concatenate([[0], np.arange(1, y.shape[0], size)])",
+          "    starts = np.arange(0, y.shape[0], size)")],
+        ["tests/test_blocks.py::test_block_means_by_hand",
+         "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
+    ),
+    "block noise from the coarse clock": (
+        "vojax/_identify.py",
+        [("    block_noise = max(noise_variance(np.asarray(y)[:span][fitted]) / size, 1e-300)",
+          "    block_noise = max(noise_variance(y_b[keep]), 1e-300)")],
+        ["tests/test_blocks.py::test_blocks_that_misrepresent_the_record_are_reported"],
     ),
 }
 

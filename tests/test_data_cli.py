@@ -321,6 +321,34 @@ def test_parameters_option_sets_the_tracker_only(tmp_path):
         vojax.io.identify_record(records[0], method="gradient+refit", parameters="constant")
 
 
+def test_max_points_option_blocks_a_record_and_is_checked(tmp_path):
+    """--max-points (the tracker's) fits a record as block means and still writes every
+    sample, recording the block in summary.json; out of range, or with a method that runs no
+    tracker, it is refused in one line before anything is written."""
+    _springpot_csv(tmp_path / "test.csv")
+    base = ["test.csv", "--time", "time_s", "--input", "stress", "--output", "strain"]
+    for extra, text in (
+        (["--method", "gradient", "--max-points", "500"],
+         "--max-points sets the tracker, which --method gradient does not run"),
+        (["--max-points", "99"], "--max-points must be from 100 to 50,000, got 99"),
+    ):
+        proc = _cli("identify", *base, "--out", "o", *extra, cwd=tmp_path)
+        assert proc.returncode == 1 and proc.stderr.count("\n") == 1, proc.stderr
+        assert text in proc.stderr
+    assert not (tmp_path / "o").exists()
+    proc = _cli("identify", *base, "--out", "o", "--max-points", "100", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "o" / "identification.csv") as f:
+        assert len(list(csv.reader(f))) == 151
+    kalman = json.loads((tmp_path / "o" / "summary.json").read_text())["kalman"]
+    # the same record through the API: the same blocks and model error
+    t, stress, strain = _springpot_csv(tmp_path / "again.csv")
+    res = vojax.identify(stress, strain, DT, max_points=100, warn=False)
+    assert kalman["block"] == res.diagnostics.block == 2
+    assert kalman["block_error"] == pytest.approx(res.diagnostics.block_error, rel=1e-6)
+    assert kalman["identified"] == res.diagnostics.identified
+
+
 def _hostile_npz(folder):
     """NPZ files a loader meets in the wild, each with what its error must say."""
     t = np.arange(50) * 0.1

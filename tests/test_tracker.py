@@ -305,22 +305,6 @@ def test_identify_kalman_validation(ramp, kwargs, match):
         vojax.identify(u, y, dt, **kwargs)
 
 
-def test_a_record_too_long_for_the_tracker_is_refused_at_once():
-    """Past `TRACKER_MAX_SAMPLES` the tracker would run for longer than 5 min with no word:
-    it refuses before computing anything, saying how to resample; the law still runs."""
-    from vojax._identify import TRACKER_MAX_SAMPLES
-
-    n = TRACKER_MAX_SAMPLES + 1
-    rng = np.random.default_rng(0)
-    u, y = rng.standard_normal(n), rng.standard_normal(n)
-    with pytest.raises(ValueError, match=r"50,001 samples would take about 3 min: resample"):
-        vojax.identify(u, y, 0.01)
-    mask = np.ones(n)
-    mask[TRACKER_MAX_SAMPLES:] = 0.0  # padding after the last fitted sample does not count
-    with pytest.raises(ValueError, match="`y` is constant"):  # past the length check
-        vojax.identify(u, np.ones(n), 0.01, mask=mask)
-
-
 def test_constant_output_is_refused(ramp):
     t, u, y, *_, dt = ramp
     with pytest.raises(ValueError, match="`y` is constant"):

@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from ._identify import MAX_POINTS, MIN_POINTS, TRACKER_MAX_POINTS
+
 
 class CLIError(Exception):
     """A problem the user can fix; printed as one sentence."""
@@ -444,6 +446,15 @@ def _data_options(p, *, many: bool):
         "explains as well) or constant (known not to drift: the band holds under that "
         "assumption only)",
     )
+    p.add_argument(
+        "--max-points",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"the most points the tracker fits (default {MAX_POINTS:,}, as vojax.identify): "
+        "a longer record is fitted as the means of blocks of consecutive samples, and the "
+        "estimates are given at every sample",
+    )
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument(
         "--format",
@@ -512,6 +523,16 @@ def _law_options(args):
             f"--parameters sets the tracker, which --method {args.method} does not run; add "
             "--method kalman (or kalman+refit)."
         )
+    points = getattr(args, "max_points", None)
+    if points is not None and not args.method.startswith("kalman"):
+        raise CLIError(
+            f"--max-points sets the tracker, which --method {args.method} does not run; add "
+            "--method kalman (or kalman+refit)."
+        )
+    if points is not None and not MIN_POINTS <= points <= TRACKER_MAX_POINTS:
+        raise CLIError(
+            f"--max-points must be from {MIN_POINTS:,} to {TRACKER_MAX_POINTS:,}, got {points:,}."
+        )
     fit = [f"--{k.replace('_', '-')}" for k in FIT_OPTIONS if getattr(args, k) is not None]
     if fit and not args.method.endswith("refit"):
         raise CLIError(
@@ -559,6 +580,7 @@ def _settings(args) -> dict:
         length=args.length,
         **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
         **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
+        **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
         **({"compare": True} if getattr(args, "compare", False) else {}),
     )
 

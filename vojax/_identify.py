@@ -15,6 +15,7 @@ from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
 from ._integral import make_memory, scan_memory
 from ._kernels import RULES
 from ._stats import noise_variance
+from ._tracker._blocks import block_size
 
 DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
@@ -22,9 +23,16 @@ PAPER_LAM = 0.9
 
 
 IDENTIFIED_HALFWIDTH = 0.1  # median ±2σ half-width of the order band above which it is "not identified"
-# the tracker's longest record: its cost is about 4 ms a sample (2-core CPU, 1e4 samples,
-# XLA's default loops; 1 ms with `use_fast_cpu_loops`), so this is about 3 min
-TRACKER_MAX_SAMPLES = 50_000
+# the most points `max_points` may ask for: the tracker costs about 4 ms a point (2-core CPU,
+# 1e4 points, XLA's default loops; 1 ms with `use_fast_cpu_loops`), so this is about 3 min
+TRACKER_MAX_POINTS = 50_000
+# a longer record is fitted as the means of blocks of samples, at most this many points by
+# default (`identify`'s `max_points`); see `vojax._tracker._blocks`
+MAX_POINTS = 1_000
+MIN_POINTS = 100  # the fewest points `max_points` may ask for
+# the coarser clock's model error, over the noise of a block mean, above which the order is
+# not reported identified
+BLOCK_ERROR_LIMIT = 0.5
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
 # lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
 # white measurement noise, is not trusted (coloured noise, or a model that misses part of the
@@ -80,6 +88,11 @@ class Diagnostics:
       (innovations) over the fitted samples; white noise and a right model give about 0.
       Above `correlation_limit` (3/√n for n innovations, within 0.1–0.25) the tracker's
       band is not trusted.
+    - `block`: the tracker fitted a long record as the means of blocks of this many samples
+      (1: every sample; see `identify`'s `max_points`), and `block_error` is the model
+      error of that coarser clock, at the constant-order fit, over the noise of a block mean
+      (NaN when there are no blocks). Above `BLOCK_ERROR_LIMIT` (0.5) the order is not
+      reported identified.
     """
 
     band_halfwidth: float
@@ -89,6 +102,8 @@ class Diagnostics:
     identified: bool
     message: str
     innovation_correlation: float = float("nan")
+    block: int = 1
+    block_error: float = float("nan")
 
 
 class Identification(eqx.Module):
@@ -100,7 +115,9 @@ class Identification(eqx.Module):
     - `p` (N, n): the identified parameters p̂; `p_std` (N, n): their standard deviations.
     - `x0`, `x0_std`: the output offset x(0) used (``"gradient"``) or estimated (``"kalman"``).
     - `y_hat` (N,): the identified output x0 + p̂ᵀφ(α̂, t) (eq. 25).
-    - `y_pred` (N,): the a-priori prediction, made before y_k is used.
+    - `y_pred` (N,): the a-priori prediction, made before y_k is used (for a long record
+      fitted as block means, `diagnostics.block` > 1: the blocks' predictions, linear
+      between block times).
     - `dp` (N, n): ∂p/∂β along a uniform order shift (26), and `Lambda` (N,): Λ of eq. (30);
       ``None`` for ``method="kalman"``.
     - `method`, `diagnostics` (`Diagnostics`), and the settings used: `gamma`, `lam`, `alpha0`,
@@ -371,7 +388,7 @@ def lag1_correlation(e) -> float:
 def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
-    drift_covered=False,
+    drift_covered=False, block=1, block_error=None,
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -461,6 +478,13 @@ def diagnose(
             "coarser clock, on which the noise decorrelates between samples, or give `noise=` "
             "with the known noise level"
         )
+    coarse = block_error is not None and block_error > BLOCK_ERROR_LIMIT
+    if coarse:
+        problems.append(
+            f"the record was averaged in blocks of {block} samples, and the coarser clock "
+            f"misrepresents it (its model error is {block_error:.2g} times the noise of a "
+            "block mean): pass a larger `max_points` (--max-points) for finer blocks"
+        )
     if unstable_from is not None:
         problems.append(
             f"the law is unstable at these gains: from sample {unstable_from} its spread over the "
@@ -472,11 +496,12 @@ def diagnose(
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
         and "noise" not in at_edge and not traded and calibrated and not coloured
-        and unstable_from is None
+        and unstable_from is None and not coarse
     )
     message = "; ".join(problems)
     return Diagnostics(
-        width, at_bound, bool(converged), tuple(at_edge), identified, message, correlation
+        width, at_bound, bool(converged), tuple(at_edge), identified, message, correlation,
+        int(block), float("nan") if block_error is None else float(block_error),
     )
 
 
@@ -499,6 +524,7 @@ def identify(
     noise=None,
     parameters=None,
     mask=None,
+    max_points: int | None = None,
     tol: float = 1e-10,
     warn: bool = True,
 ) -> Identification:
@@ -566,12 +592,21 @@ def identify(
       fitted (the tracker still estimates the states there, from its random-walk model). Used
       to pad records to a common length so that one compiled program serves many lengths;
       the diagnostics cover the samples up to the last one fitted.
+    - `max_points`: ``method="kalman"`` only: the most points the tracker fits (None: 1,000;
+      from 100 to 50,000). A longer record is fitted as the means of blocks of ``B``
+      consecutive samples (its first sample kept alone, so that the integral starts where the
+      record does): block means of time, input and output, on that coarser clock. The
+      estimates are brought back to every sample (linear between block times, ``y_hat`` from
+      one memory run over the whole record at that order), and `diagnostics` gives ``B`` and
+      the coarse clock's model error against the noise of a block mean (above 0.5 the order
+      is not reported identified). The tracker's cost grows with its points, not the
+      record's length: about 1.7 s for 1,000 points on a 2-core CPU after its first call
+      (0.4 s with `use_fast_cpu_loops`), and a few µs a sample for the averaging and the two
+      memory runs over the record.
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
 
-    **Returns:** an `Identification`. **Raises:** `ValueError` for bad input, when the
-    estimate is not finite (the law diverged), naming the sample, and for the tracker on
-    more than `TRACKER_MAX_SAMPLES` (50,000) samples, which would take over 5 min: it says
-    how to resample.
+    **Returns:** an `Identification`. **Raises:** `ValueError` for bad input, and when the
+    estimate is not finite (the law diverged), naming the sample.
     """
     check.choice(method, ("kalman", "gradient"), "method")
     if alpha_bounds is None:
@@ -594,7 +629,12 @@ def identify(
                 "or parameters='constant', not both."
             )
         return _identify_kalman(
-            u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn, parameters
+            u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn, parameters,
+            max_points,
+        )
+    if max_points is not None:
+        raise ValueError(
+            "`max_points` sets the tracker (method='kalman'); the paper's law does not use it."
         )
     if parameters is not None:
         raise ValueError(
@@ -707,9 +747,83 @@ def law_identification(
     )
 
 
+def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters,
+                  size):
+    """The tracker on the means of blocks of `size` samples (see `vojax._tracker._blocks`),
+    its estimates brought back to every sample: the order, its band and the parameters linear
+    between block times, the output ``y_hat`` from one memory run over the whole record at that
+    order. Returns ``(TrackResult, fit)``, `fit` what the tracker fitted, for the diagnostics,
+    with the coarse clock's model error (`model_error`)."""
+    from ._tracker import track
+    from ._tracker._blocks import block_average, block_means, to_samples
+
+    num = u2.shape[0]
+    dtype = np.dtype(u2.dtype)
+    times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
+    # blocks up to the last fitted sample: padding after it is not part of the record
+    span = num if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1
+    t_b, u_b, y_b, mask_b = block_means(
+        times[:span], np.asarray(u2)[:span], np.asarray(y)[:span],
+        None if mask is None else np.asarray(mask)[:span], size,
+    )
+    if noise is not None:  # the noise of a block mean
+        noise = dict(noise, noise_std=float(noise["noise_std"]) / np.sqrt(size))
+    mem_b = make_memory(memory, None, t_b.shape[0], rule=rule, tol=tol, order_range=bounds,
+                        times=t_b)
+    res = track(
+        mem_b, jnp.asarray(u_b), jnp.asarray(y_b), None, bounds, smooth=smooth, hyper=noise,
+        mask=None if mask is None else jnp.asarray(mask_b), times=t_b, parameters=parameters,
+    )
+    mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
+    # the coarse clock's model error at the constant-order fit, against a block mean's noise
+    alpha_c = np.full((num,), res.constant_order, dtype)
+    phi_fine = np.asarray(scan_memory(mem, u2, jnp.asarray(alpha_c), False))
+    phi_fine = block_average(phi_fine[:span], size)
+    phi_b = np.asarray(scan_memory(mem_b, jnp.asarray(u_b), jnp.asarray(alpha_c[: t_b.shape[0]]),
+                                   False))
+    keep = mask_b > 0
+    design = np.concatenate([phi_b, np.ones((phi_b.shape[0], 1))], axis=1)[keep]
+    coef = np.linalg.lstsq(design, y_b[keep], rcond=None)[0]
+    error = ((phi_fine - phi_b) @ coef[:-1])[keep]
+    # a block mean's noise from the samples' own (their second differences: on the coarse
+    # clock those see more of the signal)
+    fitted = np.ones(span, bool) if mask is None else np.asarray(mask)[:span] > 0
+    block_noise = max(noise_variance(np.asarray(y)[:span][fitted]) / size, 1e-300)
+    model_error = float(np.sqrt(np.mean(error[1:] ** 2) / block_noise))
+    # everything at every sample: linear between block times
+    alpha = to_samples(t_b, np.asarray(res.alpha), times)
+    p = to_samples(t_b, np.asarray(res.p), times)
+    phi = np.asarray(scan_memory(mem, u2, jnp.asarray(alpha.astype(dtype)), False))
+    y_hat = float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)
+    full = res.__class__(
+        alpha=jnp.asarray(alpha),
+        alpha_std=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_std), times)),
+        alpha_lower=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_lower), times)),
+        alpha_upper=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_upper), times)),
+        p=jnp.asarray(p),
+        p_std=jnp.asarray(to_samples(t_b, np.asarray(res.p_std), times)),
+        x0=res.x0,
+        x0_std=res.x0_std,
+        y_hat=jnp.asarray(y_hat),
+        y_pred=jnp.asarray(to_samples(t_b, np.asarray(res.y_pred), times)),
+        converged=res.converged,
+        tuning=res.tuning,
+        constant_order=res.constant_order,
+        alpha_held=None if res.alpha_held is None
+        else jnp.asarray(to_samples(t_b, np.asarray(res.alpha_held), times)),
+        mixture_weights=res.mixture_weights,
+        trade=res.trade,
+        drift_covered=res.drift_covered,
+    )
+    fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+               held=res.alpha_held, y=y_b, y_pred=res.y_pred,
+               mask=None if mask is None else mask_b, block_error=model_error)
+    return full, fit
+
+
 def _identify_kalman(
     u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn,
-    parameters="drifting",
+    parameters="drifting", max_points=None,
 ):
     from ._tracker import track
 
@@ -723,40 +837,46 @@ def _identify_kalman(
             raise ValueError(f"`noise` must be a dict with keys {sorted(keys)}, got {noise!r}.")
         for k, v in noise.items():
             check.positive(v, f"noise[{k!r}]")
-    span = u2.shape[0]
     if mask is not None:
         mask = check_mask(mask, u2.shape[0], u2.shape[1])
-        span = int(np.flatnonzero(mask)[-1]) + 1
-    if span > TRACKER_MAX_SAMPLES:
-        raise ValueError(
-            f"the tracker takes about 4 ms a sample on a CPU core, so {span:,} samples would "
-            f"take about {span * 4e-3 / 60:.0f} min: resample the record to at most "
-            f"{TRACKER_MAX_SAMPLES:,} samples (an order changes slowly; `load_records(..., "
-            "resample=STEP)`, the CLI's --resample STEP), or use the paper's law or the "
-            "refit (method='gradient' or `vojax.refit`; --method gradient or refit)."
-        )
-    mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
-    res = track(
-        mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t,
-        parameters=parameters,
+    max_points = MAX_POINTS if max_points is None else check.count(
+        max_points, "max_points", low=MIN_POINTS, high=TRACKER_MAX_POINTS
     )
+    # the record's length up to its last fitted sample (padding after it is not the record's)
+    length = u2.shape[0] if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1
+    size = block_size(length, max_points)
+    if size > 1:
+        res, fit = _track_blocks(
+            u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters, size
+        )
+    else:
+        mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
+        res = track(
+            mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t,
+            parameters=parameters,
+        )
+        fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+                   held=res.alpha_held, y=y, y_pred=res.y_pred, mask=mask)
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
-    # cut in NumPy: an eager slice of a JAX array compiles anew for every record length
-    alpha, lower, upper = (
-        np.asarray(a)[:span] for a in (res.alpha, res.alpha_lower, res.alpha_upper)
-    )
+    # the diagnostics see what the tracker fitted (the block means of a long record); cut in
+    # NumPy: an eager slice of a JAX array compiles anew for every record length
+    fit_mask = fit["mask"]
+    span = (np.asarray(fit["y"]).shape[0] if fit_mask is None
+            else int(np.flatnonzero(np.asarray(fit_mask))[-1]) + 1)
+    alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
     shift = None
-    if res.alpha_held is not None:
-        held = np.asarray(res.alpha_held)[:span]
+    if fit["held"] is not None:
+        held = np.asarray(fit["held"])[:span]
         shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
-    y_np, pred = np.asarray(y)[:span], np.asarray(res.y_pred)[:span]
-    fitted = np.ones(span, bool) if mask is None else np.asarray(mask)[:span] > 0
+    y_np, pred = np.asarray(fit["y"])[:span], np.asarray(fit["y_pred"])[:span]
+    fitted = np.ones(span, bool) if fit_mask is None else np.asarray(fit_mask)[:span] > 0
     diagnostics = diagnose(
         alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift,
         correlation=lag1_correlation((y_np - pred)[fitted][1:]), trade=res.trade,
         samples=int(np.sum(fitted)) - 1, drift_covered=res.drift_covered,
+        block=size, block_error=fit.get("block_error"),
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)

@@ -122,6 +122,15 @@ def positive(value, name: str, upper=None):
     return arr
 
 
+def count(value, name: str, low: int, high: int) -> int:
+    """A whole number within ``[low, high]`` (a bool is not one)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"`{name}` must be a whole number, got {value!r}.")
+    if not low <= int(value) <= high:
+        raise ValueError(f"`{name}` must be from {low:,} to {high:,}, got {int(value):,}.")
+    return int(value)
+
+
 def times(t, num_samples: int, name: str = "t"):
     """Sample times: a finite, strictly increasing ``(N,)`` float array matching the samples."""
     arr = float_array(t, name)

@@ -43,12 +43,16 @@ def estimator(method) -> str | None:
     return first if first in ("kalman", "gradient") else None
 
 
-def check_parameters(method, parameters) -> None:
-    """`parameters` (the tracker's) is refused with a method that does not run the tracker."""
-    if parameters is not None and estimator(canonical_method(method)) != "kalman":
-        raise ValueError(
-            f"--parameters sets the tracker; use --method kalman or kalman+refit, not {method}."
-        )
+def check_parameters(method, parameters, max_points=None) -> None:
+    """`parameters` and `max_points` (the tracker's) are refused with a method that does not
+    run the tracker."""
+    if estimator(canonical_method(method)) == "kalman":
+        return
+    for name, value in (("--parameters", parameters), ("--max-points", max_points)):
+        if value is not None:
+            raise ValueError(
+                f"{name} sets the tracker; use --method kalman or kalman+refit, not {method}."
+            )
 
 
 def runs_refit(method) -> bool:
@@ -157,7 +161,7 @@ def _without_errors(data):
         # errors and diagnostic statistics may be undefined (null in JSON); estimates not
         return {
             k: _without_errors(v) for k, v in data.items()
-            if "stderr" not in k and k != "innovation_correlation"
+            if "stderr" not in k and k not in ("innovation_correlation", "block_error")
         }
     return data
 
@@ -397,6 +401,7 @@ def compare_part(record, area=None, length=None):
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
+    max_points=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -404,8 +409,8 @@ def identify_record(
     to that length and masked (results equal to the unpadded run within the solvers'
     tolerances). `origin` (the test's start, before the first sample) and the fit window
     `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
-    the model's coefficients physical (`p_signs`). `parameters`: the tracker's, as in
-    `vojax.identify` (``"drifting"`` when None)."""
+    the model's coefficients physical (`p_signs`). `parameters`, `max_points`: the
+    tracker's, as in `vojax.identify` (its defaults when None)."""
     from .._identify import identify
     from .._refit import refit
 
@@ -420,7 +425,7 @@ def identify_record(
             "--origin, --fit-from and --fit-to set the refit; use --method refit or "
             f"{method}+refit."
         )
-    check_parameters(method, parameters)
+    check_parameters(method, parameters, max_points)
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
@@ -428,8 +433,10 @@ def identify_record(
     summary = record_header(record, model, method, area, length)
     tracker = estimator(method)
     if tracker == "kalman":
+        extra = {} if max_points is None else {"max_points": max_points}
         res = _padded(
-            identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False
+            identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False,
+            **extra,
         )
     elif tracker == "gradient":
         res = identify(u, y, **grid, method="gradient", gamma=gamma, lam=lam, warn=False)

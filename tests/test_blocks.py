@@ -1,0 +1,157 @@
+"""Long records for the tracker: block means by hand, the estimates back at every sample, the
+blocked fit against the fit of every sample, and the coarse clock's model error."""
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax import reference
+from vojax._tracker._blocks import block_average, block_means, block_size, to_samples
+
+
+def test_block_means_by_hand():
+    """Sample 0 alone, then blocks of 3 (the last one shorter); the output's mean over the
+    fitted samples only, a block with none of them masked out."""
+    times = np.arange(9.0) ** 2
+    u = np.stack([np.arange(9.0), -np.arange(9.0)], axis=1)
+    y = 10.0 + np.arange(9.0)
+    mask = np.array([1, 1, 0, 1, 0, 0, 0, 1, 1], float)
+    t_b, u_b, y_b, m_b = block_means(times, u, y, mask, 3)
+    # blocks: [0], [1, 2, 3], [4, 5, 6], [7, 8]
+    np.testing.assert_allclose(t_b, [0.0, (1 + 4 + 9) / 3, (16 + 25 + 36) / 3, (49 + 64) / 2])
+    np.testing.assert_allclose(u_b[:, 0], [0.0, 2.0, 5.0, 7.5])
+    np.testing.assert_allclose(u_b[:, 1], -u_b[:, 0])
+    np.testing.assert_allclose(y_b[[0, 1, 3]], [10.0, (11 + 13) / 2, (17 + 18) / 2])
+    np.testing.assert_array_equal(m_b, [1, 1, 0, 1])
+    np.testing.assert_allclose(block_average(y, 3), [10.0, 12.0, 15.0, 17.5])
+
+
+@pytest.mark.parametrize("max_points", [100, 101, 5000])
+def test_block_size_is_the_smallest_that_fits(max_points):
+    for num in (2, 99, 100, 101, 4999, 5000, 5001, 12_345, 10**6):
+        size = block_size(num, max_points)
+        points = lambda b: 1 + -(-(num - 1) // b)  # noqa: E731
+        assert points(size) <= max(max_points, num if size == 1 else 0)
+        if num <= max_points:
+            assert size == 1
+        else:
+            assert points(size - 1) > max_points
+
+
+def test_to_samples_is_linear_between_block_times_and_held_after():
+    t_b = np.array([0.0, 1.0, 3.0])
+    v = np.array([[0.0, 1.0], [2.0, 1.0], [6.0, 0.0]])
+    out = to_samples(t_b, v, np.array([0.5, 2.0, 4.0]))
+    np.testing.assert_allclose(out, [[1.0, 1.0], [4.0, 0.5], [6.0, 0.0]])
+
+
+def _record(num, dt, level, seed=0, alpha=None):
+    """A variable-order record computed by direct sums (`vojax.reference`), white noise at
+    `level` of the output's range."""
+    t = dt * np.arange(num)
+    u = 1.0 + 0.5 * np.sin(2 * np.pi * t / (0.7 * t[-1])) + (t > 0.3 * t[-1])
+    if alpha is None:
+        alpha = 0.45 + 0.15 * np.tanh((t - 0.5 * t[-1]) / (0.15 * t[-1]))
+    x = np.asarray(reference.fractional_integral(u, alpha, dt))
+    rng = np.random.default_rng(seed)
+    return t, u, x + level * np.ptp(x) * rng.standard_normal(num), alpha, x
+
+
+@pytest.fixture(scope="module")
+def long_record():
+    t, u, y, alpha, x = _record(3000, 0.01, 0.01)
+    blocked = vojax.identify(u, y, 0.01, max_points=500, parameters="constant", warn=False)
+    full = vojax.identify(u, y, 0.01, max_points=5000, parameters="constant", warn=False)
+    return t, u, y, alpha, x, blocked, full
+
+
+def test_a_blocked_fit_gives_every_sample_and_its_output_by_direct_sums(long_record):
+    """Everything has the record's length; ``y_hat`` is x0 + pᵀφ(α̂) of the whole record,
+    here recomputed by the direct sums of `vojax.reference` at the reported order."""
+    t, u, y, alpha, x, res, _ = long_record
+    num = y.shape[0]
+    assert res.diagnostics.block == 7  # blocks of 6 would make 501 points
+    for name in ("alpha", "alpha_std", "alpha_lower", "alpha_upper", "y_hat", "y_pred"):
+        assert np.asarray(getattr(res, name)).shape == (num,), name
+    assert np.asarray(res.p).shape == (num, 1)
+    phi = np.asarray(reference.fractional_integral(u, np.asarray(res.alpha), 0.01))
+    expected = float(res.x0) + np.asarray(res.p)[:, 0] * phi
+    np.testing.assert_allclose(np.asarray(res.y_hat), expected, rtol=0, atol=1e-8 * np.ptp(y))
+
+
+def test_the_blocked_order_agrees_with_the_fit_of_every_sample(long_record):
+    """Over the second half the blocked tracker's order stays inside the band of the tracker
+    run on every sample, and both hold the true order (a shifted block clock, a block mean
+    read at the wrong time or a misplaced first sample move the order out of these)."""
+    t, u, y, alpha, x, blocked, full = long_record
+    half = t > t[-1] / 2
+    a_b, a_f = np.asarray(blocked.alpha)[half], np.asarray(full.alpha)[half]
+    lo, hi = np.asarray(full.alpha_lower)[half], np.asarray(full.alpha_upper)[half]
+    assert np.all((a_b >= lo) & (a_b <= hi))
+    for res in (blocked, full):
+        inside = (alpha >= np.asarray(res.alpha_lower)) & (alpha <= np.asarray(res.alpha_upper))
+        assert np.mean(inside[half]) >= 0.95
+        assert np.sqrt(np.mean((np.asarray(res.alpha) - alpha)[half] ** 2)) < 0.02
+    assert blocked.diagnostics.identified and blocked.diagnostics.block_error < 0.1
+    assert full.diagnostics.block == 1 and np.isnan(full.diagnostics.block_error)
+
+
+def test_blocks_that_misrepresent_the_record_are_reported():
+    """A staircase that steps inside blocks of 11 samples at a noise of 0.1 %: the block means
+    blur the steps by more than the noise of a block mean, and the order is not reported
+    identified, the message naming the blocks; finer blocks of 3 samples at 1 % noise pass."""
+    num, dt = 2000, 0.01
+    t = dt * np.arange(num)
+    u = 1.0 + np.floor(t / 0.37) % 2
+    x = np.asarray(reference.fractional_integral(u, np.full(num, 0.5), dt))
+    rng = np.random.default_rng(3)
+    coarse = vojax.identify(
+        u, x + 1e-3 * np.ptp(x) * rng.standard_normal(num), dt, max_points=200,
+        parameters="constant", warn=False,
+    )
+    d = coarse.diagnostics
+    assert d.block == 11 and d.block_error > 2.0 and not d.identified
+    assert "averaged in blocks of 11 samples" in d.message
+    fine = vojax.identify(
+        u, x + 1e-2 * np.ptp(x) * rng.standard_normal(num), dt, max_points=1000,
+        parameters="constant", warn=False,
+    )
+    assert fine.diagnostics.block == 3 and fine.diagnostics.block_error < 0.5
+
+
+def test_blocks_on_a_non_uniform_clock_and_with_padding():
+    """On sample times (`t=`) the blocks take the mean times; padding after the last fitted
+    sample (the batch's buckets) changes nothing within the solvers' tolerances."""
+    t, u, y, alpha, x = _record(1500, 0.01, 0.01, seed=1)
+    ref = vojax.identify(u, y, 0.01, max_points=300, parameters="constant", warn=False)
+    on_times = vojax.identify(u, y, t=t, max_points=300, parameters="constant", warn=False)
+    np.testing.assert_allclose(np.asarray(on_times.alpha), np.asarray(ref.alpha), atol=1e-6)
+    extra = 300
+    up = np.concatenate([u, np.zeros(extra)])
+    yp = np.concatenate([y, np.full(extra, y[-1])])
+    mask = np.r_[np.ones(1500), np.zeros(extra)]
+    padded = vojax.identify(up, yp, 0.01, max_points=300, mask=mask, parameters="constant",
+                            warn=False)
+    assert padded.diagnostics.block == ref.diagnostics.block
+    np.testing.assert_allclose(np.asarray(padded.alpha)[:1500], np.asarray(ref.alpha), atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "value, error, match",
+    [
+        (99, ValueError, "`max_points` must be from 100 to 50,000, got 99"),
+        (50_001, ValueError, "`max_points` must be from 100 to 50,000, got 50,001"),
+        (1000.0, TypeError, "`max_points` must be a whole number"),
+        (True, TypeError, "`max_points` must be a whole number"),
+    ],
+)
+def test_max_points_is_checked(value, error, match):
+    t, u, y, alpha, x = _record(200, 0.01, 0.01)
+    with pytest.raises(error, match=match):
+        vojax.identify(u, y, 0.01, max_points=value)
+
+
+def test_max_points_with_the_law_is_an_error_not_ignored():
+    t, u, y, alpha, x = _record(200, 0.01, 0.01)
+    with pytest.raises(ValueError, match="`max_points` sets the tracker"):
+        vojax.identify(u, y, 0.01, method="gradient", max_points=1000)

@@ -1,0 +1,60 @@
+"""Long records for the tracker: block means on a coarser clock, and the estimates brought
+back to every sample.
+
+The order of a fractional system changes slowly against the sampling of a long record (an
+AFM or rheometer test at kHz rates). The tracker fits at most `max_points` points: a longer
+record is cut into blocks of ``B`` consecutive samples and each block is replaced by its mean
+time, mean input and mean output. The first sample stays a point of its own, so that the
+fractional integral still starts at the record's first time. The block means are a record on
+a non-uniform clock that the tracker takes as it is; the measurement noise of a block mean is
+the samples' noise over ``B``, which the tracker's own noise estimate sees. The model error
+of the coarse clock (the input linear between block means, a block's mean output read as
+the output at its mean time) is measured on the record at the constant-order fit and reported
+against the noise of a block mean (`model_error`).
+"""
+
+import math
+
+import numpy as np
+
+
+def block_size(num: int, max_points: int) -> int:
+    """The samples per block so that ``1 + ceil((num − 1)/B) ≤ max_points``; 1 when the record
+    is short enough already."""
+    if num <= max_points:
+        return 1
+    return math.ceil((num - 1) / (max_points - 1))
+
+
+def block_means(times, u, y, mask, size: int):
+    """``(times, u, y, mask)`` of the blocked record: sample 0 alone, then blocks of `size`
+    consecutive samples (the last one shorter). A block's time and input are the means over
+    all its samples, its output the mean over its fitted samples (``mask > 0``); its mask is 1
+    if any of them is fitted. NumPy arrays in, NumPy arrays out."""
+    times, u, y = np.asarray(times, float), np.asarray(u), np.asarray(y)
+    mask = np.ones(y.shape, u.dtype) if mask is None else np.asarray(mask, u.dtype)
+    starts = np.concatenate([[0], np.arange(1, y.shape[0], size)])
+    counts = np.diff(np.concatenate([starts, [y.shape[0]]]))
+    fitted = np.add.reduceat(mask, starts)
+    t_b = np.add.reduceat(times, starts) / counts
+    u_b = np.add.reduceat(u, starts, axis=0) / counts[:, None]
+    y_b = np.add.reduceat(y * mask, starts) / np.maximum(fitted, 1)
+    return t_b, u_b.astype(u.dtype), y_b.astype(u.dtype), (fitted > 0).astype(u.dtype)
+
+
+def block_average(values, size: int):
+    """The block means (as in `block_means`) of per-sample `values` (N, …)."""
+    values = np.asarray(values)
+    starts = np.concatenate([[0], np.arange(1, values.shape[0], size)])
+    counts = np.diff(np.concatenate([starts, [values.shape[0]]]))
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    return np.add.reduceat(values, starts, axis=0) / counts.reshape(shape)
+
+
+def to_samples(t_blocks, values, times):
+    """Per-block `values` (M,) or (M, n) at every sample time: linear between block times
+    (held beyond the last)."""
+    values = np.asarray(values)
+    if values.ndim == 1:
+        return np.interp(times, t_blocks, values)
+    return np.stack([np.interp(times, t_blocks, v) for v in values.T], axis=1)
