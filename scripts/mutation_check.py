@@ -535,6 +535,12 @@ MUTATIONS = {
         ["tests/test_blocks.py::test_block_means_by_hand",
          "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
     ),
+    "noise edge measured on the full box": (
+        "vojax/_tracker/_track.py",
+        [("        if hi > lo and min(v - lo, hi - v) < EDGE * (hi - lo):",
+          "        if hi > lo and min(v - lo, hi - v) < EDGE * (BOX[name][1] - BOX[name][0]):")],
+        ["tests/test_tracker.py::test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box"],
+    ),
     "block noise from the coarse clock": (
         "vojax/_identify.py",
         [("    block_noise = max(noise_variance(np.asarray(y)[:span][fitted]) / size, 1e-300)",

@@ -305,6 +305,24 @@ def test_identify_kalman_validation(ramp, kwargs, match):
         vojax.identify(u, y, dt, **kwargs)
 
 
+def test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box():
+    """Within 5 % of the searched box's width (logs) of an end: the noise's box starts at its
+    floor, so a noise 1.5x the floor is at the edge and one 2x the floor is not (5 % of the full
+    box, 1e-10 to 2, would be a factor 3.3 and flag both); a drift at its lower end is named
+    as such, a held coordinate (a box of zero width) never."""
+    from vojax._tracker._track import BOX, at_edges, box
+
+    floor = 1e-4
+    limits = box(floor, hold=True)
+    x = lambda noise, order=0.0: (order, np.log(1e-6), np.log(noise))  # noqa: E731
+    assert at_edges(x(1.5 * floor), limits) == ("noise",)
+    assert at_edges(x(2.0 * floor), limits) == ()
+    assert at_edges(x(1.9), limits) == ("noise",)
+    low = BOX["order_drift"][0] + 0.01
+    assert at_edges(x(1e-2, low), limits) == ("order_drift (lower edge)",)
+    assert at_edges(x(1e-2, BOX["order_drift"][1] - 0.01), limits) == ("order_drift",)
+
+
 def test_constant_output_is_refused(ramp):
     t, u, y, *_, dt = ramp
     with pytest.raises(ValueError, match="`y` is constant"):

@@ -908,7 +908,7 @@ def build_parser() -> argparse.ArgumentParser:
         action=argparse.BooleanOptionalAction,
         default=True,
         help="also run vojax's tracker (identify's default) on the same record and draw its "
-        "band (default; about 30 s on 2 cores); --no-tracker: the paper's law alone",
+        "band (default; about 10 s on 2 cores); --no-tracker: the paper's law alone",
     )
     d.add_argument(
         "--memory",

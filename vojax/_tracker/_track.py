@@ -455,16 +455,25 @@ def tune(
         cand = (ll, hyper, sm)
     _, hyper, sm = cand
     x = _host_hyper(hyper)
-    # a drift at the lower edge is a finding (the data show no drift), named as such; the
-    # noise at either edge, or a drift at the upper one, is a problem (`diagnose`)
-    edges = tuple(
-        name + (LOWER_EDGE if name != "noise" and v - limits[name][0] < limits[name][1] - v else "")
-        for name, v in zip(limits, x)
-        if limits[name][1] > limits[name][0]
-        and min(v - limits[name][0], limits[name][1] - v) < 0.05 * (BOX[name][1] - BOX[name][0])
-    )
-    tuning = Tuning(*map(float, np.exp(x)), edges, float(sm.log_likelihood), True)
+    tuning = Tuning(*map(float, np.exp(x)), at_edges(x, limits), float(sm.log_likelihood), True)
     return hyper, sm, tuning
+
+
+EDGE = 0.05  # an intensity within this fraction of its box's width (logs) of an end is at it
+
+
+def at_edges(x, limits) -> tuple[str, ...]:
+    """The names of the log-intensities `x` (in the order of `limits`) that sit at an edge of
+    the box searched, `limits` (a box of zero width holds its coordinate: never at an edge).
+    A drift at the lower edge is a finding (the data show no drift) and is named as such;
+    the noise at either edge, or a drift at the upper one, is a problem (`diagnose`). The
+    noise's box starts at its floor, so its lower edge is relative to that floor."""
+    out = []
+    for name, v in zip(limits, x):
+        lo, hi = limits[name]
+        if hi > lo and min(v - lo, hi - v) < EDGE * (hi - lo):
+            out.append(name + (LOWER_EDGE if name != "noise" and v - lo < hi - v else ""))
+    return tuple(out)
 
 
 def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, noise):
