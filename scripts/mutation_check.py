@@ -524,14 +524,15 @@ MUTATIONS = {
     ),
     "block mean read at the block's first time": (
         "vojax/_tracker/_blocks.py",
-        [("    t_b = np.add.reduceat(times, starts) / counts", "    t_b = times[starts]")],
+        [("        block_average(np.asarray(times, float), size),",
+          "        np.asarray(times, float)[np.r_[0, 1 : len(times) : size]],")],
         ["tests/test_blocks.py::test_block_means_by_hand",
          "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
     ),
     "first sample not kept alone": (
         "vojax/_tracker/_blocks.py",
-        [("    starts = np.concatenate([[0], np.arange(1, y.shape[0], size)])",
-          "    starts = np.arange(0, y.shape[0], size)")],
+        [("    starts = np.concatenate([[0], np.arange(1, values.shape[0], size)])",
+          "    starts = np.arange(0, values.shape[0], size)")],
         ["tests/test_blocks.py::test_block_means_by_hand",
          "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
     ),
@@ -543,8 +544,8 @@ MUTATIONS = {
     ),
     "block noise from the coarse clock": (
         "vojax/_identify.py",
-        [("    block_noise = max(noise_variance(np.asarray(y)[:span][fitted]) / size, 1e-300)",
-          "    block_noise = max(noise_variance(y_b[keep]), 1e-300)")],
+        [("    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)",
+          "    block_noise = max(noise_variance(y_b[mask_b > 0]), 1e-300)")],
         ["tests/test_blocks.py::test_blocks_that_misrepresent_the_record_are_reported"],
     ),
 }

@@ -518,17 +518,14 @@ def _law_options(args):
             f"--model {args.model} has a spring (an order-0 term) that the adaptive law and the "
             "tracker do not take; add --method refit."
         )
-    if getattr(args, "parameters", None) and not args.method.startswith("kalman"):
-        raise CLIError(
-            f"--parameters sets the tracker, which --method {args.method} does not run; add "
-            "--method kalman (or kalman+refit)."
-        )
     points = getattr(args, "max_points", None)
-    if points is not None and not args.method.startswith("kalman"):
-        raise CLIError(
-            f"--max-points sets the tracker, which --method {args.method} does not run; add "
-            "--method kalman (or kalman+refit)."
-        )
+    for name, value in (("--parameters", getattr(args, "parameters", None)),
+                        ("--max-points", points)):
+        if value is not None and not args.method.startswith("kalman"):
+            raise CLIError(
+                f"{name} sets the tracker, which --method {args.method} does not run; add "
+                "--method kalman (or kalman+refit)."
+            )
     if points is not None and not MIN_POINTS <= points <= TRACKER_MAX_POINTS:
         raise CLIError(
             f"--max-points must be from {MIN_POINTS:,} to {TRACKER_MAX_POINTS:,}, got {points:,}."

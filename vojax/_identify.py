@@ -748,24 +748,23 @@ def law_identification(
 
 
 def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters,
-                  size):
-    """The tracker on the means of blocks of `size` samples (see `vojax._tracker._blocks`),
-    its estimates brought back to every sample: the order, its band and the parameters linear
-    between block times, the output ``y_hat`` from one memory run over the whole record at that
-    order. Returns ``(TrackResult, fit)``, `fit` what the tracker fitted, for the diagnostics,
-    with the coarse clock's model error (`model_error`)."""
+                  size, span):
+    """The tracker on the means of blocks of `size` samples of the record's first `span`
+    samples (padding after them is not the record's; see `vojax._tracker._blocks`), its
+    estimates brought back to every sample: the order, its band and the parameters linear
+    between block times, the output ``y_hat`` from one memory run over the whole record at
+    that order. Returns ``(TrackResult, fit)``, `fit` what the tracker fitted, for the
+    diagnostics, with the coarse clock's model error (`block_error`)."""
     from ._tracker import track
     from ._tracker._blocks import block_average, block_means, to_samples
+    from ._tracker._track import _least_squares
 
     num = u2.shape[0]
     dtype = np.dtype(u2.dtype)
     times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
-    # blocks up to the last fitted sample: padding after it is not part of the record
-    span = num if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1
-    t_b, u_b, y_b, mask_b = block_means(
-        times[:span], np.asarray(u2)[:span], np.asarray(y)[:span],
-        None if mask is None else np.asarray(mask)[:span], size,
-    )
+    u_np, y_np = np.asarray(u2), np.asarray(y)
+    mask_np = None if mask is None else np.asarray(mask)[:span]
+    t_b, u_b, y_b, mask_b = block_means(times[:span], u_np[:span], y_np[:span], mask_np, size)
     if noise is not None:  # the noise of a block mean
         noise = dict(noise, noise_std=float(noise["noise_std"]) / np.sqrt(size))
     mem_b = make_memory(memory, None, t_b.shape[0], rule=rule, tol=tol, order_range=bounds,
@@ -776,48 +775,37 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     )
     mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
     # the coarse clock's model error at the constant-order fit, against a block mean's noise
-    alpha_c = np.full((num,), res.constant_order, dtype)
-    phi_fine = np.asarray(scan_memory(mem, u2, jnp.asarray(alpha_c), False))
-    phi_fine = block_average(phi_fine[:span], size)
-    phi_b = np.asarray(scan_memory(mem_b, jnp.asarray(u_b), jnp.asarray(alpha_c[: t_b.shape[0]]),
-                                   False))
-    keep = mask_b > 0
-    design = np.concatenate([phi_b, np.ones((phi_b.shape[0], 1))], axis=1)[keep]
-    coef = np.linalg.lstsq(design, y_b[keep], rcond=None)[0]
-    error = ((phi_fine - phi_b) @ coef[:-1])[keep]
-    # a block mean's noise from the samples' own (their second differences: on the coarse
-    # clock those see more of the signal)
-    fitted = np.ones(span, bool) if mask is None else np.asarray(mask)[:span] > 0
-    block_noise = max(noise_variance(np.asarray(y)[:span][fitted]) / size, 1e-300)
-    model_error = float(np.sqrt(np.mean(error[1:] ** 2) / block_noise))
+    # (from the samples' own second differences: on the coarse clock those see more of the
+    # signal)
+    def phi_at_constant(m, x):
+        return np.asarray(scan_memory(m, x, jnp.full((x.shape[0],), res.constant_order, dtype),
+                                      False))
+
+    phi_b = phi_at_constant(mem_b, jnp.asarray(u_b))
+    coef = _least_squares(phi_b, y_b, mask_b)[1]
+    error = ((block_average(phi_at_constant(mem, u2)[:span], size) - phi_b) @ coef[:-1])
+    fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
+    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
+    block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
     # everything at every sample: linear between block times
-    alpha = to_samples(t_b, np.asarray(res.alpha), times)
-    p = to_samples(t_b, np.asarray(res.p), times)
+    at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
+    alpha, p = at_samples(res.alpha), at_samples(res.p)
     phi = np.asarray(scan_memory(mem, u2, jnp.asarray(alpha.astype(dtype)), False))
-    y_hat = float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)
-    full = res.__class__(
+    full = dataclasses.replace(
+        res,
         alpha=jnp.asarray(alpha),
-        alpha_std=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_std), times)),
-        alpha_lower=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_lower), times)),
-        alpha_upper=jnp.asarray(to_samples(t_b, np.asarray(res.alpha_upper), times)),
+        alpha_std=jnp.asarray(at_samples(res.alpha_std)),
+        alpha_lower=jnp.asarray(at_samples(res.alpha_lower)),
+        alpha_upper=jnp.asarray(at_samples(res.alpha_upper)),
         p=jnp.asarray(p),
-        p_std=jnp.asarray(to_samples(t_b, np.asarray(res.p_std), times)),
-        x0=res.x0,
-        x0_std=res.x0_std,
-        y_hat=jnp.asarray(y_hat),
-        y_pred=jnp.asarray(to_samples(t_b, np.asarray(res.y_pred), times)),
-        converged=res.converged,
-        tuning=res.tuning,
-        constant_order=res.constant_order,
-        alpha_held=None if res.alpha_held is None
-        else jnp.asarray(to_samples(t_b, np.asarray(res.alpha_held), times)),
-        mixture_weights=res.mixture_weights,
-        trade=res.trade,
-        drift_covered=res.drift_covered,
+        p_std=jnp.asarray(at_samples(res.p_std)),
+        y_hat=jnp.asarray(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
+        y_pred=jnp.asarray(at_samples(res.y_pred)),
+        alpha_held=None if res.alpha_held is None else jnp.asarray(at_samples(res.alpha_held)),
     )
     fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
-               held=res.alpha_held, y=y_b, y_pred=res.y_pred,
-               mask=None if mask is None else mask_b, block_error=model_error)
+               held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],
+               mask=None if mask is None else mask_b, block_error=block_error)
     return full, fit
 
 
@@ -847,7 +835,8 @@ def _identify_kalman(
     size = block_size(length, max_points)
     if size > 1:
         res, fit = _track_blocks(
-            u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters, size
+            u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters, size,
+            length,
         )
     else:
         mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
@@ -856,15 +845,13 @@ def _identify_kalman(
             parameters=parameters,
         )
         fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
-                   held=res.alpha_held, y=y, y_pred=res.y_pred, mask=mask)
+                   held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask)
     bad = _first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
     if bad is not None:
         raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
     # the diagnostics see what the tracker fitted (the block means of a long record); cut in
     # NumPy: an eager slice of a JAX array compiles anew for every record length
-    fit_mask = fit["mask"]
-    span = (np.asarray(fit["y"]).shape[0] if fit_mask is None
-            else int(np.flatnonzero(np.asarray(fit_mask))[-1]) + 1)
+    fit_mask, span = fit["mask"], fit["span"]
     alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
     shift = None
     if fit["held"] is not None:

@@ -31,19 +31,21 @@ def block_means(times, u, y, mask, size: int):
     consecutive samples (the last one shorter). A block's time and input are the means over
     all its samples, its output the mean over its fitted samples (``mask > 0``); its mask is 1
     if any of them is fitted. NumPy arrays in, NumPy arrays out."""
-    times, u, y = np.asarray(times, float), np.asarray(u), np.asarray(y)
+    u, y = np.asarray(u), np.asarray(y)
     mask = np.ones(y.shape, u.dtype) if mask is None else np.asarray(mask, u.dtype)
-    starts = np.concatenate([[0], np.arange(1, y.shape[0], size)])
-    counts = np.diff(np.concatenate([starts, [y.shape[0]]]))
-    fitted = np.add.reduceat(mask, starts)
-    t_b = np.add.reduceat(times, starts) / counts
-    u_b = np.add.reduceat(u, starts, axis=0) / counts[:, None]
-    y_b = np.add.reduceat(y * mask, starts) / np.maximum(fitted, 1)
-    return t_b, u_b.astype(u.dtype), y_b.astype(u.dtype), (fitted > 0).astype(u.dtype)
+    fitted = block_average(mask, size)  # the fitted fraction of each block
+    y_b = block_average(y * mask, size) / np.where(fitted > 0, fitted, 1.0)
+    return (
+        block_average(np.asarray(times, float), size),
+        block_average(u, size).astype(u.dtype),
+        y_b.astype(u.dtype),
+        (fitted > 0).astype(u.dtype),
+    )
 
 
 def block_average(values, size: int):
-    """The block means (as in `block_means`) of per-sample `values` (N, …)."""
+    """The block means of per-sample `values` (N, …): sample 0 alone, then blocks of `size`
+    consecutive samples (the last one shorter)."""
     values = np.asarray(values)
     starts = np.concatenate([[0], np.arange(1, values.shape[0], size)])
     counts = np.diff(np.concatenate([starts, [values.shape[0]]]))
