@@ -447,7 +447,7 @@ MUTATIONS = {
     "correlated prediction errors not refused": (
         "vojax/_identify.py",
         [("and calibrated and not coloured", "and calibrated")],
-        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused"],
+        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
     "the law claims identified": (
         "vojax/_identify.py",
@@ -499,10 +499,10 @@ MUTATIONS = {
         ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
     ),
     "autocorrelation limit ignores the record's length": (
-        "vojax/_identify.py",
+        "vojax/_stats.py",
         [("    return float(min(MAX_CORRELATION, max(z, CORRELATION_FLOOR)))",
           "    return MAX_CORRELATION")],
-        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused"],
+        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
     "a file vojax did not write is overwritten": (
         "vojax/_data/_paths.py",
@@ -547,6 +547,40 @@ MUTATIONS = {
         [("    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)",
           "    block_noise = max(noise_variance(y_b[mask_b > 0]), 1e-300)")],
         ["tests/test_blocks.py::test_blocks_that_misrepresent_the_record_are_reported"],
+    ),
+    "RTS gain without the transition": (
+        "vojax/_tracker/_kalman.py",
+        [("        g = cholesky_solve(p_pred, p * f_k[:, None]).T",
+          "        g = cholesky_solve(p_pred, p).T")],
+        ["tests/test_tracker.py::test_kalman_and_rts_with_an_ar1_state_equal_the_dense_posterior"],
+    ),
+    "AR(1) noise not stationary": (
+        "vojax/_tracker/_model.py",
+        [("            cols.append((jnp.exp(self.log_ar_var) * (1.0 - a * a))[:, None])",
+          "            cols.append((jnp.exp(self.log_ar_var) * (1.0 - a))[:, None])")],
+        ["tests/test_coloured.py::test_hyper_transition_keeps_the_ar_part_stationary"],
+    ),
+    "objective's increments without the transition": (
+        "vojax/_tracker/_model.py",
+        [("    inc = theta[1:] - (theta[:-1] if f is None else f[:-1] * theta[:-1])",
+          "    inc = theta[1:] - theta[:-1]")],
+        ["tests/test_tracker.py::test_smoother_mode_and_bands_against_a_dense_numpy_posterior"],
+    ),
+    "whitener skips the gain": (
+        "vojax/_tracker/_track.py",
+        [("            pred = a[k] * (pred + gain[k] * e)", "            pred = a[k] * pred")],
+        ["tests/test_coloured.py::test_whitener_gives_the_dense_quadratic_form_and_gls"],
+    ),
+    "coloured noise kept at the longest correlation time": (
+        "vojax/_tracker/_track.py",
+        [('    if "noise_time" in tuned.at_edge or not (', "    if not (")],
+        ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused",
+         "tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves"],
+    ),
+    "coloured noise never tried": (
+        "vojax/_tracker/_track.py",
+        [("    if not r1 > correlation_limit(innovations.size):", "    if True:")],
+        ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
 }
 

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax._data import DataError, load_records
-from vojax._data import _afm
+from vojax._data import DataError, _afm, load_records
 
 HERE = Path(__file__).parent / "data" / "afm"
 RAW = HERE / "brain_creep.jpk-force"

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import vojax
+
 from .test_data_cli import _cli, _springpot_csv
 
 

@@ -4,7 +4,6 @@ on a deliberately wrong closed form."""
 
 import functools
 import json
-import warnings
 
 import numpy as np
 import pytest

@@ -2,6 +2,7 @@
 unit invariance, the law's band against Monte Carlo, no silent NaN."""
 
 import functools
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -22,7 +23,13 @@ def _batch_posterior(h, z, r, q, m0, p0):
         for k in range(n):
             c = p0 + np.diag(q[: min(i, k)].sum(axis=0))
             cov[i * d : (i + 1) * d, k * d : (k + 1) * d] = c
-    mean = np.tile(m0, n)
+    return _condition(h, z, r, np.tile(m0, n), cov)
+
+
+def _condition(h, z, r, mean, cov):
+    """Gaussian conditioning of the stacked trajectory (mean, cov) on ``z_k = h_k·θ_k + v_k``:
+    the posterior means (N, d), the marginal covariances (N, d, d), the log-likelihood."""
+    n, d = h.shape
     big_h = np.zeros((n, n * d))
     for k in range(n):
         big_h[k, k * d : (k + 1) * d] = h[k]
@@ -33,9 +40,8 @@ def _batch_posterior(h, z, r, q, m0, p0):
     e = z - big_h @ mean
     _, logdet = np.linalg.slogdet(s)
     loglik = -0.5 * (n * np.log(2 * np.pi) + logdet + e @ np.linalg.solve(s, e))
-    means = post_mean.reshape(n, d)
     covs = np.stack([post_cov[k * d : (k + 1) * d, k * d : (k + 1) * d] for k in range(n)])
-    return means, covs, loglik
+    return post_mean.reshape(n, d), covs, loglik
 
 
 def test_kalman_and_rts_equal_the_dense_posterior():
@@ -70,6 +76,53 @@ def test_kalman_and_rts_equal_the_dense_posterior():
     ref = kalman_filter(*(jnp.asarray(x) for x in (h[keep], z[keep], r, q_drop[keep], m0, p0)))
     np.testing.assert_allclose(fm.mean[-1], ref.mean[-1], atol=1e-11)
     assert float(fm.log_likelihood) == pytest.approx(float(ref.log_likelihood), rel=1e-12)
+
+
+def _batch_posterior_ar(h, z, r, q, f, m0, p0):
+    """`_batch_posterior` for ``θ_{k+1} = diag(f_k) θ_k + w_k``, from the stacked trajectory's
+    moments written out: ``E θ_k = Π_{j<k} f_j · m0``, ``Cov θ_k = F P F + Q`` step by step,
+    ``Cov(θ_k, θ_i) = Π_{i≤j<k} f_j · Cov θ_i`` for i ≤ k."""
+    n, d = h.shape
+    var, means = [p0], [m0]
+    for k in range(n - 1):
+        var.append(f[k][:, None] * var[-1] * f[k][None, :] + np.diag(q[k]))
+        means.append(f[k] * means[-1])
+    cov = np.zeros((n * d, n * d))
+    for i in range(n):
+        for k in range(i, n):
+            c = np.prod(f[i:k], axis=0)[:, None] * var[i] if k > i else var[i]
+            cov[k * d : (k + 1) * d, i * d : (i + 1) * d] = c
+            cov[i * d : (i + 1) * d, k * d : (k + 1) * d] = c.T
+    return _condition(h, z, r, np.concatenate(means), cov)
+
+
+def test_kalman_and_rts_with_an_ar1_state_equal_the_dense_posterior():
+    # the coloured-noise model: random-walk states and one AR(1) state (0 < f < 1)
+    rng = np.random.default_rng(4)
+    n, d = 20, 4
+    h = rng.standard_normal((n, d))
+    h[:, -1] = 1.0  # the noise state enters the measurement with weight one
+    z = rng.standard_normal(n)
+    q = np.abs(rng.standard_normal((n, d))) * 0.1
+    f = np.ones((n, d))
+    f[:, -1] = rng.uniform(0.5, 0.95, n)
+    q[:, -1] = 0.7 * (1 - f[:, -1] ** 2)
+    m0 = rng.standard_normal(d)
+    a = rng.standard_normal((d, d))
+    p0 = a @ a.T + np.eye(d)
+    r = 0.2
+    filt = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)), f=jnp.asarray(f))
+    ms, ps = rts_smoother(filt, jnp.asarray(q), jnp.asarray(f))
+    means, covs, loglik = _batch_posterior_ar(h, z, r, q, f, m0, p0)
+    np.testing.assert_allclose(ms, means, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(ps, covs, rtol=0, atol=1e-11)
+    assert float(filt.log_likelihood) == pytest.approx(loglik, rel=1e-12)
+    # with f = 1 the dense form is the random walk's
+    ones = np.ones((n, d))
+    np.testing.assert_allclose(
+        _batch_posterior_ar(h, z, r, q, ones, m0, p0)[0], _batch_posterior(h, z, r, q, m0, p0)[0],
+        atol=1e-11,
+    )
 
 
 def test_damped_pass_is_the_posterior_with_the_anchor_observed():
@@ -423,11 +476,14 @@ def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
         vojax.identify(u, y, 0.1, mask=np.ones(150), method="gradient")
 
 
-def test_smoother_mode_and_bands_against_a_dense_numpy_posterior():
+@pytest.mark.parametrize("coloured", [False, True])
+def test_smoother_mode_and_bands_against_a_dense_numpy_posterior(coloured):
     """The iterated smoother's answer checked from outside: with φ and ∂φ/∂β from
     `vojax.reference` (direct sums by hand) at the returned orders, the gradient of the negative
     log posterior vanishes at the returned trajectory (a mode), and the returned covariances are
-    the diagonal blocks of the inverse Gauss–Newton Hessian of that posterior, built densely."""
+    the diagonal blocks of the inverse Gauss–Newton Hessian of that posterior, built densely.
+    `coloured`: with the coloured noise's AR(1) state e (increments e_{k+1} − a e_k of
+    variance s(1 − a²), e_0 of variance s) added to the prediction."""
     from vojax import reference
     from vojax._integral import make_memory
     from vojax._tracker._smoother import iterated_smoother
@@ -438,12 +494,21 @@ def test_smoother_mode_and_bands_against_a_dense_numpy_posterior():
     u = (np.sin(1.1 * t) + 0.6)[:, None]
     truth = 0.3 + 0.3 * t / t[-1]
     y = 1.2 * np.asarray(reference.fractional_integral(u[:, 0], truth, dt)) - 0.2
-    y = y + 0.01 * np.random.default_rng(5).standard_normal(n)
+    rng = np.random.default_rng(5)
+    y = y + 0.01 * rng.standard_normal(n)
     qo, qp, r = 1.0, 1e-3, 1e-4
+    s_ar, tau = 2e-4, 0.08  # the AR(1) part: variance, correlation time / span
     horizon = (n - 1) * dt
-    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (qo, qp, r)))
-    m0 = np.array([0.0, 1.0, 0.0])
-    p0 = np.diag([4.0, 100.0, 100.0])
+    a = np.exp(-dt / (tau * horizon))
+    if coloured:  # and the data's noise with such a part
+        ar = np.zeros(n)
+        for k in range(1, n):
+            ar[k] = a * ar[k - 1] + np.sqrt(s_ar * (1 - a * a)) * rng.standard_normal()
+        y = y + ar
+    values = (qo, qp, r, s_ar, tau) if coloured else (qo, qp, r)
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in values))
+    m0 = np.array([0.0, 1.0, 0.0] + [0.0] * coloured)
+    p0 = np.diag([4.0, 100.0, 100.0] + [1.0] * coloured)  # e_0's variance set by the hyper
     nominal = jnp.tile(jnp.asarray(m0), (n, 1))
     mem = make_memory("direct", dt, n, order_range=bounds)
     sm = iterated_smoother(
@@ -454,27 +519,39 @@ def test_smoother_mode_and_bands_against_a_dense_numpy_posterior():
     theta = np.asarray(sm.theta)
     beta, p, c = theta[:, 0], theta[:, 1], theta[0, 2]
     assert np.allclose(theta[:, 2], c, rtol=0, atol=1e-12)  # the offset is one constant
+    e = theta[:, 3] if coloured else np.zeros(n)
     s = 1 / (1 + np.exp(-beta))
     alpha, dadb = lo + (hi - lo) * s, (hi - lo) * s * (1 - s)
     phi = np.asarray(reference.fractional_integral(u[:, 0], alpha, dt))
     dphi = np.asarray(reference.order_sensitivity(u[:, 0], alpha, dt))
-    res = y - c - p * phi
-    # unknowns x = [β_0…β_{N−1}, p_0…p_{N−1}, c]; J = ∂(prediction)/∂x, D = increments
-    dim = 2 * n + 1
+    res = y - c - p * phi - e
+    # unknowns x = [β_0…β_{N−1}, p_0…p_{N−1}, c, (e_0…e_{N−1})]; J = ∂(prediction)/∂x,
+    # D = increments, each with its weight w
+    ne = n if coloured else 0
+    dim = 2 * n + 1 + ne
     jac = np.zeros((n, dim))
     jac[np.arange(n), np.arange(n)] = p * dphi * dadb
     jac[np.arange(n), n + np.arange(n)] = phi
-    jac[:, -1] = 1.0
-    diff = np.zeros((2 * (n - 1), dim))
-    w = np.zeros(2 * (n - 1))
+    jac[:, 2 * n] = 1.0
+    jac[np.arange(ne), 2 * n + 1 + np.arange(ne)] = 1.0
+    rows = 2 * (n - 1) + (n - 1) * coloured
+    diff, w = np.zeros((rows, dim)), np.zeros(rows)
     for k in range(n - 1):
         diff[k, k], diff[k, k + 1], w[k] = -1.0, 1.0, 1 / (qo * dt / horizon)
         j = n - 1 + k
         diff[j, n + k], diff[j, n + k + 1], w[j] = -1.0, 1.0, 1 / (qp * dt / horizon)
-    sel = np.zeros((3, dim))
-    sel[0, 0], sel[1, n], sel[2, -1] = 1.0, 1.0, 1.0
-    x = np.concatenate([beta, p, [c]])
-    p0_inv = np.linalg.inv(p0)
+        if coloured:
+            j = 2 * (n - 1) + k
+            diff[j, 2 * n + 1 + k], diff[j, 2 * n + 2 + k] = -a, 1.0
+            w[j] = 1 / (s_ar * (1 - a * a))
+    sel = np.zeros((len(m0), dim))
+    sel[0, 0], sel[1, n], sel[2, 2 * n] = 1.0, 1.0, 1.0
+    p0_used = p0.copy()
+    if coloured:
+        sel[3, 2 * n + 1] = 1.0
+        p0_used[3, 3] = s_ar
+    x = np.concatenate([beta, p, [c], e[:ne]])
+    p0_inv = np.linalg.inv(p0_used)
     # half the gradient of the objective (data misfit / r + increments / q + prior)
     grad = -jac.T @ res / r + diff.T @ (w * (diff @ x)) + sel.T @ p0_inv @ (sel @ x - m0)
     scale = np.abs(jac.T @ res / r).max() + np.abs(diff.T @ (w * (diff @ x))).max()
@@ -485,7 +562,9 @@ def test_smoother_mode_and_bands_against_a_dense_numpy_posterior():
     np.testing.assert_allclose(got[:, 0, 0], np.diag(cov)[:n], rtol=1e-6)
     np.testing.assert_allclose(got[:, 1, 1], np.diag(cov)[n : 2 * n], rtol=1e-6)
     np.testing.assert_allclose(got[:, 0, 1], cov[np.arange(n), n + np.arange(n)], rtol=1e-6, atol=1e-12)
-    np.testing.assert_allclose(got[:, 2, 2], cov[-1, -1], rtol=1e-6)
+    np.testing.assert_allclose(got[:, 2, 2], cov[2 * n, 2 * n], rtol=1e-6)
+    if coloured:
+        np.testing.assert_allclose(got[:, 3, 3], np.diag(cov)[2 * n + 1 :], rtol=1e-6)
 
 
 def test_online_filter_against_a_textbook_iterated_ekf():
@@ -731,8 +810,8 @@ def test_mixture_of_modes_is_the_evidence_weighted_spread():
 def test_band_covers_the_other_modes_in_proportion_to_their_evidence():
     """The tracker's reported band is the mixture's: at least as wide as the tuned run's own
     Laplace band at every sample, and its weights sum to one with the tuned run first."""
-    from vojax._tracker import track
     from vojax._integral import make_memory
+    from vojax._tracker import track
 
     t = np.arange(300) * 0.1
     u = np.where(t < 5.0, t / 5.0, 1.0)
@@ -749,12 +828,13 @@ def test_band_covers_the_other_modes_in_proportion_to_their_evidence():
     assert np.all(np.asarray(res.alpha_std) >= np.asarray(own.alpha_std) * (1 - 1e-6))
 
 
-def test_correlated_prediction_errors_are_refused():
+def test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled():
     """AR(1) measurement noise (ρ = 0.9) on a record that white noise leaves identified (its
     parameters stated constant): the innovations' lag-1 autocorrelation exceeds 0.25 and the
     band is refused, with what to do;
     with white noise of the same level it stays below the limit."""
-    from vojax._identify import MAX_CORRELATION, correlation_limit, diagnose
+    from vojax._identify import diagnose
+    from vojax._stats import MAX_CORRELATION, correlation_limit, lag1_correlation
 
     alpha = np.full(100, 0.4)
     d = diagnose(alpha, alpha - 0.01, alpha + 0.01, (0.01, 0.99), True, (), correlation=0.3)
@@ -777,10 +857,20 @@ def test_correlated_prediction_errors_are_refused():
         ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
     level = 0.01 * np.ptp(x)
     # the parameters stated constant: by default a drifting one explains this record too
-    clean = vojax.identify(u, x + level * white, 0.05, parameters="constant", warn=False).diagnostics
-    assert clean.identified and clean.innovation_correlation < 0.1  # the rule is one-sided
-    coloured = vojax.identify(u, x + level * ar, 0.05, parameters="constant", warn=False).diagnostics
-    assert coloured.innovation_correlation > MAX_CORRELATION and not coloured.identified
+    clean = vojax.identify(u, x + level * white, 0.05, parameters="constant", warn=False)
+    d = clean.diagnostics
+    assert d.identified and d.innovation_correlation < 0.1  # the rule is one-sided
+    assert clean.tuning.coloured_noise is None and np.isnan(d.noise_correlation)
+    # coloured noise is modelled (an AR(1) part, chosen by evidence), not refused: the white
+    # model's errors are correlated, the coloured model's are not, and its band holds 0.45
+    res = vojax.identify(u, x + level * ar, 0.05, parameters="constant", warn=False)
+    d = res.diagnostics
+    assert lag1_correlation((x + level * ar - np.asarray(res.y_hat))[1:]) > MAX_CORRELATION
+    assert d.innovation_correlation < correlation_limit(t.size - 1) and d.identified
+    assert 0.8 < d.noise_correlation < 0.97, d.noise_correlation
+    half = slice(t.size // 2, None)
+    inside = (np.asarray(res.alpha_lower) <= 0.45) & (0.45 <= np.asarray(res.alpha_upper))
+    assert np.mean(inside[half]) > 0.95
 
 
 def test_an_unstable_law_reports_an_infinite_band_with_its_reason(monkeypatch):

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from . import _validate as check
+from ._stats import correlation_limit
 
 MODELS = ("springpot", "kelvin-voigt", "maxwell", "zener", "variable")
 # Bayes factors: below 3 the data cannot tell two models apart; above 10 one is favoured
@@ -187,8 +188,6 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
         else:
             strength = "strongly " if bf >= STRONG_BF else ""
             verdict = f"{a} is {strength}favoured over {b} by a Bayes factor of {bf:.3g}."
-    from ._identify import correlation_limit
-
     limit = correlation_limit(num)
     if rows[0]["lag1"] > limit:
         verdict += (

@@ -14,7 +14,7 @@ from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
 from ._integral import make_memory, scan_memory
 from ._kernels import RULES
-from ._stats import noise_variance
+from ._stats import correlation_limit, lag1_correlation, noise_variance
 from ._tracker._blocks import block_size
 
 DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
@@ -34,25 +34,6 @@ MIN_POINTS = 100  # the fewest points `max_points` may ask for
 # not reported identified
 BLOCK_ERROR_LIMIT = 0.5
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
-# lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
-# white measurement noise, is not trusted (coloured noise, or a model that misses part of the
-# signal): `CORRELATION_Z` standard errors (1/√n) of a white sequence's, but at least
-# `CORRELATION_FLOOR` (below it, coloured noise would widen a band by under 11 %) and at most
-# `MAX_CORRELATION` (on the calibration suite's records with white noise it stays below 0.23)
-MAX_CORRELATION = 0.25
-CORRELATION_Z = 3.0
-CORRELATION_FLOOR = 0.1
-
-
-def correlation_limit(samples) -> float:
-    """The innovations' lag-1 autocorrelation above which the band is refused, for
-    `samples` innovations (`MAX_CORRELATION` when unknown)."""
-    if samples is None:
-        return MAX_CORRELATION
-    z = CORRELATION_Z / np.sqrt(max(int(samples), 1))
-    return float(min(MAX_CORRELATION, max(z, CORRELATION_FLOOR)))
-
-
 # the law's band is its estimate's spread over the noise alone; on held-out simulations
 # (scripts/bench_calibration.py) the truth lies outside it at most samples, whatever its width
 LAW_BAND = (
@@ -93,6 +74,9 @@ class Diagnostics:
       error of that coarser clock, at the constant-order fit, over the noise of a block mean
       (NaN when there are no blocks). Above `BLOCK_ERROR_LIMIT` (0.5) the order is not
       reported identified.
+    - `noise_correlation`: where the tracker modelled the measurement noise as coloured (an
+      AR(1) part besides white noise, chosen by evidence), that part's correlation between
+      consecutive samples (block means for a long record); NaN where the noise is white.
     """
 
     band_halfwidth: float
@@ -104,6 +88,7 @@ class Diagnostics:
     innovation_correlation: float = float("nan")
     block: int = 1
     block_error: float = float("nan")
+    noise_correlation: float = float("nan")
 
 
 class Identification(eqx.Module):
@@ -377,18 +362,10 @@ def _first_bad(*arrays):
     return int(np.argmax(bad)) if bad.any() else None
 
 
-def lag1_correlation(e) -> float:
-    """Lag-1 autocorrelation of a sequence (its mean removed); NaN when it is constant."""
-    e = np.asarray(e, dtype=float)
-    e = e - np.mean(e)
-    power = float(np.sum(e * e))
-    return float(np.sum(e[1:] * e[:-1]) / power) if power > 0 else float("nan")
-
-
 def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
-    drift_covered=False, block=1, block_error=None,
+    drift_covered=False, block=1, block_error=None, noise_correlation=None,
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -400,7 +377,8 @@ def diagnose(
     ``(lo, hi)`` with which a drifting parameter explains the data as well, which the band
     was widened to cover, or None; `drift_covered`: the band was widened to cover the
     tracker's drifting-parameter alternatives that explain the data. `samples`: how many
-    innovations `correlation` is over (see `correlation_limit`)."""
+    innovations `correlation` is over (see `correlation_limit`); `noise_correlation`: the
+    coloured noise part's correlation between samples, or None for white noise."""
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
     half = alpha.shape[0] // 2
@@ -436,7 +414,7 @@ def diagnose(
             "the estimation did not converge (look for steps or outliers in the data, or give "
             "`noise=` with the known noise level)"
         )
-    if "noise" in at_edge:
+    if {"noise", "white_noise", "coloured_noise"} & set(at_edge):
         problems.append(
             "the measurement noise was tuned to the edge of its range (an output almost free "
             "of noise, or drifting states that absorb the misfit): the band is not a "
@@ -460,7 +438,8 @@ def diagnose(
         )
     others = [
         name for name in at_edge
-        if name not in ("noise", "order_drift", "parameter_drift")
+        if name not in ("noise", "order_drift", "parameter_drift", "white_noise",
+                        "coloured_noise", "noise_time")
         and not name.endswith("(lower edge)")
     ]
     if others:
@@ -473,10 +452,10 @@ def diagnose(
     if coloured:
         problems.append(
             f"the prediction errors are correlated (lag-1 autocorrelation {correlation:.2f} > "
-            f"{limit:.2g}): the measurement noise is coloured or the model misses part of "
-            "the signal, and the band, which assumes white noise, is too narrow; resample to a "
-            "coarser clock, on which the noise decorrelates between samples, or give `noise=` "
-            "with the known noise level"
+            f"{limit:.2g}): the model misses part of the signal, or the measurement noise is "
+            "coloured in a way that neither white noise nor white plus AR(1) noise explains, "
+            "and the band is too narrow; resample to a coarser clock, on which the noise "
+            "decorrelates between samples, or give `noise=` with the known noise level"
         )
     coarse = block_error is not None and block_error > BLOCK_ERROR_LIMIT
     if coarse:
@@ -495,13 +474,15 @@ def diagnose(
         problems.append(LAW_BAND)
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
-        and "noise" not in at_edge and not traded and calibrated and not coloured
+        and not {"noise", "white_noise", "coloured_noise"} & set(at_edge)
+        and not traded and calibrated and not coloured
         and unstable_from is None and not coarse
     )
     message = "; ".join(problems)
     return Diagnostics(
         width, at_bound, bool(converged), tuple(at_edge), identified, message, correlation,
         int(block), float("nan") if block_error is None else float(block_error),
+        float("nan") if noise_correlation is None else float(noise_correlation),
     )
 
 
@@ -864,6 +845,7 @@ def _identify_kalman(
         correlation=lag1_correlation((y_np - pred)[fitted][1:]), trade=res.trade,
         samples=int(np.sum(fitted)) - 1, drift_covered=res.drift_covered,
         block=size, block_error=fit.get("block_error"),
+        noise_correlation=res.tuning.noise_correlation,
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)

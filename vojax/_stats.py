@@ -14,6 +14,33 @@ def noise_variance(y) -> float:
     return float((1.4826 * np.median(np.abs(d2))) ** 2 / 6.0)
 
 
+# lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
+# white measurement noise, is not trusted (coloured noise, or a model that misses part of the
+# signal): `CORRELATION_Z` standard errors (1/√n) of a white sequence's, but at least
+# `CORRELATION_FLOOR` (below it, coloured noise would widen a band by under 11 %) and at most
+# `MAX_CORRELATION` (on the calibration suite's records with white noise it stays below 0.23)
+MAX_CORRELATION = 0.25
+CORRELATION_Z = 3.0
+CORRELATION_FLOOR = 0.1
+
+
+def correlation_limit(samples) -> float:
+    """The innovations' lag-1 autocorrelation above which the band is refused, for
+    `samples` innovations (`MAX_CORRELATION` when unknown)."""
+    if samples is None:
+        return MAX_CORRELATION
+    z = CORRELATION_Z / np.sqrt(max(int(samples), 1))
+    return float(min(MAX_CORRELATION, max(z, CORRELATION_FLOOR)))
+
+
+def lag1_correlation(e) -> float:
+    """Lag-1 autocorrelation of a sequence (its mean removed); NaN when it is constant."""
+    e = np.asarray(e, dtype=float)
+    e = e - np.mean(e)
+    power = float(np.sum(e * e))
+    return float(np.sum(e[1:] * e[:-1]) / power) if power > 0 else float("nan")
+
+
 def delta_stderr(fn, p, cov) -> dict:
     """Standard errors of the named quantities ``fn(p)`` (a dict of scalars) by the delta
     method: ``sqrt(diag(J C Jᵀ))`` with ``J = ∂fn/∂p`` from forward-mode autodiff and ``C`` the

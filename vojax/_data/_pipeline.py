@@ -161,7 +161,8 @@ def _without_errors(data):
         # errors and diagnostic statistics may be undefined (null in JSON); estimates not
         return {
             k: _without_errors(v) for k, v in data.items()
-            if "stderr" not in k and k not in ("innovation_correlation", "block_error")
+            if "stderr" not in k
+            and k not in ("innovation_correlation", "block_error", "noise_correlation")
         }
     return data
 

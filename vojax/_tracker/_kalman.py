@@ -1,5 +1,7 @@
-"""Kalman filter and Rauch–Tung–Striebel smoother for a random walk seen through one scalar,
-linear measurement per sample: ``θ_{k+1} = θ_k + w_k``, ``z_k = H_k θ_k + v_k``.
+"""Kalman filter and Rauch–Tung–Striebel smoother for a diagonal linear state equation seen
+through one scalar, linear measurement per sample: ``θ_{k+1} = F_k θ_k + w_k``,
+``z_k = H_k θ_k + v_k``, with ``F_k = diag(f_k)`` (a random walk where ``f = 1``; an AR(1)
+state, such as a coloured measurement noise, where ``0 < f < 1``).
 
 This is the linear engine of the tracker: each Gauss–Newton iteration of the iterated smoother
 linearises the measurement around a nominal trajectory and runs these two scans. The process
@@ -54,10 +56,17 @@ def anchor_update(mean, cov, anchor, damping):
     return mean + gain @ (anchor - mean), new_cov
 
 
+def _predicted(m, p, f_k, q_k):
+    """``F m`` and ``F P Fᵀ + diag(q)`` for a diagonal ``F = diag(f_k)``."""
+    return f_k * m, p * f_k[:, None] * f_k[None, :] + jnp.diag(q_k)
+
+
 @jax.named_scope("vojax.kalman_filter")
-def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None) -> Filtered:
+def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=None) -> Filtered:
     """The filter over ``h`` (N, d), ``z`` (N,), with ``r`` the measurement variance, ``q``
-    (N, d) the process variances from sample k to k+1, and the prior ``N(m0, p0)`` of θ_0.
+    (N, d) the process variances from sample k to k+1, ``f`` (N, d) the diagonal of the
+    transition from sample k to k+1 (ones, a random walk, when None), and the prior
+    ``N(m0, p0)`` of θ_0.
 
     With `anchor` (N, d) and `damping` μ > 0, each state is also observed as ``anchor_k`` with
     variance ``1/μ`` per component: the smoothed mean is then the Levenberg–Marquardt step of
@@ -67,35 +76,39 @@ def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None) -> F
         mask = jnp.ones(z.shape, z.dtype)
     if anchor is None:
         anchor = jnp.zeros(h.shape, h.dtype)
+    if f is None:
+        f = jnp.ones(h.shape, h.dtype)
 
     def body(carry, x):
         m_pred, p_pred = carry
-        h_k, z_k, q_k, w_k, a_k = x
+        h_k, z_k, q_k, w_k, a_k, f_k = x
         m, p, e, s, ll = update(m_pred, p_pred, h_k, z_k, r, w_k)
         if damping is not None:
             m, p = anchor_update(m, p, a_k, damping)
-        nxt = (m, p + jnp.diag(q_k))
-        return nxt, (m, p, m_pred, p_pred, e, s, ll)
+        return _predicted(m, p, f_k, q_k), (m, p, m_pred, p_pred, e, s, ll)
 
-    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask, anchor))
+    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask, anchor, f))
     return Filtered(m, p, mp, pp, e, s, jnp.sum(ll))
 
 
 @jax.named_scope("vojax.rts_smoother")
-def rts_smoother(filtered: Filtered, q):
-    """Rauch–Tung–Striebel: the smoothed means (N, d) and covariances (N, d, d)."""
+def rts_smoother(filtered: Filtered, q, f=None):
+    """Rauch–Tung–Striebel: the smoothed means (N, d) and covariances (N, d, d); `q`, `f` as
+    in `kalman_filter`."""
+    if f is None:
+        f = jnp.ones(q.shape, q.dtype)
 
     def body(carry, x):
         ms_next, ps_next = carry
-        m, p, q_k = x
-        p_pred = p + jnp.diag(q_k)
-        # G = P_k (P_{k+1}⁻)⁻¹, both symmetric: solve rather than invert
-        g = cholesky_solve(p_pred, p).T
-        ms = m + g @ (ms_next - m)
+        m, p, q_k, f_k = x
+        m_pred, p_pred = _predicted(m, p, f_k, q_k)
+        # G = P_k Fᵀ (P_{k+1}⁻)⁻¹, P and P⁻ symmetric: solve rather than invert
+        g = cholesky_solve(p_pred, p * f_k[:, None]).T
+        ms = m + g @ (ms_next - m_pred)
         ps = _symmetric(p + g @ (ps_next - p_pred) @ g.T)
         return (ms, ps), (ms, ps)
 
     m, p = filtered.mean, filtered.cov
     last = (m[-1], p[-1])
-    _, (ms, ps) = lax.scan(body, last, (m[:-1], p[:-1], q[:-1]), reverse=True)
+    _, (ms, ps) = lax.scan(body, last, (m[:-1], p[:-1], q[:-1], f[:-1]), reverse=True)
     return jnp.concatenate([ms, m[-1:]]), jnp.concatenate([ps, p[-1:]])

@@ -7,6 +7,12 @@ State ``θ_k = [β_k, p_k (n), c]``: the order through an unbounded (logistic) c
     θ_{k+1} = θ_k + w_k,   w_k ~ N(0, diag(q_β, q_p·1, 0) · (t_{k+1} − t_k)/T)
     y_k     = c + p_kᵀ Φ(α_k, t_k) + v_k,   v_k ~ N(0, r)
 
+With a coloured measurement noise the state has one more component, the noise's AR(1) part
+``e`` (stationary variance ``s``, correlation time ``τ``), appended last:
+
+    e_{k+1} = a_k e_k + w_k,   a_k = exp(−(t_{k+1} − t_k)/τ),   w_k ~ N(0, s (1 − a_k²))
+    y_k     = c + p_kᵀ Φ(α_k, t_k) + e_k + v_k
+
 The order enters only at the evaluation time, so the measurement at sample k depends on
 ``β_k`` through ``Φ(α_k, t_k)`` alone; its linearisation needs ``Φ`` and ``∂Φ/∂b`` at one order
 per sample, which one scan of a memory kernel gives for a whole trajectory.
@@ -52,37 +58,73 @@ class Hyper(eqx.Module):
     """Noise intensities in normalised units, as logarithms (so that they can be optimised
     freely): ``log_q_order`` (variance of the change of β over the whole record),
     ``log_q_params`` (variance of the change of each normalised parameter over the record),
-    ``log_r`` (measurement variance of the normalised output)."""
+    ``log_r`` (white measurement variance of the normalised output), and for a coloured
+    measurement noise ``log_ar_var`` (stationary variance of its AR(1) part) and
+    ``log_ar_time`` (its correlation time as a fraction of the record's span); both None for
+    white noise, and then the state has no noise component."""
 
     log_q_order: Float[Array, ""]
     log_q_params: Float[Array, ""]
     log_r: Float[Array, ""]
+    log_ar_var: Float[Array, ""] | None = None
+    log_ar_time: Float[Array, ""] | None = None
+
+    @property
+    def coloured(self) -> bool:
+        return self.log_ar_var is not None
+
+    def _ar(self, steps, horizon):
+        """The AR(1) part's transition ``a_k`` (N,)."""
+        return jnp.exp(-steps / (horizon * jnp.exp(self.log_ar_time)))
 
     def process(self, steps, horizon, n):
-        """Process variances ``q`` (N, n + 2) for the steps ``t_{k+1} − t_k`` (N,)."""
+        """Process variances ``q`` (N, d) for the steps ``t_{k+1} − t_k`` (N,)."""
         frac = steps / horizon
         qo = jnp.exp(self.log_q_order) * frac
         qp = jnp.exp(self.log_q_params) * frac
-        return jnp.concatenate(
-            [qo[:, None], jnp.broadcast_to(qp[:, None], (frac.shape[0], n)), 0.0 * qo[:, None]],
-            axis=1,
-        )
+        cols = [qo[:, None], jnp.broadcast_to(qp[:, None], (frac.shape[0], n)), 0.0 * qo[:, None]]
+        if self.coloured:
+            a = self._ar(steps, horizon)
+            cols.append((jnp.exp(self.log_ar_var) * (1.0 - a * a))[:, None])
+        return jnp.concatenate(cols, axis=1)
+
+    def transition(self, steps, horizon, n):
+        """The diagonal of the transition (N, d): ones (a random walk) but for the noise's
+        AR(1) part; None for white noise."""
+        if not self.coloured:
+            return None
+        ones = jnp.ones((steps.shape[0], n + 2), steps.dtype)
+        return jnp.concatenate([ones, self._ar(steps, horizon)[:, None]], axis=1)
+
+    def initial(self, p0):
+        """The prior covariance of θ_0 with the noise's AR(1) part at its stationary variance."""
+        if not self.coloured:
+            return p0
+        return p0.at[-1, -1].set(jnp.exp(self.log_ar_var))
 
     @property
     def r(self):
         return jnp.exp(self.log_r)
 
     def as_array(self):
-        return jnp.stack([self.log_q_order, self.log_q_params, self.log_r])
+        extra = [self.log_ar_var, self.log_ar_time] if self.coloured else []
+        return jnp.stack([self.log_q_order, self.log_q_params, self.log_r, *extra])
 
     @classmethod
     def from_array(cls, z):
-        return cls(z[0], z[1], z[2])
+        return cls(*(z[i] for i in range(z.shape[0])))
+
+
+def model_output(theta, phi, n):
+    """``c + pᵀ Φ`` (the noise-free output) for states ``θ`` (…, d), regressors ``Φ`` (…, n)."""
+    return theta[..., 1 + n] + jnp.sum(theta[..., 1 : 1 + n] * phi, axis=-1)
 
 
 def predict(theta, phi, n):
-    """``c + pᵀ Φ`` for states ``θ`` (…, d) and regressors ``Φ`` (…, n)."""
-    return theta[..., -1] + jnp.sum(theta[..., 1 : 1 + n] * phi, axis=-1)
+    """The measurement function: `model_output`, plus the noise's AR(1) part where the state
+    has one (d = n + 3)."""
+    out = model_output(theta, phi, n)
+    return out + theta[..., 2 + n] if theta.shape[-1] == n + 3 else out
 
 
 def linearise(theta, phi, dphi, bounds):
@@ -91,17 +133,19 @@ def linearise(theta, phi, dphi, bounds):
     _, dalpha = order_of(theta[..., 0], bounds)
     p = theta[..., 1 : 1 + n]
     h_beta = jnp.sum(p * dphi, axis=-1) * dalpha
-    jac = jnp.concatenate([h_beta[..., None], phi, jnp.ones_like(h_beta)[..., None]], axis=-1)
-    return predict(theta, phi, n), jac
+    ones = jnp.ones_like(h_beta)[..., None]
+    cols = [h_beta[..., None], phi, ones] + [ones] * (theta.shape[-1] - n - 2)
+    return predict(theta, phi, n), jnp.concatenate(cols, axis=-1)
 
 
-def objective(theta, phi, y, mask, r, q, m0, p0_inv):
+def objective(theta, phi, y, mask, r, q, m0, p0_inv, f=None):
     """Negative log posterior (× 2, up to a constant) of a whole trajectory ``θ`` (N, d):
-    data misfit, random-walk increments and the prior of ``θ_0``."""
+    data misfit, state increments ``θ_{k+1} − F_k θ_k`` (`f`: the transition's diagonal, ones
+    when None) and the prior of ``θ_0``."""
     n = phi.shape[-1]
     res = y - predict(theta, phi, n)
     data = jnp.sum(mask * res * res) / r
-    inc = theta[1:] - theta[:-1]
+    inc = theta[1:] - (theta[:-1] if f is None else f[:-1] * theta[:-1])
     qq = q[:-1]
     proc = jnp.sum(jnp.where(qq > 0, inc * inc / jnp.where(qq > 0, qq, 1.0), 0.0))
     e0 = theta[0] - m0

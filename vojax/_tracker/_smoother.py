@@ -11,6 +11,7 @@ tune the noise intensities.
 """
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
@@ -45,12 +46,12 @@ def _regressors(evaluate, theta, bounds):
     return evaluate(alpha, True)
 
 
-def _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, damping=None):
+def _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, damping=None):
     h0, jac = linearise(theta, phi, dphi, bounds)
     z = y - h0 + jnp.sum(jac * theta, axis=-1)
     anchor = None if damping is None else theta
-    filtered = kalman_filter(jac, z, r, q, m0, p0, mask, anchor, damping)
-    return filtered, rts_smoother(filtered, q), jac, z
+    filtered = kalman_filter(jac, z, r, q, m0, p0, mask, anchor, damping, f)
+    return filtered, rts_smoother(filtered, q, f), jac, z
 
 
 def iterated_smoother(
@@ -73,7 +74,7 @@ def smooth_compiled(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, 
 def _rows(hyper, starts, num):
     """The runs of a batch: each row's intensities (a `Hyper` of scalars) and its constant
     starting trajectory (N, d), made on the host (no program compiled for them)."""
-    values = [np.asarray(a) for a in (hyper.log_q_order, hyper.log_q_params, hyper.log_r)]
+    values = [np.asarray(a) for a in jax.tree_util.tree_leaves(hyper)]
     starts = np.asarray(starts)
     for b in range(starts.shape[0]):
         h = Hyper(*(jnp.asarray(v[b]) for v in values))
@@ -122,17 +123,16 @@ def smoother_modes(
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
     the constant trajectory of its row of `starts` (C, d), one after the other. Returns, per
     run, only what a mixture of them needs: the order coordinate β of the mode (C, N), its
-    smoothed variance (C, N), the run's `score` (C,) and its residual sum of squares over the
-    fitted samples (C,)."""
-    n, w, yy = u.shape[1], np.asarray(mask), np.asarray(y)
+    smoothed variance (C, N), the run's `score` (C,) and its residuals from the noise-free
+    output (C, N)."""
+    n, yy = u.shape[1], np.asarray(y)
     out = []
     for h, nominal in _rows(hyper, starts, u.shape[0]):
         sm = iterated_smoother(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds,
                                max_iter)
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
-        res = yy - (theta[:, -1] + np.sum(theta[:, 1 : 1 + n] * phi, axis=-1))
-        out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm),
-                    float(np.sum(w * res * res))))
+        res = yy - (theta[:, 1 + n] + np.sum(theta[:, 1 : 1 + n] * phi, axis=-1))
+        out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res))
     return tuple(np.array([o[k] for o in out]) for k in range(4))
 
 
@@ -153,11 +153,13 @@ def _iterate(
     tenfold after a step that lowers the posterior and rises tenfold after one that does not."""
     n = u.shape[1]
     q = hyper.process(steps, horizon, n)
+    f = hyper.transition(steps, horizon, n)
+    p0 = hyper.initial(p0)
     r = hyper.r
     p0_inv = jnp.linalg.inv(p0)
 
     def cost(theta, phi):
-        return objective(theta, phi, y, mask, r, q, m0, p0_inv)
+        return objective(theta, phi, y, mask, r, q, m0, p0_inv, f)
 
     evaluate = order_map(memory, u)  # the order-free history, once for all the iterations
     phi, dphi = _regressors(evaluate, nominal, bounds)
@@ -170,7 +172,7 @@ def _iterate(
 
     def body(carry):
         theta, phi, dphi, value, mu, rel, i = carry
-        _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds, mu)
+        _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu)
         phic, dphic = _regressors(evaluate, ms, bounds)
         valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
@@ -190,7 +192,7 @@ def _iterate(
         )
 
     theta, phi, dphi, value, mu, rel, iters = lax.while_loop(cond, body, start)
-    filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, m0, p0, bounds)
+    filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds)
     y_pred = y - filtered.innovation
     return Smoothed(
         theta=theta,
@@ -212,8 +214,9 @@ def _iterate(
 def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0):
     """Innovation log-likelihood of the model linearised at a fixed trajectory, as a function
     of the noise intensities (differentiable: one filter scan)."""
-    q = hyper.process(steps, horizon, jac.shape[1] - 2)
-    return kalman_filter(jac, z, hyper.r, q, m0, p0, mask).log_likelihood
+    n = jac.shape[1] - (3 if hyper.coloured else 2)
+    q, f = hyper.process(steps, horizon, n), hyper.transition(steps, horizon, n)
+    return kalman_filter(jac, z, hyper.r, q, m0, hyper.initial(p0), mask, f=f).log_likelihood
 
 
 def mix_modes(betas, variances, scores, best, span, same=0.25):

@@ -5,6 +5,7 @@ import concurrent.futures
 import contextlib
 import contextvars
 import dataclasses
+import itertools
 import os
 import threading
 
@@ -15,7 +16,7 @@ import numpy as np
 import optimistix as optx
 from jax import lax
 
-from .._stats import noise_variance
+from .._stats import correlation_limit, lag1_correlation, noise_variance
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of_np, order_of_np
 from ._smoother import (
@@ -68,6 +69,18 @@ TRADE_KNOTS = 8
 TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
 TRADE_CHI2 = 4.0
 PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
+# coloured measurement noise: where the white-noise model's prediction errors are correlated
+# (`correlation_limit`), the tracker is run again with an AR(1) noise state, kept when its
+# evidence is higher by more than this (two more intensities: the AIC's price)
+COLOURED_EVIDENCE = 2.0
+# the AR(1) part's correlation time is searched from this fraction of the median step (its
+# correlation between samples e^(−1/0.3) ≈ 0.04: white) …
+NOISE_TIME_MIN = 0.3
+# … up to this fraction of the span: a noise correlated for longer is a drift of the output,
+# which the offset and the parameters' drift cannot be told from (a coloured model tuned to
+# this end is not kept)
+NOISE_TIME_MAX = 0.1
+RHO_STARTS = (0.5, 0.7, 0.85, 0.95)  # the AR(1) part's starting correlations between samples
 # a pass's smoothings are independent: they run side by side in up to this many threads
 # (one per core), each over an equal share of them (one compiled program for all shares)
 RUN_THREADS = 8
@@ -137,9 +150,13 @@ def phi_columns(memory, x, alpha):
     )[:, :m]
 
 
-def _least_squares(x, y, mask):
-    """Weighted least squares with an offset column, on the host: ``(rss, coef)``."""
+def _least_squares(x, y, mask, whiten=None):
+    """Weighted least squares with an offset column, on the host: ``(rss, coef)``. With
+    `whiten` (see `ar_whitener`), generalised least squares: the columns and `y` whitened
+    first, and `rss` is then the χ²."""
     x = np.concatenate([x, np.ones((x.shape[0], 1), x.dtype)], axis=1)
+    if whiten is not None:
+        x, y = whiten(x), whiten(y)
     w = np.sqrt(mask)
     coef = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)[0]
     res = (y - x @ coef) * w
@@ -194,19 +211,47 @@ class Tuning:
 
     order_drift: float
     parameter_drift: float
-    noise: float
+    noise: float  # the white measurement variance
     at_edge: tuple[str, ...]
     log_likelihood: float
     tuned: bool
+    # a coloured measurement noise's AR(1) part: its stationary variance and its correlation
+    # time (a fraction of the record's span); None for white noise
+    coloured_noise: float | None = None
+    noise_time: float | None = None
+    # that part's correlation between consecutive samples (at the median step), or None
+    noise_correlation: float | None = None
+
+    @property
+    def values(self) -> tuple[float, ...]:
+        """The intensities in `Hyper`'s order (five with a coloured noise, else three)."""
+        extra = () if self.coloured_noise is None else (self.coloured_noise, self.noise_time)
+        return (self.order_drift, self.parameter_drift, self.noise, *extra)
+
+    @classmethod
+    def of(cls, x, at_edge, log_likelihood, tuned):
+        """From the log-intensities `x` (three or five, in `Hyper`'s order)."""
+        v = [float(a) for a in np.exp(np.asarray(x, float))]
+        extra = v[3:] if len(v) == 5 else [None, None]
+        return cls(*v[:3], tuple(at_edge), float(log_likelihood), bool(tuned), *extra)
 
 
-def box(noise_floor, hold=False):
+def box(noise_floor, hold=False, time_min=None):
     """The search box (natural logs): `BOX`, with the noise's lower end raised to the floor;
-    `hold`: the parameters' drift held at `PARAM_DRIFT0` (a box of zero width)."""
+    `hold`: the parameters' drift held at `PARAM_DRIFT0` (a box of zero width). With
+    `time_min` (the shortest correlation time, a fraction of the span) the box of a coloured
+    noise, in `Hyper`'s order: the white part (from the floor), the AR(1) part (from
+    `NOISE_MIN`) and its correlation time (up to `NOISE_TIME_MAX` of the span)."""
     out = dict(BOX)
-    out["noise"] = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
+    floor = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
+    out["noise"] = floor
     if hold:
         out["parameter_drift"] = (float(np.log(PARAM_DRIFT0)),) * 2
+    if time_min is not None:
+        del out["noise"]
+        out["white_noise"] = floor
+        out["coloured_noise"] = BOX["noise"]
+        out["noise_time"] = (float(np.log(time_min)), float(np.log(NOISE_TIME_MAX)))
     return out
 
 
@@ -258,6 +303,37 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     return np.stack(out)
 
 
+def ar_whitener(steps, mask, horizon, tuning):
+    """The linear map that whitens a series under the measurement noise of `tuning`: AR(1)
+    (stationary variance ``s``, correlation time ``τ``) plus white (``r``), with
+    ``a_k = exp(−(t_{k+1} − t_k)/τ)``. A scalar Kalman filter of the AR(1) part: each sample's
+    innovation over its standard deviation, so ``Σ mask·whiten(x)²`` is ``xᵀ Σ⁻¹ x`` over the
+    fitted samples (skipped samples carry the state forward unseen). Returns a function of
+    an array (N,) or (N, m), on the host."""
+    steps, mask = np.asarray(steps, float), np.asarray(mask, float)
+    s, r, tau = tuning.coloured_noise, tuning.noise, tuning.noise_time * float(horizon)
+    a = np.exp(-steps / tau)
+    num = steps.shape[0]
+    gain, sd = np.empty(num), np.empty(num)
+    var = s
+    for k in range(num):  # the gains do not depend on the data: once for every column
+        total = var + r
+        gain[k], sd[k] = mask[k] * var / total, np.sqrt(total)
+        var = a[k] ** 2 * (1.0 - gain[k]) * var + s * (1.0 - a[k] ** 2)
+
+    def whiten(x):
+        x = np.asarray(x, float)
+        out = np.empty_like(x)
+        pred = np.zeros(x.shape[1:])
+        for k in range(num):
+            e = x[k] - pred
+            out[k] = e / sd[k]
+            pred = a[k] * (pred + gain[k] * e)
+        return out
+
+    return whiten
+
+
 def chi2_fits(chi2, dof):
     """A fit passes the χ² test at 2σ: ``χ² ≤ dof + 2√(2·dof)``."""
     return chi2 <= dof + 2 * np.sqrt(2 * dof)
@@ -271,11 +347,11 @@ def hat_basis(times, last, knots=TRADE_KNOTS):
     return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
 
 
-def _drift_profile(memory, u, y, mask, alphas, basis):
+def _drift_profile(memory, u, y, mask, alphas, basis, whiten=None):
     """Weighted residual sums of squares (A, 2) of least squares at each constant order of
     `alphas` with an offset and the parameters free to drift, ``p_j(t) = Σ_k a_jk B_k(t)``:
     as a gain on the memory term (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral
-    (``y ≈ c + Σ a_jk I^α(B_k u_j)``)."""
+    (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `_least_squares`)."""
     u, y, mask, basis = (np.asarray(a) for a in (u, y, mask, basis))
     num, n = u.shape
     k = basis.shape[1]
@@ -287,19 +363,22 @@ def _drift_profile(memory, u, y, mask, alphas, basis):
         both = phi_columns(memory, columns, alpha)
         phi, inside = both[:, :n], both[:, n:]
         gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
-        out.append([_least_squares(gain, y, mask)[0], _least_squares(inside, y, mask)[0]])
+        out.append([_least_squares(gain, y, mask, whiten)[0],
+                    _least_squares(inside, y, mask, whiten)[0]])
     return np.asarray(out)
 
 
-def trade_interval(memory, u, y, mask, times, last, bounds, noise):
+def trade_interval(memory, u, y, mask, times, last, bounds, noise, whiten=None):
     """The constant orders ``(lo, hi)`` with which a drifting parameter explains the data as
     well as the best such fit (``Δχ² ≤ TRADE_CHI2`` at the measurement variance `noise`, on the
-    same scale as `y`), over the forms (gain, inside) whose best fit passes a χ² test at 2σ
-    (``χ² ≤ dof + 2√(2 dof)``); None when neither explains the data."""
+    same scale as `y`, or under a coloured noise's `whiten`), over the forms (gain, inside)
+    whose best fit passes a χ² test at 2σ (``χ² ≤ dof + 2√(2 dof)``); None when neither
+    explains the data."""
     lo, hi = bounds
     alphas = np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1]
     basis = hat_basis(times, last)
-    chi2 = _drift_profile(memory, u, y, mask, alphas, basis) / noise
+    chi2 = _drift_profile(memory, u, y, mask, alphas, basis, whiten)
+    chi2 = chi2 / noise if whiten is None else chi2
     dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
     found = []
     for form in range(chi2.shape[1]):
@@ -399,13 +478,14 @@ def run_mode_shares(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bo
 
 def _host_hyper(hyper):
     """``hyper.as_array()`` on the host."""
-    return np.array([float(hyper.log_q_order), float(hyper.log_q_params), float(hyper.log_r)])
+    return np.array([float(v) for v in jax.tree_util.tree_leaves(hyper)])
 
 
 def _stack_hypers(values):
-    """A batched `Hyper` from rows ``(q_order, q_params, r)``."""
+    """A batched `Hyper` from rows of intensities in its order (``(q_order, q_params, r)``,
+    and a coloured noise's ``(s, τ)``)."""
     arr = np.log(np.asarray(values, dtype=float))
-    return Hyper(*(jnp.asarray(arr[:, i]) for i in range(3)))
+    return Hyper(*(jnp.asarray(arr[:, i]) for i in range(arr.shape[1])))
 
 
 def tune(
@@ -441,22 +521,39 @@ def tune(
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
         sm = smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, first[i], bounds)
+    return climb(memory, u, y, mask, steps, horizon, m0, p0, bounds, limits, hyper, sm, rounds)
+
+
+def climb(memory, u, y, mask, steps, horizon, m0, p0, bounds, limits, hyper, sm, rounds,
+          radius=None):
+    """From the smoothing `sm` at the intensities `hyper`, alternates a BFGS refinement of the
+    intensities (within `limits`) on the likelihood of the model linearised at the mode and a
+    re-smoothing from the mode, while the re-smoothed mode's own evidence rises. With
+    `radius`, a trust region: each refinement stays within ``exp(±radius)`` of the current
+    intensities, and a refinement that lowers the evidence halves the radius (down to a
+    tenth of it) instead of ending the climb. Returns ``(Hyper, Smoothed, Tuning)``."""
     cand = (host_score(sm), hyper, sm)
+    step = radius
     for _ in range(rounds):
-        # the refinement maximises the likelihood of the model linearised at this mode;
-        # keep it only if the re-smoothed mode's own evidence is higher
-        hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0, limits)
+        local = limits
+        if step is not None:
+            x = _host_hyper(cand[1])
+            local = {k: (max(lo, v - step), min(hi, v + step)) if hi > lo else (lo, hi)
+                     for (k, (lo, hi)), v in zip(limits.items(), x)}
+        hyper = _refine(cand[1], cand[2], mask, steps, horizon, m0, p0, local)
         sm = iterated_smoother(
             memory, u, y, mask, steps, horizon, hyper, m0, p0, cand[2].theta, bounds, MAX_ITER
         )
         ll = host_score(sm)
         if not ll > cand[0]:
-            break
+            if step is None or step / 2 < radius / 10:
+                break
+            step /= 2
+            continue
         cand = (ll, hyper, sm)
     _, hyper, sm = cand
     x = _host_hyper(hyper)
-    tuning = Tuning(*map(float, np.exp(x)), at_edges(x, limits), float(sm.log_likelihood), True)
-    return hyper, sm, tuning
+    return hyper, sm, Tuning.of(x, at_edges(x, limits), sm.log_likelihood, True)
 
 
 EDGE = 0.05  # an intensity within this fraction of its box's width (logs) of an end is at it
@@ -483,7 +580,7 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     order and drifting parameters trade off; where the tuned parameters drift, this is the
     order the data give without that drift. None if the smoothing does not converge."""
     held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
-                 jnp.log(jnp.asarray(noise, u.dtype)))
+                 jnp.log(jnp.asarray(noise, u.dtype)), hyper.log_ar_var, hyper.log_ar_time)
     sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
     return jnp.asarray(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
 
@@ -499,7 +596,7 @@ def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds
 
 def mixture(
     memory, u, y, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds, span, hold=False,
-    fit_noise=None,
+    fit_noise=None, whiten=None,
 ):
     """The order's variance (N,) on the β scale from an evidence-weighted mixture (see
     `mix_modes`) of the tuned smoothing `sm` and of smoothings at the tuned intensities
@@ -510,23 +607,24 @@ def mixture(
     known to be constant), none of the parameters' alternatives. Returns
     ``(variance, weights, envelope, drifting)``, the tuned run first; `envelope`:
     ``(lo, hi)`` (N,) on the β scale, the union of the ±2σ bands of the alternatives whose
-    residuals pass a χ² test at 2σ at the noise variance `fit_noise`, or None; `drifting`:
-    one of those has the parameters drifting."""
-    qo, qp, r = tuning.order_drift, tuning.parameter_drift, tuning.noise
+    residuals pass a χ² test at 2σ at the noise variance `fit_noise` (or, for a coloured
+    noise, under its `whiten`), or None; `drifting`: one of those has the parameters
+    drifting."""
+    qo, qp, *rest = tuning.values
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
-    rows = [(qo, qp, r)] * len(starts)
+    rows = [(qo, qp, *rest)] * len(starts)
     if not hold:
-        rows += [(qo, alt, r) for alt in ALT_PARAM_DRIFT]
+        rows += [(qo, alt, *rest) for alt in ALT_PARAM_DRIFT]
         # the other explanation a single input allows: the order (nearly) constant, the
         # parameters drifting
-        rows += [(float(np.exp(BOX["order_drift"][0])), alt, r) for alt in ALT_PARAM_DRIFT]
+        rows += [(float(np.exp(BOX["order_drift"][0])), alt, *rest) for alt in ALT_PARAM_DRIFT]
     base = max(qo, ORDER_DRIFT_BASE)
     drifts = np.clip(base * np.asarray(ALT_ORDER_DRIFT), *np.exp(BOX["order_drift"]))
-    rows += [(float(q), qp, r) for q in drifts]
+    rows += [(float(q), qp, *rest) for q in drifts]
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores, rss = run_mode_shares(
+    betas, variances, scores, residuals = run_mode_shares(
         memory, u, y, mask, steps, horizon, rows, m0, p0, jnp.asarray(firsts, u.dtype), bounds,
         MAX_ITER,
     )
@@ -542,9 +640,12 @@ def mixture(
     first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
-        dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] - 2, 1.0)
-        for c in range(1, len(scores)):  # rss has no row for the tuned run
-            if np.isfinite(scores[c]) and chi2_fits(float(rss[c - 1]) / fit_noise, dof):
+        w = np.asarray(mask)
+        dof = max(float(np.sum(w)) - u.shape[1] - 2, 1.0)
+        res = np.asarray(residuals).T  # (N, C − 1): no column for the tuned run
+        chi2 = np.sum(w[:, None] * (res**2 / fit_noise if whiten is None else whiten(res) ** 2), 0)
+        for c in range(1, len(scores)):
+            if np.isfinite(scores[c]) and chi2_fits(float(chi2[c - 1]), dof):
                 drifting |= c in drift_rows
                 sd = np.sqrt(np.maximum(variances[c], 0.0))
                 lo, hi = betas[c] - 2 * sd, betas[c] + 2 * sd
@@ -571,13 +672,13 @@ def _scan_filter(tracker, u, y, steps, mask):
     return out
 
 
-def prior(num_inputs, dtype):
+def prior(num_inputs, dtype, coloured=False):
     """Prior of θ_0 in normalised units, the same whatever the start: the order's β centred
-    on the middle of the range, parameters and offset centred on zero, all wide."""
-    d = num_inputs + 2
-    m0 = np.zeros((d,), dtype)
-    p0 = np.diag(np.asarray([PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1), dtype))
-    return jnp.asarray(m0), jnp.asarray(p0)
+    on the middle of the range, parameters and offset centred on zero, all wide; `coloured`:
+    with a coloured noise's AR(1) part last, centred on zero (its variance, here 1, is set by
+    the intensities: `Hyper.initial`)."""
+    var = [PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1) + [1.0] * coloured
+    return jnp.asarray(np.zeros(len(var), dtype)), jnp.asarray(np.diag(np.asarray(var, dtype)))
 
 
 class TrackResult(eqx.Module):
@@ -605,6 +706,57 @@ class TrackResult(eqx.Module):
     trade: tuple[float, float] | None = eqx.field(static=True, default=None)
     # the band covers a drifting-parameter alternative that explains the data (see `mixture`)
     drift_covered: bool = eqx.field(static=True, default=False)
+
+
+def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold):
+    """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
+    white-noise model's prediction errors are correlated beyond `correlation_limit`; kept when
+    its evidence is higher by more than `COLOURED_EVIDENCE` and its correlation time is not at
+    the top of its range. Its start: the drifts of the white-noise smoothing `sm` (its
+    intensities `tuning`), the noise split evenly between a white and an AR(1) part, each
+    correlation between samples of `RHO_STARTS` smoothed from the white mode and from the
+    constant-order fit, the best by evidence; from there it climbs (`climb`, in a trust
+    region). Returns ``(hyper, smoothed, tuning, m0, p0, starts)`` of the coloured model (the
+    starts with the noise state), or None (white noise kept)."""
+    fitted = np.asarray(mask) > 0
+    innovations = (np.asarray(y) - np.asarray(sm.y_pred))[fitted][1:]
+    r1 = lag1_correlation(innovations)
+    if not r1 > correlation_limit(innovations.size):
+        return None
+    step = float(np.median(np.asarray(steps)[fitted]))
+    span = float(horizon)
+    time_min = NOISE_TIME_MIN * step / span
+    half = max(tuning.noise / 2, noise_floor)
+    m0, p0 = prior(u.shape[1], u.dtype, coloured=True)
+    theta = np.asarray(sm.theta)
+    starts = np.concatenate([np.asarray(starts), np.zeros((len(starts), 1))], axis=1)
+    nominals = [
+        jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1)),
+        jnp.asarray(np.broadcast_to(starts[0], (theta.shape[0], starts.shape[1]))),
+    ]
+    best = None
+    for rho, nominal in itertools.product(RHO_STARTS, nominals):
+        noise_time = float(np.clip(-step / np.log(rho) / span, 1.01 * time_min,
+                                   0.99 * NOISE_TIME_MAX))
+        values = (tuning.order_drift, tuning.parameter_drift, half, half, noise_time)
+        hyper = Hyper(*(jnp.asarray(np.log(v), u.dtype) for v in values))
+        smc = iterated_smoother(
+            memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
+        )
+        if best is None or host_score(smc) > best[0]:
+            best = (host_score(smc), hyper, smc)
+    _, hyper, smc = best
+    hyper, smc, tuned = climb(memory, u, y, mask, steps, horizon, m0, p0, bounds,
+                              box(noise_floor, hold, time_min), hyper, smc, rounds=8,
+                              radius=float(np.log(10.0)))
+    # a correlation time at the top of its range: a slow drift of the output, not noise
+    if "noise_time" in tuned.at_edge or not (
+        tuned.log_likelihood > tuning.log_likelihood + COLOURED_EVIDENCE
+    ):
+        return None
+    rho = float(np.exp(-step / (tuned.noise_time * span)))
+    tuned = dataclasses.replace(tuned, noise_correlation=rho)
+    return hyper, smc, tuned, m0, p0, starts
 
 
 def track(
@@ -671,11 +823,20 @@ def track(
             jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
         sm = smooth_from(memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds)
-        tuning = Tuning(*map(float, np.exp(_host_hyper(hyper))), (), float(sm.log_likelihood), False)
+        tuning = Tuning.of(_host_hyper(hyper), (), sm.log_likelihood, False)
+    whiten = None
+    if smooth and tuning.tuned:
+        coloured = _coloured(
+            memory, un, yn, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold
+        )
+        if coloured is not None:
+            hyper, sm, tuning, m0, p0, starts = coloured
+            whiten = ar_whitener(steps, mask, horizon, tuning)
     alpha_held = None
     if smooth and tuning.tuned and tuning.parameter_drift > HELD_RATIO * PARAM_DRIFT0:
         alpha_held = held_order(
-            memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds, misfit
+            memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds,
+            misfit if whiten is None else tuning.noise,
         )
     weights, envelope, drifting = None, None, False
     # the χ² tests of what fits, at the larger of the tuned noise and the data's own
@@ -688,7 +849,7 @@ def track(
         if tuning.tuned:
             beta_var, weights, envelope, drifting = mixture(
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
-                last + 1, hold, fit_noise,
+                last + 1, hold, fit_noise, whiten,
             )
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
@@ -703,7 +864,7 @@ def track(
     # the results assembled on the host (NumPy: no program compiled for them)
     theta, cov = np.asarray(theta), np.asarray(cov)
     if y_hat_n is None:
-        y_hat_n = theta[:, -1] + np.sum(theta[:, 1 : 1 + n] * np.asarray(sm.phi), axis=1)
+        y_hat_n = theta[:, 1 + n] + np.sum(theta[:, 1 : 1 + n] * np.asarray(sm.phi), axis=1)
     beta_sd = np.sqrt(np.maximum(np.asarray(beta_var), 0.0))
     alpha, dalpha = order_of_np(theta[:, 0], bounds)
     alpha_std = dalpha * beta_sd
@@ -713,7 +874,7 @@ def track(
         lower = np.minimum(lower, order_of_np(envelope[0], bounds)[0])
         upper = np.maximum(upper, order_of_np(envelope[1], bounds)[0])
     trade = None if hold else trade_interval(
-        memory, un, yn, mask, times, last, bounds, fit_noise
+        memory, un, yn, mask, times, last, bounds, fit_noise, whiten
     )
     if trade is not None:  # the band covers the constant orders a drifting parameter allows
         lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])
@@ -730,8 +891,8 @@ def track(
         alpha_upper=as_jax(upper),
         p=as_jax(theta[:, 1 : 1 + n] * scale),
         p_std=as_jax(np.sqrt(var[:, 1 : 1 + n]) * scale),
-        x0=as_jax(scales.y_ref + scales.y_scale * theta[-1, -1]),
-        x0_std=as_jax(scales.y_scale * np.sqrt(var[-1, -1])),
+        x0=as_jax(scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
+        x0_std=as_jax(scales.y_scale * np.sqrt(var[-1, 1 + n])),
         y_hat=as_jax(scales.y_ref + scales.y_scale * y_hat_n),
         y_pred=as_jax(scales.y_ref + scales.y_scale * y_pred_n),
         converged=converged,

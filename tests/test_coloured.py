@@ -1,0 +1,71 @@
+"""Coloured measurement noise: the AR(1) noise state's model and the whitening behind the
+tracker's χ² tests, against dense linear algebra (the tracker choosing the coloured model by
+evidence: `tests/test_tracker.py`; its Kalman passes and mode: the dense posteriors there)."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from vojax._tracker import Hyper
+from vojax._tracker._track import Tuning, _least_squares, ar_whitener
+
+
+def _ar_covariance(times, s, tau, r):
+    """Σ_ij = s·exp(−|t_i − t_j|/τ) + r·δ_ij: a stationary AR(1) part sampled at `times`
+    (an Ornstein–Uhlenbeck process) plus white noise, written directly."""
+    gaps = np.abs(times[:, None] - times[None, :])
+    return s * np.exp(-gaps / tau) + r * np.eye(times.size)
+
+
+def _irregular(n, seed):
+    rng = np.random.default_rng(seed)
+    times = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5, 2.0, n - 1))])
+    steps = np.concatenate([np.diff(times), [1.0]])
+    return rng, times, steps
+
+
+def test_hyper_transition_keeps_the_ar_part_stationary():
+    rng, times, steps = _irregular(30, 1)
+    horizon = float(times[-1])
+    s, tau = 0.3, 0.05  # τ as a fraction of the span
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.1, 1e-3, 0.01, s, tau)))
+    f = np.asarray(hyper.transition(jnp.asarray(steps), horizon, 1))
+    q = np.asarray(hyper.process(jnp.asarray(steps), horizon, 1))
+    a = np.exp(-steps / (tau * horizon))
+    np.testing.assert_allclose(f[:, -1], a, rtol=1e-14)
+    np.testing.assert_array_equal(f[:, :-1], 1.0)  # β, p, c stay random walks
+    # Var e_{k+1} = a² Var e_k + q_k = s whenever Var e_k = s
+    np.testing.assert_allclose(a**2 * s + q[:, -1], s, rtol=1e-13)
+    p0 = np.asarray(hyper.initial(jnp.eye(4)))
+    assert p0[-1, -1] == pytest.approx(s, rel=1e-14) and p0[0, 0] == 1.0
+    # white noise: no transition, no noise state
+    white = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.1, 1e-3, 0.01)))
+    assert white.transition(jnp.asarray(steps), horizon, 1) is None
+    assert np.asarray(white.process(jnp.asarray(steps), horizon, 1)).shape == (30, 3)
+
+
+def test_whitener_gives_the_dense_quadratic_form_and_gls():
+    n = 60
+    rng, times, steps = _irregular(n, 2)
+    s, tau_frac, r = 0.8, 0.04, 0.05
+    horizon = float(times[-1])
+    mask = np.ones(n)
+    mask[[7, 8, 30]] = 0.0  # skipped samples: the fitted samples' marginal
+    tuning = Tuning(0.1, 1e-6, r, (), 0.0, True, s, tau_frac)
+    whiten = ar_whitener(steps, mask, horizon, tuning)
+    keep = mask > 0
+    cov = _ar_covariance(times[keep], s, tau_frac * horizon, r)
+    x = rng.standard_normal(n)
+    dense = x[keep] @ np.linalg.solve(cov, x[keep])
+    assert np.sum(mask * whiten(x) ** 2) == pytest.approx(dense, rel=1e-11)
+    # generalised least squares with an offset: the same coefficients and χ² as dense GLS
+    cols = rng.standard_normal((n, 2))
+    y = cols @ np.array([0.7, -1.3]) + 0.4 + np.linalg.cholesky(
+        _ar_covariance(times, s, tau_frac * horizon, r)) @ rng.standard_normal(n)
+    chi2, coef = _least_squares(cols, y, mask, whiten)
+    design = np.concatenate([cols, np.ones((n, 1))], axis=1)[keep]
+    gls = np.linalg.solve(design.T @ np.linalg.solve(cov, design),
+                          design.T @ np.linalg.solve(cov, y[keep]))
+    np.testing.assert_allclose(coef, gls, rtol=1e-10)
+    res = y[keep] - design @ gls
+    assert chi2 == pytest.approx(res @ np.linalg.solve(cov, res), rel=1e-10)
