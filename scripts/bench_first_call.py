@@ -5,7 +5,8 @@ and the cost per sample of a warm call at several record lengths; each with XLA'
 loops and with `vojax.use_fast_cpu_loops()` (what the command line uses).
 
 Each case runs in its own fresh Python process; the record is a ramp-and-hold input driving
-a slowly moving order with 1 % noise. Times are wall-clock seconds on this machine; the
+a slowly moving order with 1 % noise (white; and AR(1) with a correlation of 0.9 between
+samples, which the tracker fits with a coloured-noise model). Times are wall-clock seconds on this machine; the
 table gives ratios measured in the same run.
 
     python scripts/bench_first_call.py [--samples 400] [--lengths 1000 10000 100000 1000000]
@@ -39,7 +40,11 @@ t = dt * np.arange(n)
 u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
 alpha = 0.35 + 0.2 * t / t[-1]
 x = np.asarray(vojax.simulate(u, alpha, np.array([2.0]), dt, memory="exponential"))
-y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+noise = np.random.default_rng(0).standard_normal(n)
+if len(sys.argv) > 5 and sys.argv[5] == "coloured":  # AR(1), 0.9 between samples
+    for k in range(1, n):
+        noise[k] = 0.9 * noise[k - 1] + np.sqrt(1 - 0.81) * noise[k]
+y = x + 0.01 * np.ptp(x) * noise
 prepared = time.perf_counter()
 res = vojax.identify(u, y, dt, warn=False)
 res.alpha.block_until_ready()
@@ -57,13 +62,15 @@ if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, g
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
                       second=second - first, law=law, rss_mb=rss,
-                      block=res.diagnostics.block)))
+                      block=res.diagnostics.block,
+                      coloured=res.diagnostics.noise_correlation == res.diagnostics.noise_correlation)))
 """
 
 
-def run(n, cache="none", loops="default", law=False):
+def run(n, cache="none", loops="default", law=False, noise="white"):
     env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
-    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops, "law" if law else "-"],
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops, "law" if law else "-",
+                          noise],
                          capture_output=True,
                          text=True, env=env, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -81,12 +88,17 @@ def main(argv=None):
         with tempfile.TemporaryDirectory() as folder:
             empty = run(args.samples, folder, loops)
             warm = run(args.samples, folder, loops)
+        coloured = run(args.samples, loops=loops, noise="coloured")
+        if not coloured["coloured"]:
+            raise RuntimeError("the coloured record was fitted with white noise")
         results[loops] = dict(
             cold=cold, rows=[
                 ("fresh process, no cache: first call", cold["first"]),
                 ("same process: second call", cold["second"]),
                 ("fresh process, empty cache: first call", empty["first"]),
                 ("fresh process, warm cache: first call", warm["first"]),
+                ("coloured noise (AR(1), 0.9): first call", coloured["first"]),
+                ("coloured noise: second call", coloured["second"]),
             ],
             lengths=[run(n, loops=loops, law=True) for n in args.lengths],
         )

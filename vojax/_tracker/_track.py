@@ -5,7 +5,6 @@ import concurrent.futures
 import contextlib
 import contextvars
 import dataclasses
-import itertools
 import os
 import threading
 
@@ -81,6 +80,10 @@ NOISE_TIME_MIN = 0.3
 # this end is not kept)
 NOISE_TIME_MAX = 0.1
 RHO_STARTS = (0.5, 0.7, 0.85, 0.95)  # the AR(1) part's starting correlations between samples
+# its intensities climb in a trust region: each BFGS refinement within a factor e^radius of
+# the current ones, the radius halved after a refinement the re-smoothed evidence rejects
+CLIMB_RADIUS = float(np.log(3.0))
+CLIMB_ROUNDS = 6
 # a pass's smoothings are independent: they run side by side in up to this many threads
 # (one per core), each over an equal share of them (one compiled program for all shares)
 RUN_THREADS = 8
@@ -730,12 +733,9 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
     m0, p0 = prior(u.shape[1], u.dtype, coloured=True)
     theta = np.asarray(sm.theta)
     starts = np.concatenate([np.asarray(starts), np.zeros((len(starts), 1))], axis=1)
-    nominals = [
-        jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1)),
-        jnp.asarray(np.broadcast_to(starts[0], (theta.shape[0], starts.shape[1]))),
-    ]
+    nominal = jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1))
     best = None
-    for rho, nominal in itertools.product(RHO_STARTS, nominals):
+    for rho in RHO_STARTS:
         noise_time = float(np.clip(-step / np.log(rho) / span, 1.01 * time_min,
                                    0.99 * NOISE_TIME_MAX))
         values = (tuning.order_drift, tuning.parameter_drift, half, half, noise_time)
@@ -747,8 +747,8 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
             best = (host_score(smc), hyper, smc)
     _, hyper, smc = best
     hyper, smc, tuned = climb(memory, u, y, mask, steps, horizon, m0, p0, bounds,
-                              box(noise_floor, hold, time_min), hyper, smc, rounds=8,
-                              radius=float(np.log(10.0)))
+                              box(noise_floor, hold, time_min), hyper, smc, rounds=CLIMB_ROUNDS,
+                              radius=CLIMB_RADIUS)
     # a correlation time at the top of its range: a slow drift of the output, not noise
     if "noise_time" in tuned.at_edge or not (
         tuned.log_likelihood > tuning.log_likelihood + COLOURED_EVIDENCE
