@@ -14,7 +14,12 @@ from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
 from ._integral import make_memory, scan_memory
 from ._kernels import RULES
-from ._stats import correlation_limit, lag1_correlation, noise_variance
+from ._stats import (
+    correlation_limit,
+    lag1_correlation,
+    noise_variance,
+    prediction_error_correlation,
+)
 from ._tracker._blocks import block_size
 
 DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
@@ -34,6 +39,10 @@ MIN_POINTS = 100  # the fewest points `max_points` may ask for
 # not reported identified
 BLOCK_ERROR_LIMIT = 0.5
 BOUND_TOL = 1e-3  # an order within this fraction of the range of a bound counts as at the bound
+# the tracker's measurement-noise intensities (white; or white and coloured parts): at an edge
+# of their search box (the lower edges of the two parts are named "… (lower edge)") the band
+# is not a statement about the data
+NOISE_EDGES = frozenset({"noise", "white_noise", "coloured_noise"})
 # the law's band is its estimate's spread over the noise alone; on held-out simulations
 # (scripts/bench_calibration.py) the truth lies outside it at most samples, whatever its width
 LAW_BAND = (
@@ -414,7 +423,8 @@ def diagnose(
             "the estimation did not converge (look for steps or outliers in the data, or give "
             "`noise=` with the known noise level)"
         )
-    if {"noise", "white_noise", "coloured_noise"} & set(at_edge):
+    noise_edge = bool(NOISE_EDGES & set(at_edge))
+    if noise_edge:
         problems.append(
             "the measurement noise was tuned to the edge of its range (an output almost free "
             "of noise, or drifting states that absorb the misfit): the band is not a "
@@ -438,8 +448,7 @@ def diagnose(
         )
     others = [
         name for name in at_edge
-        if name not in ("noise", "order_drift", "parameter_drift", "white_noise",
-                        "coloured_noise", "noise_time")
+        if name not in NOISE_EDGES | {"order_drift", "parameter_drift"}
         and not name.endswith("(lower edge)")
     ]
     if others:
@@ -474,8 +483,7 @@ def diagnose(
         problems.append(LAW_BAND)
     identified = (
         width <= IDENTIFIED_HALFWIDTH and at_bound < 0.05 and bool(converged)
-        and not {"noise", "white_noise", "coloured_noise"} & set(at_edge)
-        and not traded and calibrated and not coloured
+        and not noise_edge and not traded and calibrated and not coloured
         and unstable_from is None and not coarse
     )
     message = "; ".join(problems)
@@ -840,10 +848,10 @@ def _identify_kalman(
         shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
     y_np, pred = np.asarray(fit["y"])[:span], np.asarray(fit["y_pred"])[:span]
     fitted = np.ones(span, bool) if fit_mask is None else np.asarray(fit_mask)[:span] > 0
+    correlation, samples = prediction_error_correlation(y_np, pred, fitted)
     diagnostics = diagnose(
         alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift,
-        correlation=lag1_correlation((y_np - pred)[fitted][1:]), trade=res.trade,
-        samples=int(np.sum(fitted)) - 1, drift_covered=res.drift_covered,
+        correlation=correlation, trade=res.trade, samples=samples, drift_covered=res.drift_covered,
         block=size, block_error=fit.get("block_error"),
         noise_correlation=res.tuning.noise_correlation,
     )

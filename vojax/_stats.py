@@ -41,6 +41,14 @@ def lag1_correlation(e) -> float:
     return float(np.sum(e[1:] * e[:-1]) / power) if power > 0 else float("nan")
 
 
+def prediction_error_correlation(y, y_pred, fitted) -> tuple[float, int]:
+    """Lag-1 autocorrelation of the one-step prediction errors ``y − y_pred`` over the `fitted`
+    samples (a boolean mask), the first left out (nothing precedes it), and how many errors
+    that is: what `correlation_limit` is applied to."""
+    errors = (np.asarray(y) - np.asarray(y_pred))[np.asarray(fitted)][1:]
+    return lag1_correlation(errors), errors.size
+
+
 def delta_stderr(fn, p, cov) -> dict:
     """Standard errors of the named quantities ``fn(p)`` (a dict of scalars) by the delta
     method: ``sqrt(diag(J C Jᵀ))`` with ``J = ∂fn/∂p`` from forward-mode autodiff and ``C`` the

@@ -56,8 +56,11 @@ def anchor_update(mean, cov, anchor, damping):
     return mean + gain @ (anchor - mean), new_cov
 
 
-def _predicted(m, p, f_k, q_k):
-    """``F m`` and ``F P Fᵀ + diag(q)`` for a diagonal ``F = diag(f_k)``."""
+def _predicted(m, p, q_k, f_k=None):
+    """``F m`` and ``F P Fᵀ + diag(q)`` for a diagonal ``F = diag(f_k)`` (the identity, a
+    random walk, when `f_k` is None)."""
+    if f_k is None:
+        return m, p + jnp.diag(q_k)
     return f_k * m, p * f_k[:, None] * f_k[None, :] + jnp.diag(q_k)
 
 
@@ -76,18 +79,18 @@ def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=No
         mask = jnp.ones(z.shape, z.dtype)
     if anchor is None:
         anchor = jnp.zeros(h.shape, h.dtype)
-    if f is None:
-        f = jnp.ones(h.shape, h.dtype)
+    # a random walk's scan step has no transition to apply
+    xs = (h, z, q, mask, anchor) + (() if f is None else (f,))
 
     def body(carry, x):
         m_pred, p_pred = carry
-        h_k, z_k, q_k, w_k, a_k, f_k = x
+        h_k, z_k, q_k, w_k, a_k, *f_k = x
         m, p, e, s, ll = update(m_pred, p_pred, h_k, z_k, r, w_k)
         if damping is not None:
             m, p = anchor_update(m, p, a_k, damping)
-        return _predicted(m, p, f_k, q_k), (m, p, m_pred, p_pred, e, s, ll)
+        return _predicted(m, p, q_k, *f_k), (m, p, m_pred, p_pred, e, s, ll)
 
-    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), (h, z, q, mask, anchor, f))
+    _, (m, p, mp, pp, e, s, ll) = lax.scan(body, (m0, p0), xs)
     return Filtered(m, p, mp, pp, e, s, jnp.sum(ll))
 
 
@@ -95,20 +98,18 @@ def kalman_filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=No
 def rts_smoother(filtered: Filtered, q, f=None):
     """Rauch–Tung–Striebel: the smoothed means (N, d) and covariances (N, d, d); `q`, `f` as
     in `kalman_filter`."""
-    if f is None:
-        f = jnp.ones(q.shape, q.dtype)
-
     def body(carry, x):
         ms_next, ps_next = carry
-        m, p, q_k, f_k = x
-        m_pred, p_pred = _predicted(m, p, f_k, q_k)
+        m, p, q_k, *f_k = x
+        m_pred, p_pred = _predicted(m, p, q_k, *f_k)
         # G = P_k Fᵀ (P_{k+1}⁻)⁻¹, P and P⁻ symmetric: solve rather than invert
-        g = cholesky_solve(p_pred, p * f_k[:, None]).T
+        g = cholesky_solve(p_pred, p if not f_k else p * f_k[0][:, None]).T
         ms = m + g @ (ms_next - m_pred)
         ps = _symmetric(p + g @ (ps_next - p_pred) @ g.T)
         return (ms, ps), (ms, ps)
 
     m, p = filtered.mean, filtered.cov
     last = (m[-1], p[-1])
-    _, (ms, ps) = lax.scan(body, last, (m[:-1], p[:-1], q[:-1], f[:-1]), reverse=True)
+    xs = (m[:-1], p[:-1], q[:-1]) + (() if f is None else (f[:-1],))
+    _, (ms, ps) = lax.scan(body, last, xs, reverse=True)
     return jnp.concatenate([ms, m[-1:]]), jnp.concatenate([ps, p[-1:]])

@@ -116,8 +116,9 @@ class Hyper(eqx.Module):
 
 
 def model_output(theta, phi, n):
-    """``c + pᵀ Φ`` (the noise-free output) for states ``θ`` (…, d), regressors ``Φ`` (…, n)."""
-    return theta[..., 1 + n] + jnp.sum(theta[..., 1 : 1 + n] * phi, axis=-1)
+    """``c + pᵀ Φ`` (the noise-free output) for states ``θ`` (…, d), regressors ``Φ`` (…, n):
+    JAX or NumPy arrays (array methods only, so that host arrays stay on the host)."""
+    return theta[..., 1 + n] + (theta[..., 1 : 1 + n] * phi).sum(axis=-1)
 
 
 def predict(theta, phi, n):

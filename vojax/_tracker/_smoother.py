@@ -19,7 +19,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
-from ._model import Hyper, linearise, objective, order_of
+from ._model import Hyper, linearise, model_output, objective, order_of
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
@@ -131,7 +131,7 @@ def smoother_modes(
         sm = iterated_smoother(memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds,
                                max_iter)
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
-        res = yy - (theta[:, 1 + n] + np.sum(theta[:, 1 : 1 + n] * phi, axis=-1))
+        res = yy - model_output(theta, phi, n)
         out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res))
     return tuple(np.array([o[k] for o in out]) for k in range(4))
 

@@ -15,9 +15,9 @@ import numpy as np
 import optimistix as optx
 from jax import lax
 
-from .._stats import correlation_limit, lag1_correlation, noise_variance
+from .._stats import correlation_limit, noise_variance, prediction_error_correlation
 from ._filter import KalmanTracker
-from ._model import Hyper, beta_of_np, order_of_np
+from ._model import Hyper, beta_of_np, model_output, order_of_np
 from ._smoother import (
     host_score,
     iterated_smoother,
@@ -245,13 +245,13 @@ def box(noise_floor, hold=False, time_min=None):
     `time_min` (the shortest correlation time, a fraction of the span) the box of a coloured
     noise, in `Hyper`'s order: the white part (from the floor), the AR(1) part (from
     `NOISE_MIN`) and its correlation time (up to `NOISE_TIME_MAX` of the span)."""
-    out = dict(BOX)
-    floor = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
-    out["noise"] = floor
+    out = {k: v for k, v in BOX.items() if k != "noise"}
     if hold:
         out["parameter_drift"] = (float(np.log(PARAM_DRIFT0)),) * 2
-    if time_min is not None:
-        del out["noise"]
+    floor = (max(BOX["noise"][0], float(np.log(noise_floor))), BOX["noise"][1])
+    if time_min is None:
+        out["noise"] = floor
+    else:
         out["white_noise"] = floor
         out["coloured_noise"] = BOX["noise"]
         out["noise_time"] = (float(np.log(time_min)), float(np.log(NOISE_TIME_MAX)))
@@ -722,9 +722,8 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
     region). Returns ``(hyper, smoothed, tuning, m0, p0, starts)`` of the coloured model (the
     starts with the noise state), or None (white noise kept)."""
     fitted = np.asarray(mask) > 0
-    innovations = (np.asarray(y) - np.asarray(sm.y_pred))[fitted][1:]
-    r1 = lag1_correlation(innovations)
-    if not r1 > correlation_limit(innovations.size):
+    r1, count = prediction_error_correlation(y, sm.y_pred, fitted)
+    if not r1 > correlation_limit(count):
         return None
     step = float(np.median(np.asarray(steps)[fitted]))
     span = float(horizon)
@@ -864,7 +863,7 @@ def track(
     # the results assembled on the host (NumPy: no program compiled for them)
     theta, cov = np.asarray(theta), np.asarray(cov)
     if y_hat_n is None:
-        y_hat_n = theta[:, 1 + n] + np.sum(theta[:, 1 : 1 + n] * np.asarray(sm.phi), axis=1)
+        y_hat_n = model_output(theta, np.asarray(sm.phi), n)
     beta_sd = np.sqrt(np.maximum(np.asarray(beta_var), 0.0))
     alpha, dalpha = order_of_np(theta[:, 0], bounds)
     alpha_std = dalpha * beta_sd
