@@ -582,6 +582,17 @@ MUTATIONS = {
         [("    if not r1 > correlation_limit(count):", "    if True:")],
         ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
+    "coloured climb's stop at the correlation time's edge never counts": (
+        "vojax/_tracker/_track.py",
+        [("edged = edged + 1 if fatal in at_edges", "edged = edged + 0 if fatal in at_edges")],
+        ["tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top"],
+    ),
+    "coloured climb stops at any edge of the correlation time": (
+        "vojax/_tracker/_track.py",
+        [("if fatal in at_edges(_host_hyper(hyper), limits)",
+          "if any(k.startswith(fatal) for k in at_edges(_host_hyper(hyper), limits))")],
+        ["tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top"],
+    ),
 }
 
 

@@ -84,6 +84,9 @@ RHO_STARTS = (0.5, 0.7, 0.85, 0.95)  # the AR(1) part's starting correlations be
 # the current ones, the radius halved after a refinement the re-smoothed evidence rejects
 CLIMB_RADIUS = float(np.log(3.0))
 CLIMB_ROUNDS = 6
+# a coloured climb whose correlation time sat at the top of its range after this many accepted
+# rounds in a row ends there: the coloured model is rejected at that edge anyway
+FATAL_EDGE_ROUNDS = 2
 # a pass's smoothings are independent: they run side by side in up to this many threads
 # (one per core), each over an equal share of them (one compiled program for all shares)
 RUN_THREADS = 8
@@ -528,16 +531,22 @@ def tune(
 
 
 def climb(memory, u, y, mask, steps, horizon, m0, p0, bounds, limits, hyper, sm, rounds,
-          radius=None):
+          radius=None, fatal=None):
     """From the smoothing `sm` at the intensities `hyper`, alternates a BFGS refinement of the
     intensities (within `limits`) on the likelihood of the model linearised at the mode and a
     re-smoothing from the mode, while the re-smoothed mode's own evidence rises. With
     `radius`, a trust region: each refinement stays within ``exp(±radius)`` of the current
     intensities, and a refinement that lowers the evidence halves the radius (down to a
-    tenth of it) instead of ending the climb. Returns ``(Hyper, Smoothed, Tuning)``."""
+    tenth of it) instead of ending the climb. With `fatal`, the name of an intensity whose
+    edge disqualifies the result, the climb ends once `FATAL_EDGE_ROUNDS` accepted rounds in
+    a row left that intensity at the top of `limits` (the caller rejects it there). Returns
+    ``(Hyper, Smoothed, Tuning)``."""
     cand = (host_score(sm), hyper, sm)
     step = radius
+    edged = 0
     for _ in range(rounds):
+        if edged >= FATAL_EDGE_ROUNDS:
+            break
         local = limits
         if step is not None:
             x = _host_hyper(cand[1])
@@ -554,6 +563,8 @@ def climb(memory, u, y, mask, steps, horizon, m0, p0, bounds, limits, hyper, sm,
             step /= 2
             continue
         cand = (ll, hyper, sm)
+        if fatal is not None:
+            edged = edged + 1 if fatal in at_edges(_host_hyper(hyper), limits) else 0
     _, hyper, sm = cand
     x = _host_hyper(hyper)
     return hyper, sm, Tuning.of(x, at_edges(x, limits), sm.log_likelihood, True)
@@ -747,7 +758,7 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
     _, hyper, smc = best
     hyper, smc, tuned = climb(memory, u, y, mask, steps, horizon, m0, p0, bounds,
                               box(noise_floor, hold, time_min), hyper, smc, rounds=CLIMB_ROUNDS,
-                              radius=CLIMB_RADIUS)
+                              radius=CLIMB_RADIUS, fatal="noise_time")
     # a correlation time at the top of its range: a slow drift of the output, not noise
     if "noise_time" in tuned.at_edge or not (
         tuned.log_likelihood > tuning.log_likelihood + COLOURED_EVIDENCE
