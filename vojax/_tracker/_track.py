@@ -728,9 +728,9 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
     its evidence is higher by more than `COLOURED_EVIDENCE` and its correlation time is not at
     the top of its range. Its start: the drifts of the white-noise smoothing `sm` (its
     intensities `tuning`), the noise split evenly between a white and an AR(1) part, each
-    correlation between samples of `RHO_STARTS` smoothed from the white mode and from the
-    constant-order fit, the best by evidence; from there it climbs (`climb`, in a trust
-    region). Returns ``(hyper, smoothed, tuning, m0, p0, starts)`` of the coloured model (the
+    correlation between samples of `RHO_STARTS` smoothed from the white mode, the best by
+    evidence; from there it climbs (`climb`, in a trust region, ended early where the
+    correlation time stays at the top of its range). Returns ``(hyper, smoothed, tuning, m0, p0, starts)`` of the coloured model (the
     starts with the noise state), or None (white noise kept)."""
     fitted = np.asarray(mask) > 0
     r1, count = prediction_error_correlation(y, sm.y_pred, fitted)
@@ -753,8 +753,9 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
         smc = iterated_smoother(
             memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
         )
-        if best is None or host_score(smc) > best[0]:
-            best = (host_score(smc), hyper, smc)
+        score = host_score(smc)
+        if best is None or score > best[0]:
+            best = (score, hyper, smc)
     _, hyper, smc = best
     hyper, smc, tuned = climb(memory, u, y, mask, steps, horizon, m0, p0, bounds,
                               box(noise_floor, hold, time_min), hyper, smc, rounds=CLIMB_ROUNDS,
