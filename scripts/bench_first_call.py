@@ -52,6 +52,7 @@ first = time.perf_counter()
 res = vojax.identify(u, 1.001 * y, dt, warn=False)
 res.alpha.block_until_ready()
 second = time.perf_counter()
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the simulation and identify
 law = float("nan")
 if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, given its gains
     for _ in range(2):  # the second call, warm
@@ -59,9 +60,9 @@ if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, g
         vojax.identify(u, y, dt, method="gradient", gamma=0.01, lam=0.9, warn=False
                        ).alpha.block_until_ready()
         law = time.perf_counter() - begun
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+rss_law = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # and the law's pass
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
-                      second=second - first, law=law, rss_mb=rss,
+                      second=second - first, law=law, rss_mb=rss, rss_law_mb=rss_law,
                       block=res.diagnostics.block,
                       coloured=res.diagnostics.noise_correlation == res.diagnostics.noise_correlation)))
 """
@@ -131,6 +132,10 @@ def main(argv=None):
     lines += ["", "law pass s (default, fast loops): " + ", ".join(
         f"{n}: {a['law']:.3g}, {b['law']:.3g}" for n, a, b in
         zip(args.lengths, base["lengths"], fast["lengths"]))]
+    lines += ["", "peak RSS MB: the process's after the simulation and the two identify calls; "
+              "after the law's pass as well (default, fast loops): " + ", ".join(
+                  f"{n}: {a['rss_law_mb']:.0f}, {b['rss_law_mb']:.0f}" for n, a, b in
+                  zip(args.lengths, base["lengths"], fast["lengths"]))]
     text = "\n".join(lines)
     print(text)
     if args.out:

@@ -593,6 +593,33 @@ MUTATIONS = {
           "if any(k.startswith(fatal) for k in at_edges(_host_hyper(hyper), limits))")],
         ["tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top"],
     ),
+    "level profile's runs not pinned (the parameters' prior left wide)": (
+        "vojax/_tracker/_track.py",
+        [("p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN", "p[1 : 1 + n, 1 : 1 + n] = np.diag(1e4")],
+        ["tests/test_envelope.py"],
+    ),
+    "mixture's envelope without its χ² test (every alternative widens the band)": (
+        "vojax/_tracker/_track.py",
+        [("if np.isfinite(scores[c]) and fits[c - 1]:", "if np.isfinite(scores[c]):")],
+        ["tests/test_envelope.py::test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit"],
+    ),
+    "level profile never run (the constant setting's band as before it)": (
+        "vojax/_tracker/_track.py",
+        [("if hold:  # the order's level against the parameters' scale",
+          "if False:  # the order's level against the parameters' scale")],
+        ["tests/test_calibration.py::test_constant_parameters_band_covers_the_level_another_scale_allows"],
+    ),
+    "level profile keeps a run that did not converge": (
+        "vojax/_tracker/_track.py",
+        [("if np.isfinite(scores[c]) and fits[c]:", "if fits[c]:")],
+        ["tests/test_envelope.py"],
+    ),
+    "level profile's band replaces the envelope instead of widening it": (
+        "vojax/_tracker/_track.py",
+        [("envelope = _widened(envelope, betas[c], variances[c])\n    return envelope",
+          "envelope = _widened(None, betas[c], variances[c])\n    return envelope")],
+        ["tests/test_envelope.py"],
+    ),
 }
 
 
@@ -614,6 +641,9 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp) / "repo"
+        shared = ROOT.parent / "shared"
+        if shared.is_dir():  # the recorded inputs, where tests look for them (../shared)
+            (Path(tmp) / "shared").symlink_to(shared)
         for name, (path, edits, tests) in chosen.items():
             if work.exists():
                 shutil.rmtree(work)

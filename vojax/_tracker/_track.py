@@ -68,6 +68,13 @@ TRADE_KNOTS = 8
 TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
 TRADE_CHI2 = 4.0
 PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
+# with the parameters stated constant, the order's level and the parameters' scale trade off
+# along a ridge that one input can leave flat (a lower order with larger parameters and
+# another offset fits as well); the random-walk prior then settles the level, and the Laplace
+# band, conditional on it, can miss the truth. The band also covers the smoothings with the
+# parameters held at these multiples of the tuned ones, where they explain the data
+LEVEL_RATIOS = (0.5, 0.71, 1.41, 2.0)
+LEVEL_PIN = 1e-8  # prior variance of a held parameter, × its square (at least 1)
 # coloured measurement noise: where the white-noise model's prediction errors are correlated
 # (`correlation_limit`), the tracker is run again with an AR(1) noise state, kept when its
 # evidence is higher by more than this (two more intensities: the AIC's price)
@@ -654,18 +661,73 @@ def mixture(
     first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
-        w = np.asarray(mask)
-        dof = max(float(np.sum(w)) - u.shape[1] - 2, 1.0)
-        res = np.asarray(residuals).T  # (N, C − 1): no column for the tuned run
-        chi2 = np.sum(w[:, None] * (res**2 / fit_noise if whiten is None else whiten(res) ** 2), 0)
+        fits = _fitting(residuals, mask, u.shape[1], fit_noise, whiten)  # no entry for the tuned run
         for c in range(1, len(scores)):
-            if np.isfinite(scores[c]) and chi2_fits(float(chi2[c - 1]), dof):
+            if np.isfinite(scores[c]) and fits[c - 1]:
                 drifting |= c in drift_rows
-                sd = np.sqrt(np.maximum(variances[c], 0.0))
-                lo, hi = betas[c] - 2 * sd, betas[c] + 2 * sd
-                envelope = (lo, hi) if envelope is None else (
-                    np.minimum(envelope[0], lo), np.maximum(envelope[1], hi))
+                envelope = _widened(envelope, betas[c], variances[c])
     return variance, weights, envelope, drifting
+
+
+def _fitting(residuals, mask, n, fit_noise, whiten=None):
+    """Which runs' residuals (C, N) from the noise-free output pass the χ² test at 2σ
+    (`chi2_fits`, with n parameters, the offset and the order taken from the samples' count)
+    at the white noise variance `fit_noise`, or for a coloured noise under its `whiten`; (C,)
+    booleans."""
+    w = np.asarray(mask)
+    dof = max(float(np.sum(w)) - n - 2, 1.0)
+    res = np.asarray(residuals).T  # (N, C)
+    chi2 = np.sum(w[:, None] * (res**2 / fit_noise if whiten is None else whiten(res) ** 2), 0)
+    return np.array([chi2_fits(float(c), dof) for c in chi2], bool)
+
+
+def _widened(envelope, beta, variance):
+    """The envelope ``(lo, hi)`` (None: empty) widened to cover ``β ± 2σ``."""
+    sd = np.sqrt(np.maximum(variance, 0.0))
+    lo, hi = beta - 2 * sd, beta + 2 * sd
+    if envelope is None:
+        return lo, hi
+    return np.minimum(envelope[0], lo), np.maximum(envelope[1], hi)
+
+
+def level_profile(
+    memory, u, y, mask, steps, horizon, tuning, m0, p0, sm, bounds, span, fit_noise,
+    whiten=None, envelope=None,
+):
+    """The envelope ``(lo, hi)`` on the β scale (or None) widened by the ±2σ band of each
+    smoothing, at the tuned intensities `tuning`, with the parameters held at one of
+    `LEVEL_RATIOS` × their mean over the tuned mode `sm` (a prior of variance `LEVEL_PIN`
+    on θ_0's parameters, which the parameters' floor drift then keeps) whose residuals pass
+    the χ² test of `mixture`. The order's level is not settled by the data where these
+    smoothings fit; their bands then make the reported one cover that ridge."""
+    n = u.shape[1]
+    mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
+    hyper = _stack_hypers([tuning.values])
+    runs = []
+    for ratio in LEVEL_RATIOS:
+        held = ratio * mean[1 : 1 + n]
+        m, p = np.array(m0), np.array(p0)
+        m[1 : 1 + n] = held
+        p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN * np.maximum(held * held, 1.0))
+        start = mean.copy()
+        start[1 : 1 + n] = held
+        runs.append((jnp.asarray(m), jnp.asarray(p), start[None]))
+
+    def call(lo, hi):
+        return [
+            smoother_modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, bounds,
+                           MAX_ITER)
+            for m, p, start in runs[lo:hi]
+        ]
+
+    outs = [o for _, share in _in_threads(smoother_modes, len(runs), call, (u.shape, MAX_ITER))
+            for o in share]
+    betas, variances, scores, residuals = (np.concatenate([o[k] for o in outs]) for k in range(4))
+    fits = _fitting(residuals, mask, n, fit_noise, whiten)
+    for c in range(len(runs)):
+        if np.isfinite(scores[c]) and fits[c]:
+            envelope = _widened(envelope, betas[c], variances[c])
+    return envelope
 
 
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
@@ -862,6 +924,11 @@ def track(
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
                 last + 1, hold, fit_noise, whiten,
             )
+            if hold:  # the order's level against the parameters' scale
+                envelope = level_profile(
+                    memory, un, yn, mask, steps, horizon, tuning, m0, p0, sm, bounds, last + 1,
+                    fit_noise, whiten, envelope,
+                )
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p

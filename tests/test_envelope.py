@@ -1,0 +1,124 @@
+"""What widens the tracker's band beyond its Laplace band, as control flow: the smoothings
+are replaced by stand-ins whose answers are known, so that which runs widen the band, and
+what the constant-parameter level profile pins, are checked by themselves. What they do to
+recorded inputs: `tests/test_calibration.py`."""
+
+import types
+
+import jax.numpy as jnp
+import numpy as np
+
+from vojax._tracker import _track
+
+N = 40
+
+
+def _fake_modes(monkeypatch, fits_at, diverges_at=()):
+    """A stand-in for `smoother_modes`: the run whose parameter is pinned at ratio r of the
+    tuned mean has β = r everywhere, variance 0.01, residuals 0.1 (a χ² per sample of 1 at
+    the noise variance 0.01: passes) where r is in `fits_at`, else 1 (fails), and no finite
+    score where r is in `diverges_at`. Records what each run was given."""
+    calls = []
+
+    def modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, budget):
+        m0, p0, start = np.asarray(m0), np.asarray(p0), np.asarray(start)
+        ratio = round(float(m0[1] / 2.0), 2)  # the tuned mode's mean parameter is 2
+        calls.append(dict(ratio=ratio, m0=m0, p0=p0, start=start, hyper=hyper))
+        res = np.full((1, N), 0.1 if ratio in fits_at else 1.0)
+        score = -np.inf if ratio in diverges_at else 0.0
+        return (np.full((1, N), ratio), np.full((1, N), 0.01), np.array([score]), res)
+
+    monkeypatch.setattr(_track, "smoother_modes", modes)
+    return calls
+
+
+def _profile(envelope=None):
+    u = jnp.ones((N, 1))
+    theta = np.zeros((N, 3))
+    theta[:, 0], theta[:, 1], theta[:, 2] = 0.3, 2.0, -1.0  # β, p, offset
+    sm = types.SimpleNamespace(theta=theta)
+    tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
+    m0, p0 = _track.prior(1, np.float64)
+    return _track.level_profile(None, u, None, np.ones(N), None, None, tuning, m0, p0, sm,
+                                (0.0, 1.0), N, 0.01, None, envelope)
+
+
+def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypatch):
+    calls = _fake_modes(monkeypatch, fits_at=())
+    _profile()
+    assert sorted(c["ratio"] for c in calls) == sorted(_track.LEVEL_RATIOS)
+    m0, p0 = _track.prior(1, np.float64)
+    for c in calls:
+        r = c["ratio"]
+        held = 2.0 * r
+        # pinned: the prior of θ_0's parameter at the held value with a tiny variance; the
+        # order's and the offset's priors as the tracker's
+        assert c["m0"][1] == held and c["p0"][1, 1] == _track.LEVEL_PIN * max(held**2, 1.0)
+        np.testing.assert_array_equal(np.delete(c["m0"], 1), np.delete(np.asarray(m0), 1))
+        np.testing.assert_array_equal(c["p0"][0], np.asarray(p0)[0])
+        assert c["p0"][2, 2] == np.asarray(p0)[2, 2]
+        # started from the tuned mode's mean with the parameter held
+        np.testing.assert_allclose(c["start"], [[0.3, held, -1.0]], rtol=1e-15)
+        np.testing.assert_allclose(np.exp(c["hyper"].log_r[0]), 0.01, rtol=1e-14)  # tuned
+
+
+def test_the_band_covers_exactly_the_runs_that_fit(monkeypatch):
+    # none fits: the envelope is left as it was
+    _fake_modes(monkeypatch, fits_at=())
+    assert _profile() is None
+    before = (np.full(N, 0.2), np.full(N, 0.4))
+    out = _profile(before)
+    np.testing.assert_array_equal(out[0], before[0])
+    np.testing.assert_array_equal(out[1], before[1])
+    # two fit (β = 0.71 and 1.41, ±2·0.1), one of which diverged: only the other counts
+    _fake_modes(monkeypatch, fits_at=(0.71, 1.41), diverges_at=(1.41,))
+    lo, hi = _profile()
+    np.testing.assert_allclose(lo, 0.71 - 0.2)
+    np.testing.assert_allclose(hi, 0.71 + 0.2)
+    # both count, and the union with an envelope already there
+    _fake_modes(monkeypatch, fits_at=(0.5, 2.0))
+    lo, hi = _profile(before)
+    np.testing.assert_allclose(lo, 0.2)  # min(0.2, 0.5 − 0.2)
+    np.testing.assert_allclose(hi, 2.2)
+
+
+# ------------------------------------------------ the mixture's envelope
+
+
+def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypatch):
+    """`mixture` with a stand-in for the smoothings: alternative c has β = c everywhere,
+    variance 0.01, and residuals that pass the χ² test (0.1 at the noise variance 0.01) only
+    for the rows chosen; the envelope is the union of their ±2σ, and `drifting` says
+    whether one of them has the parameters drifting."""
+    starts = np.zeros((6, 3))
+    rows_seen = []
+
+    def run(fits):
+        def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+            rows_seen[:] = rows
+            c = len(rows)
+            res = np.array([np.full(N, 0.1 if k in fits else 1.0) for k in range(c)])
+            return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
+                    np.zeros(c), res)
+
+        monkeypatch.setattr(_track, "run_mode_shares", modes)
+        theta = np.zeros((N, 3))
+        sm = types.SimpleNamespace(theta=theta, cov=np.tile(np.eye(3) * 0.01, (N, 1, 1)),
+                                   log_likelihood=0.0, objective=0.0, converged=True)
+        tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
+        m0, p0 = _track.prior(1, np.float64)
+        return _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0,
+                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)
+
+    # run k of the stand-in is alternative k + 1 (the tuned run is alternative 0); the rows
+    # after the starts are the parameters' drift levels
+    first_drift = len(starts)
+    _, _, envelope, drifting = run(fits=())
+    assert envelope is None and not drifting
+    _, _, (lo, hi), drifting = run(fits=(1, 3))  # two starts: β = 2 and 4
+    np.testing.assert_allclose(lo, 2 - 0.2)
+    np.testing.assert_allclose(hi, 4 + 0.2)
+    assert not drifting
+    _, _, (lo, hi), drifting = run(fits=(first_drift,))  # a drifting-parameter run
+    np.testing.assert_allclose(lo, first_drift + 1 - 0.2)
+    assert drifting and rows_seen[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
