@@ -576,7 +576,10 @@ def identify(
       constant order with which a parameter free to drift explains the data as well, and the
       order is reported not identified when that makes the band wide. ``"constant"``: the
       parameters are known not to drift (a calibrated instrument, a test short against any
-      ageing); their drift is held, and the band holds under that assumption only.
+      ageing); their drift is held, and the band holds under that assumption only. It
+      also covers the orders that the parameters held at another scale (0.5–2 × the tuned
+      ones) give where those fit the data: with constant parameters the order's level and
+      the parameters' scale can still trade off.
     - `mask`: ``method="kalman"`` only: an ``(N,)`` array of 0 and 1; samples with 0 are not
       fitted (the tracker still estimates the states there, from its random-walk model). Used
       to pad records to a common length so that one compiled program serves many lengths;
