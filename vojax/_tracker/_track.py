@@ -700,6 +700,8 @@ def level_profile(
     on θ_0's parameters, which the parameters' floor drift then keeps) whose residuals pass
     the χ² test of `mixture`. The order's level is not settled by the data where these
     smoothings fit; their bands then make the reported one cover that ridge."""
+    if not LEVEL_RATIOS:
+        return envelope
     n = u.shape[1]
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
     hyper = _stack_hypers([tuning.values])
