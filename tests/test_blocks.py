@@ -92,7 +92,12 @@ def test_the_blocked_order_agrees_with_the_fit_of_every_sample(long_record):
         inside = (alpha >= np.asarray(res.alpha_lower)) & (alpha <= np.asarray(res.alpha_upper))
         assert np.mean(inside[half]) >= 0.95
         assert np.sqrt(np.mean((np.asarray(res.alpha) - alpha)[half] ** 2)) < 0.02
-    assert blocked.diagnostics.identified and blocked.diagnostics.block_error < 0.1
+    # the blocks add no refusal of their own: the verdict is the every-sample fit's (here
+    # both refused: with the parameters constant, p held at 0.71 × its value fits too), and
+    # the block means represent the record
+    assert blocked.diagnostics.identified == full.diagnostics.identified
+    assert blocked.diagnostics.block_error < 0.1
+    assert "blocks" not in blocked.diagnostics.message
     assert full.diagnostics.block == 1 and np.isnan(full.diagnostics.block_error)
 
 
