@@ -600,7 +600,8 @@ MUTATIONS = {
     ),
     "mixture's envelope without its χ² test (every alternative widens the band)": (
         "vojax/_tracker/_track.py",
-        [("if np.isfinite(scores[c]) and fits[c - 1]:", "if np.isfinite(scores[c]):")],
+        [("passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & np.isfinite(",
+          "passing = np.isfinite(")],
         ["tests/test_envelope.py::test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit"],
     ),
     "level profile never run (the constant setting's band as before it)": (
@@ -611,7 +612,8 @@ MUTATIONS = {
     ),
     "level profile keeps a run that did not converge": (
         "vojax/_tracker/_track.py",
-        [("if np.isfinite(scores[c]) and fits[c]:", "if fits[c]:")],
+        [("_fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)",
+          "_fitting(residuals, mask, n, fit_noise, whiten)")],
         ["tests/test_envelope.py"],
     ),
     "level profile's band replaces the envelope instead of widening it": (

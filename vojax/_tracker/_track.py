@@ -661,11 +661,11 @@ def mixture(
     first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
-        fits = _fitting(residuals, mask, u.shape[1], fit_noise, whiten)  # no entry for the tuned run
-        for c in range(1, len(scores)):
-            if np.isfinite(scores[c]) and fits[c - 1]:
-                drifting |= c in drift_rows
-                envelope = _widened(envelope, betas[c], variances[c])
+        # the alternatives only: `residuals` has no row for the tuned run (index 0)
+        passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & np.isfinite(scores[1:])
+        for c in 1 + np.flatnonzero(passing):
+            drifting |= c in drift_rows
+            envelope = _widened(envelope, betas[c], variances[c])
     return variance, weights, envelope, drifting
 
 
@@ -678,7 +678,7 @@ def _fitting(residuals, mask, n, fit_noise, whiten=None):
     dof = max(float(np.sum(w)) - n - 2, 1.0)
     res = np.asarray(residuals).T  # (N, C)
     chi2 = np.sum(w[:, None] * (res**2 / fit_noise if whiten is None else whiten(res) ** 2), 0)
-    return np.array([chi2_fits(float(c), dof) for c in chi2], bool)
+    return np.asarray(chi2_fits(chi2, dof), bool)
 
 
 def _widened(envelope, beta, variance):
@@ -725,10 +725,8 @@ def level_profile(
     outs = [o for _, share in _in_threads(smoother_modes, len(runs), call, (u.shape, MAX_ITER))
             for o in share]
     betas, variances, scores, residuals = (np.concatenate([o[k] for o in outs]) for k in range(4))
-    fits = _fitting(residuals, mask, n, fit_noise, whiten)
-    for c in range(len(runs)):
-        if np.isfinite(scores[c]) and fits[c]:
-            envelope = _widened(envelope, betas[c], variances[c])
+    for c in np.flatnonzero(_fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)):
+        envelope = _widened(envelope, betas[c], variances[c])
     return envelope
 
 
