@@ -143,9 +143,13 @@ def objective(theta, phi, y, mask, r, q, m0, p0_inv, f=None):
     """Negative log posterior (× 2, up to a constant) of a whole trajectory ``θ`` (N, d):
     data misfit, state increments ``θ_{k+1} − F_k θ_k`` (`f`: the transition's diagonal, ones
     when None) and the prior of ``θ_0``."""
-    n = phi.shape[-1]
-    res = y - predict(theta, phi, n)
-    data = jnp.sum(mask * res * res) / r
+    return posterior_cost(theta, y - predict(theta, phi, phi.shape[-1]), mask, r, q, m0, p0_inv, f)
+
+
+def posterior_cost(theta, residuals, mask, r, q, m0, p0_inv, f=None):
+    """`objective` with the measurement residuals (N,) given: the true model's, or a
+    linearised model's (the cost a Gauss–Newton step predicts)."""
+    data = jnp.sum(mask * residuals * residuals) / r
     inc = theta[1:] - (theta[:-1] if f is None else f[:-1] * theta[:-1])
     qq = q[:-1]
     proc = jnp.sum(jnp.where(qq > 0, inc * inc / jnp.where(qq > 0, qq, 1.0), 0.0))

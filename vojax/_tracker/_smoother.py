@@ -19,11 +19,12 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
-from ._model import Hyper, linearise, model_output, objective, order_of
+from ._model import Hyper, linearise, model_output, objective, order_of, posterior_cost
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
 MU_START, MU_MIN, MU_MAX = 1e-2, 1e-9, 1e12  # Levenberg–Marquardt damping (normalised units)
+MU_DOWN = 1.0 / 3.0  # the largest fall of the damping after a step the linearised model predicted
 
 
 class Smoothed(eqx.Module):
@@ -149,8 +150,14 @@ def _iterate(
     TRACES["smoother"] += 1
     """Runs the damped Gauss–Newton (Levenberg–Marquardt) iteration from the trajectory
     `nominal` (N, d): each step is the smoothed mean of the model linearised at the current
-    trajectory, with every state also observed at its current value with precision μ; μ falls
-    tenfold after a step that lowers the posterior and rises tenfold after one that does not."""
+    trajectory, with every state also observed at its current value with precision μ. The
+    damping follows Nielsen's rule: after a step that lowers the posterior, μ is scaled by
+    ``max(1/3, 1 − (2ρ − 1)³)``, where ρ is the decrease achieved over the decrease the
+    linearised model predicted (so μ falls where the linearisation holds and rises, up to 2×,
+    where it does not); after a step that does not, μ is scaled by ν, and ν doubles (ν = 2
+    after an accepted step). A fixed tenfold fall and rise instead makes μ alternate between
+    two values in a curved valley, every other step rejected and the accepted ones damped
+    too much (docs/identifiability.md, "Settings")."""
     n = u.shape[1]
     q = hyper.process(steps, horizon, n)
     f = hyper.transition(steps, horizon, n)
@@ -163,35 +170,41 @@ def _iterate(
 
     evaluate = order_map(memory, u)  # the order-free history, once for all the iterations
     phi, dphi = _regressors(evaluate, nominal, bounds)
-    mu0 = jnp.asarray(MU_START, y.dtype)
-    start = (nominal, phi, dphi, cost(nominal, phi), mu0, jnp.asarray(jnp.inf, y.dtype), 0)
+    mu0, two = jnp.asarray(MU_START, y.dtype), jnp.asarray(2.0, y.dtype)
+    start = (nominal, phi, dphi, cost(nominal, phi), mu0, two, jnp.asarray(jnp.inf, y.dtype), 0)
 
     def cond(carry):
-        *_, mu, rel, i = carry
+        *_, mu, _, rel, i = carry
         return (i < max_iter) & (rel > REL_TOL) & (mu < MU_MAX)
 
     def body(carry):
-        theta, phi, dphi, value, mu, rel, i = carry
-        _, (ms, _), _, _ = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu)
+        theta, phi, dphi, value, mu, nu, rel, i = carry
+        _, (ms, _), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu)
         phic, dphic = _regressors(evaluate, ms, bounds)
         valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
+        # the decrease achieved over the one the linearised model predicts
+        linear = posterior_cost(ms, z - jnp.sum(jac * ms, -1), mask, r, q, m0, p0_inv, f)
+        gain = value - linear
+        rho = jnp.where(gain > 0, (value - valc) / jnp.where(gain > 0, gain, 1.0), 1.0)
         pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
         # a small decrease counts towards convergence only when the step was barely damped
         dec = (value - valc) / jnp.maximum(jnp.abs(valc), 1.0)
         new_rel = jnp.where(ok & (mu <= MU_START), dec, jnp.where(ok, jnp.inf, rel))
-        new_mu = jnp.where(ok, jnp.maximum(mu / 10.0, MU_MIN), mu * 10.0)
+        scale = jnp.maximum(MU_DOWN, 1.0 - (2.0 * rho - 1.0) ** 3)
+        new_mu = jnp.where(ok, jnp.clip(mu * scale, MU_MIN, MU_MAX), mu * nu)
         return (
             pick(ms, theta),
             pick(phic, phi),
             pick(dphic, dphi),
             pick(valc, value),
             new_mu,
+            jnp.where(ok, two, 2.0 * nu),
             new_rel,
             i + 1,
         )
 
-    theta, phi, dphi, value, mu, rel, iters = lax.while_loop(cond, body, start)
+    theta, phi, dphi, value, mu, _, rel, iters = lax.while_loop(cond, body, start)
     filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds)
     y_pred = y - filtered.innovation
     return Smoothed(
