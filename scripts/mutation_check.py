@@ -616,6 +616,23 @@ MUTATIONS = {
           "_fitting(residuals, mask, n, fit_noise, whiten)")],
         ["tests/test_envelope.py"],
     ),
+    "smoother's damping falls by ρ, not by Nielsen's cubic": (
+        "vojax/_tracker/_smoother.py",
+        [("scale = jnp.maximum(MU_DOWN, 1.0 - (2.0 * rho - 1.0) ** 3)",
+          "scale = jnp.maximum(MU_DOWN, 1.0 - rho)")],
+        ["tests/test_tracker.py::test_damping_follows_nielsens_rule"],
+    ),
+    "smoother's damping keeps growing after an accepted step (ν not reset)": (
+        "vojax/_tracker/_smoother.py",
+        [("jnp.where(accepted, jnp.full_like(nu, 2.0), 2.0 * nu)", "2.0 * nu")],
+        ["tests/test_tracker.py::test_damping_follows_nielsens_rule"],
+    ),
+    "posterior cost ignores the mask (unfitted samples counted)": (
+        "vojax/_tracker/_model.py",
+        [("    data = jnp.sum(mask * residuals * residuals) / r",
+          "    data = jnp.sum(residuals * residuals) / r")],
+        ["tests/test_tracker.py::test_damped_step_minimises_the_linearised_posterior_it_predicts"],
+    ),
     "level profile's band replaces the envelope instead of widening it": (
         "vojax/_tracker/_track.py",
         [("envelope = _widened(envelope, betas[c], variances[c])\n    return envelope",

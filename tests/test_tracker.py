@@ -165,6 +165,71 @@ def test_damped_pass_is_the_posterior_with_the_anchor_observed():
     assert float(tiny.log_likelihood) == pytest.approx(float(plain.log_likelihood), rel=1e-9)
 
 
+def test_damping_follows_nielsens_rule():
+    """The Levenberg–Marquardt damping after a step, by hand: ρ = achieved / predicted
+    decrease; accepted: μ × max(1/3, 1 − (2ρ − 1)³), ν = 2; rejected: μ × ν, ν × 2."""
+    from vojax._tracker._smoother import MU_MIN, damping
+
+    def step(mu, nu, ok, value, new, predicted):
+        out = damping(*(jnp.asarray(v) for v in (mu, nu, ok, value, new, predicted)))
+        return tuple(float(v) for v in out)
+
+    assert step(0.3, 8.0, True, 10.0, 9.0, 9.0) == pytest.approx((0.1, 2.0))  # ρ = 1: ÷3
+    assert step(0.3, 8.0, True, 10.0, 7.0, 9.0) == pytest.approx((0.1, 2.0))  # ρ = 3: ÷3
+    assert step(0.3, 8.0, True, 10.0, 9.5, 9.0) == pytest.approx((0.3, 2.0))  # ρ = ½: ×1
+    assert step(0.3, 8.0, True, 10.0, 9.25, 9.0) == pytest.approx((0.3 * 0.875, 2.0))  # ρ = ¾
+    assert step(0.3, 8.0, True, 10.0, 10.0, 9.0) == pytest.approx((0.6, 2.0))  # ρ = 0: ×2
+    assert step(0.3, 8.0, False, 10.0, 12.0, 9.0) == pytest.approx((2.4, 16.0))  # rejected
+    assert step(0.3, 8.0, True, 10.0, 10.0, 10.0) == pytest.approx((0.1, 2.0))  # none predicted
+    assert step(MU_MIN, 2.0, True, 10.0, 9.0, 9.0) == pytest.approx((MU_MIN, 2.0))  # floor
+
+
+@pytest.mark.parametrize("coloured", [False, True])
+def test_damped_step_minimises_the_linearised_posterior_it_predicts(coloured):
+    """The cost the damping rule compares with (`posterior_cost` of the model linearised at
+    θ) equals the posterior's `objective` at θ itself, and the damped pass's step minimises
+    it plus μ‖x − θ‖²: the autodiff gradient of that sum vanishes at the step (summed over
+    time for the offset, which is one constant)."""
+    import jax
+
+    from vojax._integral import make_memory, order_map
+    from vojax._tracker._model import objective, posterior_cost
+    from vojax._tracker._smoother import _linear_pass, _regressors
+
+    rng = np.random.default_rng(8)
+    n, dt, bounds, mu = 30, 0.1, (0.01, 0.99), 0.05
+    t = np.arange(n) * dt
+    u = jnp.asarray(np.stack([np.sin(t) + 1.2, np.cos(0.7 * t)], axis=1))
+    y = jnp.asarray(rng.standard_normal(n))
+    values = (0.5, 1e-2, 1e-2, 1e-2, 0.3) if coloured else (0.5, 1e-2, 1e-2)
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in values))
+    steps, horizon = jnp.full((n,), dt), jnp.asarray((n - 1) * dt)
+    q, f = hyper.process(steps, horizon, 2), hyper.transition(steps, horizon, 2)
+    d = 5 if coloured else 4
+    m0 = jnp.asarray(rng.standard_normal(d))
+    p0 = hyper.initial(jnp.asarray(np.diag(rng.uniform(1.0, 3.0, d))))
+    p0_inv, r = jnp.linalg.inv(p0), hyper.r
+    theta = rng.standard_normal((n, d)) * 0.3
+    theta[:, 3] = 0.4  # the offset: one constant
+    theta = jnp.asarray(theta)
+    mask = jnp.asarray((rng.uniform(size=n) > 0.2).astype(float))
+    evaluate = order_map(make_memory("direct", dt, n, order_range=bounds), u)
+    phi, dphi = _regressors(evaluate, theta, bounds)
+    _, (ms, _), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu)
+
+    def linear(x):
+        return posterior_cost(x, z - jnp.sum(jac * x, -1), mask, r, q, m0, p0_inv, f)
+
+    exact = objective(theta, phi, y, mask, r, q, m0, p0_inv, f)
+    assert float(linear(theta)) == pytest.approx(float(exact), rel=1e-12)
+    grad = np.asarray(jax.grad(lambda x: linear(x) + mu * jnp.sum((x - theta) ** 2))(ms))
+    scale = np.abs(np.asarray(jax.grad(linear)(theta))).max()
+    free = [c for c in range(d) if c != 3]
+    assert np.abs(grad[:, free]).max() < 1e-9 * scale
+    assert abs(grad[:, 3].sum()) < 1e-9 * scale
+    assert float(linear(ms)) < float(exact)  # a decrease is predicted
+
+
 def _ramp_case(n=1500, dt=0.1, noise=0.02, seed=0):
     t = np.arange(n) * dt
     u = np.stack([np.sin(0.5 * t) + 0.3, np.cos(0.2 * t)], axis=1)

@@ -144,6 +144,21 @@ def score(sm):
     return jnp.where(ok, sm.log_likelihood, -jnp.inf)
 
 
+def damping(mu, nu, accepted, value, new_value, predicted):
+    """Nielsen's update of the Levenberg–Marquardt damping μ and its growth factor ν after a
+    step from cost `value` to `new_value`, where the linearised model predicted the cost
+    `predicted`: with ``ρ = (value − new_value) / (value − predicted)`` (1 when no decrease
+    was predicted), an `accepted` step scales μ by ``max(MU_DOWN, 1 − (2ρ − 1)³)`` (÷3 for
+    ρ ≥ 1, ×1 for ρ = ½, ×2 for ρ ≤ 0) and resets ν to 2; a rejected one scales μ by ν and
+    doubles ν. μ stays within [`MU_MIN`, `MU_MAX`] after an accepted step. Returns
+    ``(μ, ν)``."""
+    gain = value - predicted
+    rho = jnp.where(gain > 0, (value - new_value) / jnp.where(gain > 0, gain, 1.0), 1.0)
+    scale = jnp.maximum(MU_DOWN, 1.0 - (2.0 * rho - 1.0) ** 3)
+    new_mu = jnp.where(accepted, jnp.clip(mu * scale, MU_MIN, MU_MAX), mu * nu)
+    return new_mu, jnp.where(accepted, jnp.full_like(nu, 2.0), 2.0 * nu)
+
+
 def _iterate(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
@@ -170,8 +185,8 @@ def _iterate(
 
     evaluate = order_map(memory, u)  # the order-free history, once for all the iterations
     phi, dphi = _regressors(evaluate, nominal, bounds)
-    mu0, two = jnp.asarray(MU_START, y.dtype), jnp.asarray(2.0, y.dtype)
-    start = (nominal, phi, dphi, cost(nominal, phi), mu0, two, jnp.asarray(jnp.inf, y.dtype), 0)
+    mu0, nu0 = jnp.asarray(MU_START, y.dtype), jnp.asarray(2.0, y.dtype)
+    start = (nominal, phi, dphi, cost(nominal, phi), mu0, nu0, jnp.asarray(jnp.inf, y.dtype), 0)
 
     def cond(carry):
         *_, mu, _, rel, i = carry
@@ -183,23 +198,20 @@ def _iterate(
         phic, dphic = _regressors(evaluate, ms, bounds)
         valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
-        # the decrease achieved over the one the linearised model predicts
+        # the cost the linearised model predicts for the step
         linear = posterior_cost(ms, z - jnp.sum(jac * ms, -1), mask, r, q, m0, p0_inv, f)
-        gain = value - linear
-        rho = jnp.where(gain > 0, (value - valc) / jnp.where(gain > 0, gain, 1.0), 1.0)
         pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
         # a small decrease counts towards convergence only when the step was barely damped
         dec = (value - valc) / jnp.maximum(jnp.abs(valc), 1.0)
         new_rel = jnp.where(ok & (mu <= MU_START), dec, jnp.where(ok, jnp.inf, rel))
-        scale = jnp.maximum(MU_DOWN, 1.0 - (2.0 * rho - 1.0) ** 3)
-        new_mu = jnp.where(ok, jnp.clip(mu * scale, MU_MIN, MU_MAX), mu * nu)
+        new_mu, new_nu = damping(mu, nu, ok, value, valc, linear)
         return (
             pick(ms, theta),
             pick(phic, phi),
             pick(dphic, dphi),
             pick(valc, value),
             new_mu,
-            jnp.where(ok, two, 2.0 * nu),
+            new_nu,
             new_rel,
             i + 1,
         )
