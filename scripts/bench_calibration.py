@@ -308,16 +308,25 @@ def score(case, out):
 
 
 def _worker(job):
-    family, index, methods, data, max_points = job
+    family, index, methods, data, max_points, reuse = job
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    from vojax._identify import TRACKER_MAX_POINTS
+
     signals = _SIGNALS.get(data)
     if signals is None:
         signals = _SIGNALS[data] = real_signals(Path(data))
     case = draw_case(family, index, signals)
     rows = []
     for method in methods:
+        # a record no longer than `max_points` and than identify's default is fitted sample by
+        # sample in both runs: the same computation, so its row of the default's run is reused
+        key = (family, index, method)
+        if key in reuse and case["samples"] <= min(max_points or TRACKER_MAX_POINTS,
+                                                   TRACKER_MAX_POINTS):
+            rows.append(dict(reuse[key], reused=True))
+            continue
         started = time.perf_counter()
         try:
             out = run_method(method, case, max_points)
@@ -382,10 +391,19 @@ def main(argv=None):
                         help="the tracker's max_points (default: identify's): longer records "
                         "are fitted as block means")
     parser.add_argument("--out", default=None, help="write the table and the rows (JSON) here")
+    parser.add_argument(
+        "--reuse", default=None,
+        help="the rows (JSON) of a run of the same code at identify's default max_points: with "
+        "--max-points, a record that both runs fit sample by sample takes its row from there",
+    )
     args = parser.parse_args(argv)
     if not Path(args.data).is_dir():
         sys.exit(f"no data folder at {args.data}: the suite draws its inputs from ../shared/data")
-    jobs = [(f, i, tuple(args.methods), args.data, args.max_points)
+    reuse = {}
+    if args.reuse:
+        reuse = {(r["family"], r["index"], r["method"]): r
+                 for r in json.loads(Path(args.reuse).read_text())}
+    jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse)
             for i in range(args.first, args.first + args.per_family) for f in args.families]
     started = time.perf_counter()
     rows = []
@@ -407,7 +425,10 @@ def main(argv=None):
         f"{args.first + args.per_family - 1}), seeds from family/index; "
         f"{os.cpu_count()} CPUs, {args.workers} workers, {wall:.0f} s wall"
         + ("" if args.max_points is None else
-           f"; the tracker at max_points={args.max_points} (longer records as block means)"),
+           f"; the tracker at max_points={args.max_points} (longer records as block means)")
+        + ("" if not args.reuse else
+           f"; {sum(r.get('reused', False) for r in rows)} rows of records no longer than "
+           "max_points and identify's default taken from the run at the default"),
         *summarise(rows, args.methods, args.families),
     ]
     print("\n".join(lines))

@@ -60,6 +60,9 @@ HELD_RATIO = 2.0
 ALT_ORDER_DRIFT = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift, or × 1e-3 if smaller
 ORDER_DRIFT_BASE = 1e-3  # (an order tuned to be constant still has its variable alternatives)
 ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's change
+# an alternative whose Laplace evidence is this far (nats) below the tuned run's does not
+# widen the band, however well it fits
+ENVELOPE_EVIDENCE = 200.0
 # with one input a drifting parameter can stand in for a moving order: the band also covers
 # every constant order with which a parameter free to drift (a piecewise-linear p(t) on
 # `TRADE_KNOTS` knots, as a gain on the memory term or inside the integral) explains the data
@@ -662,7 +665,9 @@ def mixture(
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
         # the alternatives only: `residuals` has no row for the tuned run (index 0)
-        passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & np.isfinite(scores[1:])
+        passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & _plausible(
+            scores[1:], scores[0]
+        )
         for c in 1 + np.flatnonzero(passing):
             drifting |= c in drift_rows
             envelope = _widened(envelope, betas[c], variances[c])
@@ -679,6 +684,15 @@ def _fitting(residuals, mask, n, fit_noise, whiten=None):
     res = np.asarray(residuals).T  # (N, C)
     chi2 = np.sum(w[:, None] * (res**2 / fit_noise if whiten is None else whiten(res) ** 2), 0)
     return np.asarray(chi2_fits(chi2, dof), bool)
+
+
+def _plausible(scores, tuned):
+    """Which runs of Laplace evidence `scores` (−∞: not converged) may widen the band: those
+    converged within `ENVELOPE_EVIDENCE` of the tuned run's evidence `tuned` (all converged
+    runs where the tuned run did not converge); (C,) booleans."""
+    scores = np.asarray(scores, float)
+    floor = tuned - ENVELOPE_EVIDENCE if np.isfinite(tuned) else -np.inf
+    return np.isfinite(scores) & (scores >= floor)
 
 
 def _widened(envelope, beta, variance):
