@@ -633,6 +633,17 @@ MUTATIONS = {
           "    data = jnp.sum(residuals * residuals) / r")],
         ["tests/test_tracker.py::test_damped_step_minimises_the_linearised_posterior_it_predicts"],
     ),
+    "mixture's envelope ignores the evidence floor": (
+        "vojax/_tracker/_track.py",
+        [("return np.isfinite(scores) & (scores >= floor)", "return np.isfinite(scores)")],
+        ["tests/test_envelope.py"],
+    ),
+    "mixture's evidence floor measured from the best alternative, not the tuned run": (
+        "vojax/_tracker/_track.py",
+        [("& _plausible(\n            scores[1:], scores[0]\n        )",
+          "& _plausible(\n            scores[1:], np.max(scores[1:])\n        )")],
+        ["tests/test_envelope.py"],
+    ),
     "level profile's band replaces the envelope instead of widening it": (
         "vojax/_tracker/_track.py",
         [("envelope = _widened(envelope, betas[c], variances[c])\n    return envelope",

@@ -122,3 +122,40 @@ def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypa
     _, _, (lo, hi), drifting = run(fits=(first_drift,))  # a drifting-parameter run
     np.testing.assert_allclose(lo, first_drift + 1 - 0.2)
     assert drifting and rows_seen[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
+
+
+def test_an_alternative_far_less_probable_than_the_tuned_run_does_not_widen_the_band(monkeypatch):
+    """`mixture` with every alternative fitting (residuals 0.1 at the noise variance 0.01) and
+    alternative c (β = c) at Laplace evidence `scores[c]`, the tuned run's at 0: those more
+    than `ENVELOPE_EVIDENCE` nats below it, or not converged (−∞), stay out of the envelope;
+    one just inside the limit counts. With the tuned run not converged, every converged
+    alternative counts."""
+    starts = np.zeros((6, 3))
+    limit = _track.ENVELOPE_EVIDENCE
+
+    def run(scores, tuned=0.0):
+        def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+            c = len(rows)
+            s = np.full(c, -np.inf)
+            s[: len(scores)] = scores
+            return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
+                    s, np.full((c, N), 0.1))
+
+        monkeypatch.setattr(_track, "run_mode_shares", modes)
+        cov = np.tile(np.eye(3) * 0.01, (N, 1, 1))
+        sm = types.SimpleNamespace(theta=np.zeros((N, 3)), cov=cov, log_likelihood=tuned,
+                                   objective=0.0, converged=np.isfinite(tuned))
+        tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
+        m0, p0 = _track.prior(1, np.float64)
+        return _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0,
+                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)[2]
+
+    # alternatives 1…4 (β = 1…4): 4 nats below, just inside the limit, just beyond it, far beyond
+    lo, hi = run([-4.0, -(limit - 0.5), -(limit + 0.5), -5.0 * limit])
+    np.testing.assert_allclose(lo, 1 - 0.2)
+    np.testing.assert_allclose(hi, 2 + 0.2)
+    assert run([-(limit + 0.5), -2.0 * limit]) is None
+    # the tuned run did not converge: its evidence is no reference, and converged runs count
+    lo, hi = run([-(limit + 0.5), -2.0 * limit], tuned=-np.inf)
+    np.testing.assert_allclose(lo, 1 - 0.2)
+    np.testing.assert_allclose(hi, 2 + 0.2)
