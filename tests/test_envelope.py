@@ -124,20 +124,27 @@ def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypa
     assert drifting and rows_seen[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
 
 
-def test_an_alternative_far_less_probable_than_the_tuned_run_does_not_widen_the_band(monkeypatch):
-    """`mixture` with every alternative fitting (residuals 0.1 at the noise variance 0.01) and
-    alternative c (β = c) at Laplace evidence `scores[c]`, the tuned run's at 0: those more
-    than `ENVELOPE_EVIDENCE` nats below it, or not converged (−∞), stay out of the envelope;
-    one just inside the limit counts. With the tuned run not converged, every converged
-    alternative counts."""
+def test_a_drifting_parameter_run_far_less_probable_than_the_tuned_run_does_not_widen_the_band(
+    monkeypatch,
+):
+    """`mixture` with every alternative fitting (residuals 0.1 at the noise variance 0.01),
+    alternative c at β = c and Laplace evidence `scores[c]`, the tuned run's at 0: a run with
+    the parameters drifting more than `ENVELOPE_EVIDENCE` nats below it stays out of the
+    envelope, one just inside the limit counts; a run at another order drift counts whatever
+    its evidence; a run that did not converge (−∞) never does. With the tuned run not
+    converged, every converged run counts."""
     starts = np.zeros((6, 3))
     limit = _track.ENVELOPE_EVIDENCE
+    first = len(starts) + 1  # alternatives 1…6 are the starts, 7… the drifting parameters
+    count = 2 * len(_track.ALT_PARAM_DRIFT)
 
-    def run(scores, tuned=0.0):
+    def run(drift_scores, order_score, tuned=0.0):
         def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
             c = len(rows)
-            s = np.full(c, -np.inf)
-            s[: len(scores)] = scores
+            s = np.full(c, -np.inf)  # the starts: not converged
+            s[first - 1 : first - 1 + count] = -np.inf
+            s[first - 1 : first - 1 + len(drift_scores)] = drift_scores
+            s[first - 1 + count :] = order_score  # the order's other drifts
             return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
                     s, np.full((c, N), 0.1))
 
@@ -148,14 +155,21 @@ def test_an_alternative_far_less_probable_than_the_tuned_run_does_not_widen_the_
         tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
         m0, p0 = _track.prior(1, np.float64)
         return _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0,
-                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)[2]
+                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)[2:]
 
-    # alternatives 1…4 (β = 1…4): 4 nats below, just inside the limit, just beyond it, far beyond
-    lo, hi = run([-4.0, -(limit - 0.5), -(limit + 0.5), -5.0 * limit])
-    np.testing.assert_allclose(lo, 1 - 0.2)
-    np.testing.assert_allclose(hi, 2 + 0.2)
-    assert run([-(limit + 0.5), -2.0 * limit]) is None
+    last = first + count + len(_track.ALT_ORDER_DRIFT) - 1  # β of the last order-drift run
+    # drifting parameters 4 nats below, just inside the limit, just beyond it, far beyond; the
+    # order's other drifts not converged
+    (lo, hi), drifting = run([-4.0, -(limit - 0.5), -(limit + 0.5), -5.0 * limit], -np.inf)
+    np.testing.assert_allclose(lo, first - 0.2)
+    np.testing.assert_allclose(hi, first + 1 + 0.2)
+    assert drifting
+    # none of the drifting runs counts; the order's other drifts, far below, all do
+    (lo, hi), drifting = run([-(limit + 0.5)] * count, -5.0 * limit)
+    np.testing.assert_allclose(lo, first + count - 0.2)
+    np.testing.assert_allclose(hi, last + 0.2)
+    assert not drifting
     # the tuned run did not converge: its evidence is no reference, and converged runs count
-    lo, hi = run([-(limit + 0.5), -2.0 * limit], tuned=-np.inf)
-    np.testing.assert_allclose(lo, 1 - 0.2)
-    np.testing.assert_allclose(hi, 2 + 0.2)
+    (lo, hi), _ = run([-(limit + 0.5), -2.0 * limit], -np.inf, tuned=-np.inf)
+    np.testing.assert_allclose(lo, first - 0.2)
+    np.testing.assert_allclose(hi, first + 1 + 0.2)

@@ -60,8 +60,8 @@ HELD_RATIO = 2.0
 ALT_ORDER_DRIFT = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift, or × 1e-3 if smaller
 ORDER_DRIFT_BASE = 1e-3  # (an order tuned to be constant still has its variable alternatives)
 ALT_PARAM_DRIFT = (1e-3, 1e-2, 1e-1)  # variance of a normalised parameter's change
-# an alternative whose Laplace evidence is this far (nats) below the tuned run's does not
-# widen the band, however well it fits
+# an alternative with the parameters drifting whose Laplace evidence is this far (nats) below
+# the tuned run's does not widen the band, however well it fits
 ENVELOPE_EVIDENCE = 200.0
 # with one input a drifting parameter can stand in for a moving order: the band also covers
 # every constant order with which a parameter free to drift (a piecewise-linear p(t) on
@@ -664,10 +664,12 @@ def mixture(
     first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
     drift_rows = range(first, first if hold else first + 2 * len(ALT_PARAM_DRIFT))
     if fit_noise is not None:
-        # the alternatives only: `residuals` has no row for the tuned run (index 0)
-        passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & _plausible(
-            scores[1:], scores[0]
-        )
+        # the alternatives only: `residuals` has no row for the tuned run (index 0). One with
+        # the parameters drifting must also be within the evidence floor: those runs fit
+        # almost any record, with the order's level free
+        drifts = np.isin(np.arange(1, len(scores)), drift_rows)
+        plausible = np.isfinite(scores[1:]) & (~drifts | _plausible(scores[1:], scores[0]))
+        passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & plausible
         for c in 1 + np.flatnonzero(passing):
             drifting |= c in drift_rows
             envelope = _widened(envelope, betas[c], variances[c])
@@ -687,9 +689,10 @@ def _fitting(residuals, mask, n, fit_noise, whiten=None):
 
 
 def _plausible(scores, tuned):
-    """Which runs of Laplace evidence `scores` (−∞: not converged) may widen the band: those
-    converged within `ENVELOPE_EVIDENCE` of the tuned run's evidence `tuned` (all converged
-    runs where the tuned run did not converge); (C,) booleans."""
+    """Which runs with the parameters drifting, of Laplace evidence `scores` (−∞: not
+    converged), may widen the band: those converged within `ENVELOPE_EVIDENCE` of the tuned
+    run's evidence `tuned` (all converged runs where the tuned run did not converge); (C,)
+    booleans."""
     scores = np.asarray(scores, float)
     floor = tuned - ENVELOPE_EVIDENCE if np.isfinite(tuned) else -np.inf
     return np.isfinite(scores) & (scores >= floor)
