@@ -312,7 +312,7 @@ def _worker(job):
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from vojax._identify import TRACKER_MAX_POINTS
+    from vojax._identify import MAX_POINTS
 
     signals = _SIGNALS.get(data)
     if signals is None:
@@ -323,8 +323,7 @@ def _worker(job):
         # a record no longer than `max_points` and than identify's default is fitted sample by
         # sample in both runs: the same computation, so its row of the default's run is reused
         key = (family, index, method)
-        if key in reuse and case["samples"] <= min(max_points or TRACKER_MAX_POINTS,
-                                                   TRACKER_MAX_POINTS):
+        if key in reuse and case["samples"] <= min(max_points or MAX_POINTS, MAX_POINTS):
             rows.append(dict(reuse[key], reused=True))
             continue
         started = time.perf_counter()
