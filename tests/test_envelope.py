@@ -85,77 +85,76 @@ def test_the_band_covers_exactly_the_runs_that_fit(monkeypatch):
 # ------------------------------------------------ the mixture's envelope
 
 
-def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypatch):
-    """`mixture` with a stand-in for the smoothings: alternative c has β = c everywhere,
-    variance 0.01, and residuals that pass the χ² test (0.1 at the noise variance 0.01) only
-    for the rows chosen; the envelope is the union of their ±2σ, and `drifting` says
-    whether one of them has the parameters drifting."""
-    starts = np.zeros((6, 3))
+STARTS = np.zeros((6, 3))  # the mixture's starts: alternatives 1…6
+
+
+def _mixture(monkeypatch, residual, scores, tuned=0.0):
+    """`mixture` (6 starts, the noise variance 0.01) with a stand-in for its smoothings: run k
+    of the stand-in, alternative k + 1, has β = k + 1 everywhere, variance 0.01, residuals
+    `residual(k)` and Laplace evidence ``scores(C)[k]`` (C runs); the tuned run (alternative
+    0) has evidence `tuned` (−∞: not converged). Returns the mixture's output and the rows
+    of intensities it asked for."""
     rows_seen = []
 
-    def run(fits):
-        def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
-            rows_seen[:] = rows
-            c = len(rows)
-            res = np.array([np.full(N, 0.1 if k in fits else 1.0) for k in range(c)])
-            return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
-                    np.zeros(c), res)
+    def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+        rows_seen[:] = rows
+        c = len(rows)
+        return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
+                scores(c), np.array([residual(k) for k in range(c)]))
 
-        monkeypatch.setattr(_track, "run_mode_shares", modes)
-        theta = np.zeros((N, 3))
-        sm = types.SimpleNamespace(theta=theta, cov=np.tile(np.eye(3) * 0.01, (N, 1, 1)),
-                                   log_likelihood=0.0, objective=0.0, converged=True)
-        tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
-        m0, p0 = _track.prior(1, np.float64)
-        return _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0,
-                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)
+    monkeypatch.setattr(_track, "run_mode_shares", modes)
+    cov = np.tile(np.eye(3) * 0.01, (N, 1, 1))
+    sm = types.SimpleNamespace(theta=np.zeros((N, 3)), cov=cov, log_likelihood=tuned,
+                               objective=0.0, converged=np.isfinite(tuned))
+    tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
+    m0, p0 = _track.prior(1, np.float64)
+    out = _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0, p0,
+                         STARTS, sm, (0.0, 1.0), N, False, 0.01, None)
+    return out, rows_seen
+
+
+def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypatch):
+    """Every alternative converged (evidence 0) and its residuals passing the χ² test (0.1
+    at the noise variance 0.01) only for the runs chosen: the envelope is the union of their
+    ±2σ, and `drifting` says whether one of them has the parameters drifting."""
+
+    def run(fits):
+        return _mixture(monkeypatch, lambda k: np.full(N, 0.1 if k in fits else 1.0), np.zeros)
 
     # run k of the stand-in is alternative k + 1 (the tuned run is alternative 0); the rows
     # after the starts are the parameters' drift levels
-    first_drift = len(starts)
-    _, _, envelope, drifting = run(fits=())
+    first_drift = len(STARTS)
+    (_, _, envelope, drifting), _ = run(fits=())
     assert envelope is None and not drifting
-    _, _, (lo, hi), drifting = run(fits=(1, 3))  # two starts: β = 2 and 4
+    (_, _, (lo, hi), drifting), _ = run(fits=(1, 3))  # two starts: β = 2 and 4
     np.testing.assert_allclose(lo, 2 - 0.2)
     np.testing.assert_allclose(hi, 4 + 0.2)
     assert not drifting
-    _, _, (lo, hi), drifting = run(fits=(first_drift,))  # a drifting-parameter run
+    (_, _, (lo, hi), drifting), rows = run(fits=(first_drift,))  # a drifting-parameter run
     np.testing.assert_allclose(lo, first_drift + 1 - 0.2)
-    assert drifting and rows_seen[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
+    assert drifting and rows[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
 
 
 def test_a_drifting_parameter_run_far_less_probable_than_the_tuned_run_does_not_widen_the_band(
     monkeypatch,
 ):
-    """`mixture` with every alternative fitting (residuals 0.1 at the noise variance 0.01),
-    alternative c at β = c and Laplace evidence `scores[c]`, the tuned run's at 0: a run with
-    the parameters drifting more than `ENVELOPE_EVIDENCE` nats below it stays out of the
-    envelope, one just inside the limit counts; a run at another order drift counts whatever
-    its evidence; a run that did not converge (−∞) never does. With the tuned run not
-    converged, every converged run counts."""
-    starts = np.zeros((6, 3))
+    """Every alternative fitting (residuals 0.1 at the noise variance 0.01), the tuned run's
+    evidence at 0: a run with the parameters drifting more than `ENVELOPE_EVIDENCE` nats
+    below it stays out of the envelope, one just inside the limit counts; a run at another
+    order drift counts whatever its evidence; a run that did not converge (−∞) never does.
+    With the tuned run not converged, every converged run counts."""
     limit = _track.ENVELOPE_EVIDENCE
-    first = len(starts) + 1  # alternatives 1…6 are the starts, 7… the drifting parameters
+    first = len(STARTS) + 1  # alternatives 1…6 are the starts, 7… the drifting parameters
     count = 2 * len(_track.ALT_PARAM_DRIFT)
 
     def run(drift_scores, order_score, tuned=0.0):
-        def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
-            c = len(rows)
-            s = np.full(c, -np.inf)  # the starts: not converged
-            s[first - 1 : first - 1 + count] = -np.inf
+        def scores(c):
+            s = np.full(c, -np.inf)  # the starts, and drifting runs not given: not converged
             s[first - 1 : first - 1 + len(drift_scores)] = drift_scores
             s[first - 1 + count :] = order_score  # the order's other drifts
-            return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
-                    s, np.full((c, N), 0.1))
+            return s
 
-        monkeypatch.setattr(_track, "run_mode_shares", modes)
-        cov = np.tile(np.eye(3) * 0.01, (N, 1, 1))
-        sm = types.SimpleNamespace(theta=np.zeros((N, 3)), cov=cov, log_likelihood=tuned,
-                                   objective=0.0, converged=np.isfinite(tuned))
-        tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
-        m0, p0 = _track.prior(1, np.float64)
-        return _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0,
-                              p0, starts, sm, (0.0, 1.0), N, False, 0.01, None)[2:]
+        return _mixture(monkeypatch, lambda k: np.full(N, 0.1), scores, tuned)[0][2:]
 
     last = first + count + len(_track.ALT_ORDER_DRIFT) - 1  # β of the last order-drift run
     # drifting parameters 4 nats below, just inside the limit, just beyond it, far beyond; the

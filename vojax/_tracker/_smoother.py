@@ -162,7 +162,6 @@ def damping(mu, nu, accepted, value, new_value, predicted):
 def _iterate(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
 ) -> Smoothed:
-    TRACES["smoother"] += 1
     """Runs the damped Gauss–Newton (Levenberg–Marquardt) iteration from the trajectory
     `nominal` (N, d): each step is the smoothed mean of the model linearised at the current
     trajectory, with every state also observed at its current value with precision μ. The
@@ -173,6 +172,7 @@ def _iterate(
     after an accepted step). A fixed tenfold fall and rise instead makes μ alternate between
     two values in a curved valley, every other step rejected and the accepted ones damped
     too much (docs/identifiability.md, "Settings")."""
+    TRACES["smoother"] += 1
     n = u.shape[1]
     q = hyper.process(steps, horizon, n)
     f = hyper.transition(steps, horizon, n)

@@ -668,7 +668,8 @@ def mixture(
         # the parameters drifting must also be within the evidence floor: those runs fit
         # almost any record, with the order's level free
         drifts = np.isin(np.arange(1, len(scores)), drift_rows)
-        plausible = np.isfinite(scores[1:]) & (~drifts | _plausible(scores[1:], scores[0]))
+        floor = _evidence_floor(scores[0])
+        plausible = np.isfinite(scores[1:]) & (~drifts | (scores[1:] >= floor))
         passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & plausible
         for c in 1 + np.flatnonzero(passing):
             drifting |= c in drift_rows
@@ -688,14 +689,11 @@ def _fitting(residuals, mask, n, fit_noise, whiten=None):
     return np.asarray(chi2_fits(chi2, dof), bool)
 
 
-def _plausible(scores, tuned):
-    """Which runs with the parameters drifting, of Laplace evidence `scores` (−∞: not
-    converged), may widen the band: those converged within `ENVELOPE_EVIDENCE` of the tuned
-    run's evidence `tuned` (all converged runs where the tuned run did not converge); (C,)
-    booleans."""
-    scores = np.asarray(scores, float)
-    floor = tuned - ENVELOPE_EVIDENCE if np.isfinite(tuned) else -np.inf
-    return np.isfinite(scores) & (scores >= floor)
+def _evidence_floor(tuned):
+    """The lowest Laplace evidence at which a run with the parameters drifting may widen the
+    band: `ENVELOPE_EVIDENCE` below the tuned run's evidence `tuned`, or −∞ (no floor) where
+    the tuned run did not converge."""
+    return tuned - ENVELOPE_EVIDENCE if np.isfinite(tuned) else -np.inf
 
 
 def _widened(envelope, beta, variance):
