@@ -649,6 +649,23 @@ MUTATIONS = {
           "envelope = _widened(None, betas[c], variances[c])\n    return envelope")],
         ["tests/test_envelope.py"],
     ),
+    "design's drift prior per step, not per record": (
+        "vojax/_design.py",
+        [("step_var = order_drift * np.diff(times) / (times[-1] - times[0])",
+          "step_var = order_drift * np.diff(times)")],
+        ["tests/test_design.py::test_without_information_the_order_spreads_as_the_trackers_random_walk"],
+    ),
+    "design's drift prior on the order, not its logistic coordinate": (
+        "vojax/_design.py",
+        [("diff = np.diff(np.eye(times.size), axis=0) / slope",
+          "diff = np.diff(np.eye(times.size), axis=0)")],
+        ["tests/test_design.py::test_without_information_the_order_spreads_as_the_trackers_random_walk"],
+    ),
+    "design's drift prior without its start": (
+        "vojax/_design.py",
+        [("    precision[0, 0] += 1.0 / (slope[0] ** 2 * PRIOR_BETA_VAR)\n", "")],
+        ["tests/test_design.py::test_without_information_the_order_spreads_as_the_trackers_random_walk"],
+    ),
 }
 
 

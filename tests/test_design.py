@@ -1,6 +1,7 @@
 """Experiment design: the Fisher information of a planned test against the closed form of a
 step, against finite differences of the model, and against the spread of the refit over
-noise seeds."""
+noise seeds; under the tracker's random-walk prior, against the prior's own spread and the
+tracker's spread and band over noise seeds."""
 
 import math
 
@@ -94,6 +95,63 @@ def test_bad_plans_are_refused_with_a_reason():
         vojax.fisher_information(np.zeros(n), 0.4, [1.0], dt, noise_std=0.1)
     with pytest.raises(ValueError, match="does not determine"):  # two identical inputs
         vojax.fisher_information(np.column_stack([u, u]), 0.4, [1.0, 1.0], dt, noise_std=0.1)
+    with pytest.raises(ValueError, match="`order_drift` must be a positive finite number"):
+        vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=0.1, order_drift=-1.0)
+    with pytest.raises(ValueError, match="either `knots` or `order_drift`"):
+        vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=0.1, knots=3, order_drift=1.0)
+    with pytest.raises(ValueError, match="strictly inside `order_range`"):
+        vojax.fisher_information(u, 0.99, [1.0], dt, noise_std=0.1, order_drift=1.0)
+    with pytest.raises(ValueError, match="at most 5000 samples"):
+        vojax.fisher_information(np.ones(5001), 0.4, [1.0], dt, noise_std=0.1, order_drift=1.0)
+
+
+def _ramp_hold(n=300, dt=0.05):
+    t = dt * np.arange(n)
+    order = 0.35 + 0.2 * t / t[-1]
+    u = np.minimum(t / 3.0, 1.0)
+    x = np.asarray(vojax.simulate(u, order, np.array([2.0]), dt))
+    return t, u, order, x
+
+
+@pytest.mark.parametrize("drift", [0.3, 3.0])
+def test_without_information_the_order_spreads_as_the_trackers_random_walk(drift):
+    """With noise so large that the data say nothing, the order's band is the prior's own:
+    ``Var β_k = PRIOR_BETA_VAR + q (t_k − t_0)/T``, carried to the order by ``dα/dβ``, with the
+    tracker's own prior spread."""
+    from vojax._design import PRIOR_BETA_VAR
+    from vojax._tracker._track import PRIOR_BETA_VAR as TRACKER_PRIOR
+
+    assert PRIOR_BETA_VAR == TRACKER_PRIOR
+    t, u, order, _ = _ramp_hold(120)
+    d = vojax.fisher_information(u, order, [2.0], t[1], noise_std=1e8, order_drift=drift)
+    z = (order - 0.01) / 0.98
+    want = 0.98 * z * (1 - z) * np.sqrt(PRIOR_BETA_VAR + drift * t / t[-1])
+    np.testing.assert_allclose(d.order_stderr, want, rtol=1e-8)
+    assert d.names[:2] == ("order_at_1", "order_at_2") and d.names[-2:] == ("p_1", "x0")
+    assert "order_at_" not in d.summary()
+
+
+@pytest.mark.slow
+def test_the_tracker_reaches_the_predicted_band_at_given_intensities():
+    """A ramp–hold into a springpot whose order moves from 0.35 to 0.55, noise 1 % of the
+    output's range, the tracker at fixed intensities (order drift 1, parameters held): over
+    40 noise seeds its orders spread as the Bayesian bound predicts (within 30 %, median over
+    the second half), and its own reported standard error agrees with the prediction."""
+    t, u, order, x = _ramp_hold()
+    sd = float(0.01 * np.ptp(x))
+    d = vojax.fisher_information(u, order, [2.0], t[1], noise_std=sd, order_drift=1.0)
+    noise = dict(order_drift=1.0, parameter_drift=1e-9, noise_std=sd)
+    rng = np.random.default_rng(7)
+    fits = [vojax.identify(u, x + sd * rng.standard_normal(t.size), t[1], method="kalman",
+                           noise=noise, warn=False) for _ in range(40)]
+    alphas = np.array([np.asarray(f.alpha) for f in fits])
+    half = slice(t.size // 2, None)
+    predicted = np.median(d.order_stderr[half])
+    assert np.median(np.std(alphas, axis=0, ddof=1)[half]) == pytest.approx(predicted, rel=0.3)
+    reported = np.median([np.median(np.asarray(f.alpha_std)[half]) for f in fits])
+    assert reported == pytest.approx(predicted, rel=0.3)
+    # no bias beyond the spread: the truth within 3 standard errors of the seeds' mean
+    assert np.max(np.abs(alphas.mean(0) - order)[half]) < 3 * predicted / math.sqrt(40)
 
 
 @pytest.mark.parametrize("criterion", ["order", "D"])

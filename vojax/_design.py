@@ -9,6 +9,14 @@ depends on the order at ``t_k`` only (the integral form of the model), the order
 are ``(Σ_j p_j ∂Φ_j/∂b)(t) h_k(t)`` with ``∂Φ/∂b`` from `vojax.order_sensitivity`. ``F⁻¹``
 is the Cramér–Rao bound: no unbiased estimator of these quantities from such a test does
 better, and a least-squares fit (`vojax.refit`) reaches it for small noise.
+
+With ``order_drift=q`` the order is instead free at every sample under the tracker's prior:
+its logistic coordinate ``β`` (``α = lo + (hi − lo)·sigmoid(β)``) a random walk whose change
+over the whole test has variance q, starting from a spread of `PRIOR_BETA_VAR`; the
+parameters and the offset constant, with flat priors. The prior's precision, carried to the
+order's units at the hypothesised trajectory (``dβ = dα / α'(β)``), is added to ``F``, and
+``(F + Λ)⁻¹`` is the Bayesian (van Trees) bound: the posterior covariance of the order that
+the tracker (`vojax.identify`) reports at these intensities, for small noise.
 """
 
 import math
@@ -20,12 +28,19 @@ import jax.numpy as jnp
 from . import _validate as check
 from ._integral import DEFAULT_TOL, _prepare
 
+# the tracker's prior spread of the order's logistic coordinate at the first sample
+# (`vojax._tracker._track.PRIOR_BETA_VAR`, checked equal by the tests)
+PRIOR_BETA_VAR = 4.0
+# the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
+MAX_DRIFT_SAMPLES = 5000
+
 
 class Design:
     """What a planned test can tell, before it is run (`fisher_information`).
 
-    - `names`: the quantities, ``order`` (or ``order_knot_1`` … ``order_knot_K``), ``p_1`` …
-      ``p_n``, ``x0`` (when estimated);
+    - `names`: the quantities, ``order`` (or ``order_knot_1`` … ``order_knot_K``, or with
+      ``order_drift`` ``order_at_1`` … ``order_at_N``), ``p_1`` … ``p_n``, ``x0`` (when
+      estimated);
     - `information` (P, P), `covariance` (P, P) = its inverse, `stderr` (P,): the best
       standard errors any unbiased estimator can reach;
     - `times` (N,), `order` (N,): the hypothesised order; `order_stderr` (N,): the predicted
@@ -51,7 +66,8 @@ class Design:
     def summary(self) -> str:
         """The quantities with their predicted standard errors, one per line."""
         lines = [f"{'quantity':<16}{'± 1 SE (best possible)':>24}"]
-        lines += [f"{n:<16}{s:>24.4g}" for n, s in zip(self.names, self.stderr)]
+        lines += [f"{n:<16}{s:>24.4g}" for n, s in zip(self.names, self.stderr)
+                  if not n.startswith("order_at_")]  # an order at every sample: its band
         lines.append(f"{'order band ±2σ':<16}{self.order_band:>24.4g}")
         return "\n".join(lines)
 
@@ -80,6 +96,7 @@ def fisher_information(
     rule: str = "trapezoid",
     memory: str = "direct",
     order_range=(0.01, 0.99),
+    order_drift: float | None = None,
 ) -> Design:
     """The Fisher information of a planned test of ``D^{α(t)} x = pᵀu`` (a `Design`).
 
@@ -89,7 +106,12 @@ def fisher_information(
       the output's units;
     - `knots`: the order's free shape, 1 (a constant order: one number) or K ≥ 2 hat
       functions spread evenly over the test (a variable order, as K values);
-    - `x0`: the output's offset estimated too (True) or known (False).
+    - `x0`: the output's offset estimated too (True) or known (False);
+    - `order_drift`: instead of knots, the order free at every sample under the tracker's
+      random-walk prior of this intensity (the variance of its logistic coordinate's change
+      over the test, as `vojax.identify`'s ``noise={"order_drift": …}``), the parameters
+      constant; `order_stderr` is then the tracker's predicted band at these intensities
+      (at most 5,000 samples: the covariance is dense).
 
     **Raises:** `ValueError` when the test determines the quantities not at all (the
     information is singular: e.g. an input that is zero, or more knots than the test can
@@ -106,16 +128,35 @@ def fisher_information(
         raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
     if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
         raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
+    if order_drift is not None:
+        if not (isinstance(order_drift, (int, float)) and not isinstance(order_drift, bool)
+                and 0 < order_drift < math.inf):
+            raise ValueError(
+                f"`order_drift` must be a positive finite number, got {order_drift!r}."
+            )
+        if knots != 1:
+            raise ValueError("give either `knots` or `order_drift`, not both.")
+        if num > MAX_DRIFT_SAMPLES:
+            raise ValueError(
+                f"`order_drift` takes at most {MAX_DRIFT_SAMPLES} samples (a dense covariance "
+                f"of the order at every sample), got {num}: plan on a coarser grid."
+            )
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
     # the grid, the orders and the memory checked and built as `fractional_integral` does;
     # Φ and ∂Φ/∂b from one scan
     u2, order_j, mem, _ = _prepare(u2, order, dt, t, rule, memory, DEFAULT_TOL, order_range)
     times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
-    hats, places = _hats(times, int(knots))
+    if order_drift is None:
+        hats, places = _hats(times, int(knots))
+        names = (["order"] if knots == 1 else [f"order_knot_{k + 1}" for k in range(knots)])
+    else:
+        hats, places = np.eye(num), times
+        names = [f"order_at_{k + 1}" for k in range(num)]
     jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), jnp.asarray(hats), x0))
-    names = (["order"] if knots == 1 else [f"order_knot_{k + 1}" for k in range(knots)])
     names += [f"p_{j + 1}" for j in range(n)] + (["x0"] if x0 else [])
     information = jac.T @ jac / noise_std**2
+    if order_drift is not None:
+        information[:num, :num] += _drift_precision(times, order, order_range, order_drift)
     # inverted in the columns' own scales (the units of p and of the order differ by orders
     # of magnitude); a direction below 1e-12 of the largest is not determined by the test
     scale = np.sqrt(np.diag(information))
@@ -134,10 +175,30 @@ def fisher_information(
             "1e-12): fewer knots, another input, or a longer test."
         )
     covariance = (vectors / values) @ vectors.T / np.outer(scale, scale)
-    k = int(knots)
+    k = hats.shape[1]
     order_cov = covariance[:k, :k]
     order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
     return Design(names, information, covariance, times, order, order_stderr, places)
+
+
+def _drift_precision(times, order, order_range, order_drift):
+    """The precision (N, N) of the tracker's random-walk prior on the order's logistic
+    coordinate, in the order's units at the trajectory `order`: the change of β over each
+    step has variance ``q·(t_{k+1} − t_k)/T`` (T the test's span), β at the first sample
+    `PRIOR_BETA_VAR`, and ``dβ = dα / α'(β)``."""
+    lo, hi = (float(v) for v in order_range)
+    z = (order - lo) / (hi - lo)
+    if not np.all((z > 0) & (z < 1)):
+        raise ValueError(
+            f"`order` must lie strictly inside `order_range` {order_range} for `order_drift` "
+            "(the prior is on its logistic coordinate)."
+        )
+    slope = (hi - lo) * z * (1.0 - z)  # dα/dβ
+    step_var = order_drift * np.diff(times) / (times[-1] - times[0])
+    diff = np.diff(np.eye(times.size), axis=0) / slope  # β_{k+1} − β_k in the order's units
+    precision = (diff.T / step_var) @ diff
+    precision[0, 0] += 1.0 / (slope[0] ** 2 * PRIOR_BETA_VAR)
+    return precision
 
 
 def _jacobian(memory, u2, order, p, hats, x0):
