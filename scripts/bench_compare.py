@@ -4,7 +4,7 @@ resampled to 300 samples and scaled to a range of 1), with measurement noise of 
 strain's range, and the parameters set so that each model's own feature is of the size of the
 springpot's creep (a spring's jump, a parallel spring's plateau: see `generate`).
 
-    python scripts/bench_compare.py [--draws 6] [--seed 0]
+    python scripts/bench_compare.py [--draws 6] [--seed 0] [--timing-only]
 
 Prints, per generating model: how often it ranks first, how often a wrong model is favoured
 by a Bayes factor above 10, and the median Bayes factor of the winner over the truth.
@@ -15,10 +15,17 @@ Kelvin–Voigt and the Maxwell laws; the variable order contains the springpot),
 RMS misfit / the record's range. No comparison can find a model whose feature lies below the
 noise. A second table runs the same draws with the noise at half the feature (for the laws
 that have one), where the comparison should find the generating model every time.
+
+Its first lines time one `compare` call on a 600-sample record (a ramp, a step, an order
+moving from 0.25 to 0.55, noise 1 %) in a fresh process: the first call (compilation
+included) and the next ones (warm).
 """
 
 import argparse
+import json
 import math
+import subprocess
+import sys
 import time
 
 import jax
@@ -38,6 +45,34 @@ NESTED_IN = {
     "zener": (),
     "variable": (),
 }
+
+
+TIMING = r"""
+import json, time
+import numpy as np
+import jax
+jax.config.update("jax_enable_x64", True)
+import vojax
+dt = 0.05
+t = dt * np.arange(600)
+stress = np.minimum(t / 2.0, 1.0) + 0.5 * (t > 15.0)
+strain = np.asarray(vojax.simulate(stress, 0.25 + 0.3 * t / t[-1], np.array([0.5]), dt))
+strain = strain + 0.01 * np.ptp(strain) * np.random.default_rng(0).standard_normal(t.size)
+times = []
+for k in range(3):
+    begun = time.perf_counter()
+    vojax.compare(stress, strain * (1 + 1e-3 * k), dt)
+    times.append(time.perf_counter() - begun)
+print(json.dumps(times))
+"""
+
+
+def timing():
+    """One `compare` call on a 600-sample record in a fresh process: (first, warm) seconds."""
+    out = subprocess.run([sys.executable, "-c", TIMING], capture_output=True, text=True,
+                         check=True)
+    times = json.loads(out.stdout.strip().splitlines()[-1])
+    return times[0], min(times[1:])
 
 
 def feature(model, stress, clean, dt):
@@ -120,7 +155,13 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--draws", type=int, default=6, help="records per model and input")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--timing-only", action="store_true", help="only the timing lines")
     args = parser.parse_args()
+    first, warm = timing()
+    print(f"# one compare call, 600 samples, fresh process: first {first:.1f} s (compilation "
+          f"included), warm {warm:.1f} s")
+    if args.timing_only:
+        return
     rng = np.random.default_rng(args.seed)
     started = time.perf_counter()
     stats = {m: dict(first=0, wrong10=0, cases=0, bf=[]) for m in MODELS}

@@ -666,6 +666,11 @@ MUTATIONS = {
         [("    precision[0, 0] += 1.0 / (slope[0] ** 2 * PRIOR_BETA_VAR)\n", "")],
         ["tests/test_design.py::test_without_information_the_order_spreads_as_the_trackers_random_walk"],
     ),
+    "refit's padding left in the coefficients' covariance": (
+        "vojax/_refit.py",
+        [('        out["p_cov"] = out["p_cov"][np.ix_(real, real)]\n', "")],
+        ["tests/test_refit.py::test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit"],
+    ),
 }
 
 

@@ -211,6 +211,39 @@ def test_refit_traces_once_per_shape():
     assert TRACES["fit"] == before + 1
 
 
+def test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit(monkeypatch):
+    """The springpot and Maxwell fits of one record trace the fit once between them, and so do
+    the Kelvin–Voigt and Zener fits (the laws without a spring in series padded with a zero
+    direct regressor, held at 0); each equals its fit without the padding to the solver's
+    tolerance, its coefficients' covariance included."""
+    from vojax import _refit
+    from vojax._refit import TRACES
+
+    n = 263  # a length no other test fits: the first of each pair traces, the second reuses it
+    stress = U[:n, 1]
+    strain = np.asarray(vojax.simulate(stress, 0.5, np.array([0.8]), DT))
+    strain = strain + NOISE * np.random.default_rng(9).standard_normal(n)
+    laws = (vojax.Springpot(), vojax.FractionalMaxwell(), vojax.KelvinVoigt(),
+            vojax.FractionalZener())
+
+    def fit(m):
+        return vojax.refit(m.inputs(stress, strain), strain, DT, direct=m.direct(stress, strain),
+                           p_signs=m.p_signs)
+
+    padded = []
+    for k, m in enumerate(laws):
+        before = TRACES["fit"]
+        padded.append(fit(m))
+        assert TRACES["fit"] == before + (k % 2 == 0), m  # the second of each pair: no trace
+    monkeypatch.setattr(_refit, "PAD_DIRECT", 0)
+    for m, a in zip(laws, padded):
+        b = fit(m)
+        assert a.p_at_bound == b.p_at_bound
+        for name in ("order", "order_stderr", "p", "p_stderr", "p_cov", "y_hat"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-8, atol=1e-9)
+        assert float(a.sigma) == pytest.approx(float(b.sigma), rel=1e-8)
+
+
 @pytest.mark.parametrize("order", ["constant", pytest.param(3, marks=pytest.mark.slow)])
 def test_padding_with_a_mask_changes_nothing(order):
     """Padded after the end and masked: the same fit (knots over the fitted span), to the

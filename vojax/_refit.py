@@ -143,6 +143,9 @@ UNDETERMINED_RCOND = 1e-10
 # a fitted coefficient whose contribution to the weighted fit (|p_j|·‖column j‖) is below this
 # fraction of ‖y‖ is reported as exactly 0: it is rounding, not a measurement
 ROUNDING = 1e-12
+# a constant-order fit with fewer direct regressors than this runs padded to it (zero columns,
+# held at 0), so that the laws with and without a spring in series share a compiled program
+PAD_DIRECT = 1
 
 
 def _gauss_newton(jac, free):
@@ -363,13 +366,24 @@ def refit(
             lambda a: a[trim] if getattr(a, "shape", ()) and a.shape[0] == n_all else a, fit
         )
 
+    # a constant-order fit with fewer direct regressors than PAD_DIRECT is padded with zero
+    # columns whose coefficients are held at 0 (they cost no scan of the memory): the
+    # springpot shares the Maxwell law's compiled program, the Kelvin–Voigt law the Zener's
+    # (`compare` fits all four); a fit on knots is a program of its own anyway, not padded
+    deep = max(v.shape[1], PAD_DIRECT) if num_knots == 1 else v.shape[1]
+    v_pad = jnp.concatenate([v, jnp.zeros((n_all, deep - v.shape[1]), v.dtype)], axis=1)
+    real = np.arange(signs.size)  # the coefficients that are not padding, first
     active = np.ones(signs.size)
     while True:
+        active_pad = np.zeros(width + deep)
+        active_pad[real] = active
         out = _fit(
-            mem, u2, v, big_y, sw, jnp.asarray(active), jnp.asarray(order0, big_y.dtype),
-            num_knots, bounds, estimate, jnp.asarray(rtol, big_y.dtype),
-            jnp.asarray(atol, big_y.dtype), max_steps, throw,
+            mem, u2, v_pad, big_y, sw, jnp.asarray(active_pad),
+            jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
+            jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
         )
+        out["p"], out["p_stderr"] = out["p"][real], out["p_stderr"][real]
+        out["p_cov"] = out["p_cov"][np.ix_(real, real)]
         se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
         if not _hold_worst(active, signs, np.asarray(out["p"]), se):
             break
