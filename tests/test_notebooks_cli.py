@@ -83,6 +83,28 @@ def test_tissue_notebook_executes():
     assert "order_drift" in myocardium and "parameter_drift" in myocardium, text
 
 
+@pytest.mark.slow
+def test_model_and_design_notebook_executes():
+    """The walk-through of `compare` and of experiment design on the shipped adhesive record:
+    it runs, the variable order is ranked first (the adhesive's order moves, by a Bayes factor
+    no constant-order law comes near), and the designed staircase's predicted band is at least
+    2× narrower than the recorded protocol's, for the refit's knots and for the tracker at each
+    order drift."""
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    nb = nbformat.read(ROOT / "notebooks" / "which_model_which_test.ipynb", as_version=4)
+    nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str(ROOT / "notebooks")}}).execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.output_type == "error"]
+    text = "".join(o.get("text", "") for o in outputs)
+    assert "best: variable" in text, text
+    ratio = float(re.search(r"band ratio, recorded / designed: ([\d.]+)", text)[1])
+    assert ratio >= 2.0, text
+    drifts = re.findall(r"tracker's band ±([\d.]+) recorded, ±([\d.]+) designed", text)
+    assert len(drifts) == 3 and all(float(a) >= 2.0 * float(b) for a, b in drifts), text
+
+
 def _run(args, cwd):
     env = dict(os.environ)
     env.pop("XLA_FLAGS", None)
