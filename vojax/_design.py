@@ -27,10 +27,8 @@ import jax.numpy as jnp
 
 from . import _validate as check
 from ._integral import DEFAULT_TOL, _prepare
+from ._tracker._track import PRIOR_BETA_VAR  # the tracker's spread of β at the first sample
 
-# the tracker's prior spread of the order's logistic coordinate at the first sample
-# (`vojax._tracker._track.PRIOR_BETA_VAR`, checked equal by the tests)
-PRIOR_BETA_VAR = 4.0
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000
 
@@ -129,11 +127,7 @@ def fisher_information(
     if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
         raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
     if order_drift is not None:
-        if not (isinstance(order_drift, (int, float)) and not isinstance(order_drift, bool)
-                and 0 < order_drift < math.inf):
-            raise ValueError(
-                f"`order_drift` must be a positive finite number, got {order_drift!r}."
-            )
+        order_drift = float(check.positive(order_drift, "order_drift"))
         if knots != 1:
             raise ValueError("give either `knots` or `order_drift`, not both.")
         if num > MAX_DRIFT_SAMPLES:
@@ -141,6 +135,8 @@ def fisher_information(
                 f"`order_drift` takes at most {MAX_DRIFT_SAMPLES} samples (a dense covariance "
                 f"of the order at every sample), got {num}: plan on a coarser grid."
             )
+    if order_drift is not None:  # the prior is on the order's logistic coordinate
+        check.order(order, num, bounds=order_range)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
     # the grid, the orders and the memory checked and built as `fractional_integral` does;
     # Φ and ∂Φ/∂b from one scan
@@ -188,11 +184,6 @@ def _drift_precision(times, order, order_range, order_drift):
     `PRIOR_BETA_VAR`, and ``dβ = dα / α'(β)``."""
     lo, hi = (float(v) for v in order_range)
     z = (order - lo) / (hi - lo)
-    if not np.all((z > 0) & (z < 1)):
-        raise ValueError(
-            f"`order` must lie strictly inside `order_range` {order_range} for `order_drift` "
-            "(the prior is on its logistic coordinate)."
-        )
     slope = (hi - lo) * z * (1.0 - z)  # dα/dβ
     step_var = order_drift * np.diff(times) / (times[-1] - times[0])
     diff = np.diff(np.eye(times.size), axis=0) / slope  # β_{k+1} − β_k in the order's units

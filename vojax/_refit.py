@@ -372,18 +372,16 @@ def refit(
     # (`compare` fits all four); a fit on knots is a program of its own anyway, not padded
     deep = max(v.shape[1], PAD_DIRECT) if num_knots == 1 else v.shape[1]
     v_pad = jnp.concatenate([v, jnp.zeros((n_all, deep - v.shape[1]), v.dtype)], axis=1)
-    real = np.arange(signs.size)  # the coefficients that are not padding, first
-    active = np.ones(signs.size)
+    count = signs.size  # the coefficients that are not padding come first
+    active = np.ones(count)
     while True:
-        active_pad = np.zeros(width + deep)
-        active_pad[real] = active
         out = _fit(
-            mem, u2, v_pad, big_y, sw, jnp.asarray(active_pad),
+            mem, u2, v_pad, big_y, sw, jnp.asarray(np.pad(active, (0, width + deep - count))),
             jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
             jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
         )
-        out["p"], out["p_stderr"] = out["p"][real], out["p_stderr"][real]
-        out["p_cov"] = out["p_cov"][np.ix_(real, real)]
+        out["p"], out["p_stderr"] = out["p"][:count], out["p_stderr"][:count]
+        out["p_cov"] = out["p_cov"][:count, :count]
         se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
         if not _hold_worst(active, signs, np.asarray(out["p"]), se):
             break

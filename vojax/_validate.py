@@ -90,7 +90,8 @@ def order(order, num_samples: int, name: str = "order", bounds=(0.0, 1.0), close
             i = int(np.argmax(outside))
             brackets = "[{}, {}]" if closed else "({}, {})"
             raise ValueError(
-                f"`{name}` must lie in {brackets.format(lo, hi)}, got {values[i]!r} at sample {i}."
+                f"`{name}` must lie in {brackets.format(lo, hi)}, got {float(values[i])!r} at "
+                f"sample {i}."
             )
     return arr
 
