@@ -118,6 +118,27 @@ def _calibration_rows(path, method):
     return rows
 
 
+def test_the_docs_band_components_table_is_the_scripts_summary():
+    """The identifiability page's table of what sets the band's width is the summary that
+    scripts/band_components.py computes from its per-record results (recomputed here)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "band_components", ROOT / "scripts" / "band_components.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    lines = (ROOT / "scripts" / "results" / "band_components.txt").read_text().splitlines()
+    table = lines[: next(i for i, x in enumerate(lines) if x.startswith("| parameters"))]
+    expected = _markdown_tables("\n".join(module.summarise(table)) + "\n")
+    docs = [
+        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
+        if t[0][:2] == ["parameters", "records"]
+    ]
+    assert len(expected) == 1 and len(expected[0]) == 3  # the header and two groups
+    assert docs == expected
+
+
 def test_the_docs_calibration_tables_are_the_benchmarks_results():
     """The four calibration tables of the identifiability page, and the README's summary of
     the held-out draws, are those of scripts/results/ (the benchmark's own output)."""
