@@ -671,6 +671,26 @@ MUTATIONS = {
         [('        out["p_cov"] = out["p_cov"][:count, :count]\n', "")],
         ["tests/test_refit.py::test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit"],
     ),
+    "a known offset's prior left wide": (
+        "vojax/_tracker/_track.py",
+        [("    offset = OFFSET_PIN if offset_known else PRIOR_VAR", "    offset = PRIOR_VAR")],
+        ["tests/test_offset.py"],
+    ),
+    "a known offset not made the output's reference": (
+        "vojax/_tracker/_track.py",
+        [("        scales = dataclasses.replace(scales, y_ref=float(x0))", "        pass")],
+        ["tests/test_offset.py"],
+    ),
+    "a known offset's least squares keep their offset column": (
+        "vojax/_tracker/_track.py",
+        [("    if offset:\n        x = np.concatenate", "    if True:\n        x = np.concatenate")],
+        ["tests/test_offset.py"],
+    ),
+    "a known offset reported as estimated": (
+        "vojax/_tracker/_track.py",
+        [("x0=as_jax(scales.y_ref if known else", "x0=as_jax(scales.y_ref + 0.0 if False else")],
+        ["tests/test_offset.py"],
+    ),
 }
 
 

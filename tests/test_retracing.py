@@ -80,6 +80,8 @@ def test_tracker_traces_once(monkeypatch):
     vojax.identify(u, y, 0.1, method="kalman", warn=False)
     u2, y2 = _record(120, 0.6, 7)
     vojax.identify(u2, y2, 0.1 * 1.01, method="kalman", warn=False)
+    # a known offset is held by the prior: the same programs
+    vojax.identify(u2, y2, 0.1, method="kalman", x0=0.0, warn=False)
     assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1]
 
 

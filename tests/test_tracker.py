@@ -402,7 +402,6 @@ def test_wide_band_warns():
     "kwargs, match",
     [
         (dict(method="ekf"), "`method` must be one of"),
-        (dict(method="kalman", x0=0.0), "`x0` is estimated"),
         (dict(method="kalman", noise=dict(order_drift=1.0)), "`noise` must be a dict"),
         (dict(method="gradient", lam="auto"), "`lam` must be a positive number or None"),
         (dict(method="gradient", r0="eye"), "`r0` must be 'auto'"),

@@ -353,6 +353,18 @@ def check_mask(mask, num, num_inputs):
     return arr
 
 
+def known_offset(x0) -> float:
+    """`x0` as a finite Python float (the tracker's known output offset), or a one-sentence
+    `ValueError`."""
+    try:
+        arr = np.asarray(x0, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"`x0` must be a finite number (the output's offset), got {x0!r}.")
+    if arr.ndim != 0 or not np.isfinite(arr):
+        raise ValueError(f"`x0` must be a finite number (the output's offset), got {x0!r}.")
+    return float(arr)
+
+
 def _scalar(x, name):
     arr = jnp.asarray(x, jnp.result_type(float))
     if arr.ndim != 0:
@@ -550,7 +562,7 @@ def identify(
       integrates over the local step ``t_k − t_{k−1}`` (LSFF's forgetting ``e^{−λh_k}``, the
       order law's ``h_k γ``); gains and forgetting keep their units (1/time).
     - `method`, `smooth`: see above.
-    - `gamma`, `lam`, `alpha0`, `r0`, `x0`: the law's settings (``method="gradient"`` only;
+    - `gamma`, `lam`, `alpha0`, `r0`: the law's settings (``method="gradient"`` only;
       given with the tracker they are an error, never ignored).
     - `gamma`: the law's order gain γ > 0, or ``"auto"`` (the default, None) to choose it by
       `tune_gains` from normalised signals (unit-free). A number is taken literally, as the
@@ -561,7 +573,14 @@ def identify(
     - `alpha_bounds`: the order range ⊂ (0, 1); default (0.05, 0.95) for the law (its
       projection), (0.01, 0.99) for the tracker.
     - `memory`: ``"exponential"`` (O(1) per sample) or ``"direct"``; `rule`: the quadrature.
-    - `x0`: the law's initial output (default ``y[0]``); the tracker estimates it (pass None).
+    - `x0`: the output's offset, in the units of `y`: the output the system gives before
+      any input (the reading of a tared sensor at rest, often 0). The law's initial output
+      (default ``y[0]``). The tracker estimates it unless given (None, the default); given,
+      the tracker holds it there. A known offset removes a trade-off that one input leaves:
+      a lower order with larger parameters and a shifted offset can fit a record almost as
+      well, and on the calibration suite the bands with the offset known are narrower and
+      the order closer to the truth (`docs/identifiability.md`). Give it only when it is
+      known: a wrong offset moves the order.
     - `r0`: the law's initial information ``R_0``: ``"auto"`` (the default, None: one sample's worth at
       α̂(0), scaled to the inputs), or an ``(n, n)`` matrix taken literally (the paper's
       ``P(0) = I`` is ``np.eye(n)``).
@@ -604,8 +623,7 @@ def identify(
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
     if method == "kalman":
-        if x0 is not None:
-            raise ValueError("`x0` is estimated by method='kalman'; leave it None.")
+        x0 = None if x0 is None else known_offset(x0)
         law = dict(gamma=gamma, lam=lam, alpha0=alpha0, r0=r0)
         given = [f"`{k}`" for k, v in law.items() if v is not None]
         if given:
@@ -622,7 +640,7 @@ def identify(
             )
         return _identify_kalman(
             u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn, parameters,
-            max_points,
+            max_points, x0,
         )
     if max_points is not None:
         raise ValueError(
@@ -740,7 +758,7 @@ def law_identification(
 
 
 def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters,
-                  size, span):
+                  size, span, x0=None):
     """The tracker on the means of blocks of `size` samples of the record's first `span`
     samples (padding after them is not the record's; see `vojax._tracker._blocks`), its
     estimates brought back to every sample: the order, its band and the parameters linear
@@ -764,6 +782,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     res = track(
         mem_b, jnp.asarray(u_b), jnp.asarray(y_b), None, bounds, smooth=smooth, hyper=noise,
         mask=None if mask is None else jnp.asarray(mask_b), times=t_b, parameters=parameters,
+        x0=x0,
     )
     mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
     # the coarse clock's model error at the constant-order fit, against a block mean's noise
@@ -774,7 +793,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
                                       False))
 
     phi_b = phi_at_constant(mem_b, jnp.asarray(u_b))
-    coef = _least_squares(phi_b, y_b, mask_b)[1]
+    coef = _least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
     error = ((block_average(phi_at_constant(mem, u2)[:span], size) - phi_b) @ coef[:-1])
     fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
     block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
@@ -803,7 +822,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
 
 def _identify_kalman(
     u, y, dt, t, smooth, alpha_bounds, memory, rule, noise, mask, tol, warn,
-    parameters="drifting", max_points=None,
+    parameters="drifting", max_points=None, x0=None,
 ):
     from ._tracker import track
 
@@ -828,13 +847,13 @@ def _identify_kalman(
     if size > 1:
         res, fit = _track_blocks(
             u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, parameters, size,
-            length,
+            length, x0,
         )
     else:
         mem = make_memory(memory, dt, u2.shape[0], rule=rule, tol=tol, order_range=bounds, times=t)
         res = track(
             mem, u2, y, dt, bounds, smooth=smooth, hyper=noise, mask=mask, times=t,
-            parameters=parameters,
+            parameters=parameters, x0=x0,
         )
         fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
                    held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask)

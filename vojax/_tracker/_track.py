@@ -29,6 +29,9 @@ from ._smoother import (
 
 PRIOR_BETA_VAR = 4.0  # β = logit of the order's place in its range: ±2 covers 12 %…88 %
 PRIOR_VAR = 100.0  # normalised parameters and offset: ±10 × the data's scale
+# a known offset (`identify(x0=…)`) is held by a prior of this variance (normalised units:
+# ±2e-5 of the output's RMS), so that it runs the same compiled programs as an estimated one
+OFFSET_PIN = 1e-10
 NOISE_MIN = 1e-10  # the smallest measurement noise searched (normalised variance)
 # the box of the likelihood search, natural logs of normalised intensities
 BOX = {
@@ -166,36 +169,42 @@ def phi_columns(memory, x, alpha):
     )[:, :m]
 
 
-def _least_squares(x, y, mask, whiten=None):
-    """Weighted least squares with an offset column, on the host: ``(rss, coef)``. With
-    `whiten` (see `ar_whitener`), generalised least squares: the columns and `y` whitened
-    first, and `rss` is then the χ²."""
-    x = np.concatenate([x, np.ones((x.shape[0], 1), x.dtype)], axis=1)
+def _least_squares(x, y, mask, whiten=None, offset=True):
+    """Weighted least squares with an offset column, on the host: ``(rss, coef)``, the offset
+    last. With `whiten` (see `ar_whitener`), generalised least squares: the columns and `y`
+    whitened first, and `rss` is then the χ². ``offset=False``: the offset is known to be 0
+    (no column; its coefficient 0)."""
+    if offset:
+        x = np.concatenate([x, np.ones((x.shape[0], 1), x.dtype)], axis=1)
     if whiten is not None:
         x, y = whiten(x), whiten(y)
     w = np.sqrt(mask)
     coef = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)[0]
     res = (y - x @ coef) * w
+    if not offset:
+        coef = np.concatenate([coef, np.zeros(1, coef.dtype)])
     return float(res @ res), coef
 
 
-def _constant_profile(memory, u, y, mask, alpha):
+def _constant_profile(memory, u, y, mask, alpha, offset=True):
     """Residual sum of squares and ``[p, c]`` of the least-squares fit at a constant order,
-    and the RMS of each column of ``Φ`` (`u`, `y`, `mask`: host arrays)."""
+    and the RMS of each column of ``Φ`` (`u`, `y`, `mask`: host arrays); ``offset=False``:
+    ``c`` known to be 0."""
     phi = phi_columns(memory, u, alpha)
-    rss, coef = _least_squares(phi, y, mask)
+    rss, coef = _least_squares(phi, y, mask, offset=offset)
     return rss, coef, np.sqrt(np.sum(mask[:, None] * phi**2, 0) / np.sum(mask))
 
 
-def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24):
-    """Constant-order least squares with offset: a grid in β, then golden-section search in β
-    between the best grid point's neighbours. Returns ``(α, coef, rss, rms of Φ columns)``."""
+def constant_fit(memory, u, y, mask, bounds, num_grid=13, golden_steps=24, offset=True):
+    """Constant-order least squares with offset (``offset=False``: the offset known to be 0):
+    a grid in β, then golden-section search in β between the best grid point's neighbours.
+    Returns ``(α, coef, rss, rms of Φ columns)``."""
     betas = np.linspace(-4.5, 4.5, num_grid)
     u, y, mask = (np.asarray(a) for a in (u, y, mask))  # once, not at each of ~40 orders
 
     def at(beta):
         alpha, _ = order_of_np(beta, bounds)
-        return _constant_profile(memory, u, y, mask, alpha)
+        return _constant_profile(memory, u, y, mask, alpha, offset)
 
     values = [float(at(b)[0]) for b in betas]
     i = int(np.nanargmin(values))
@@ -302,10 +311,10 @@ def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps
     return Hyper.from_array(lo + (hi - lo) * jax.nn.sigmoid(zeta))
 
 
-def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
+def starting_trajectories(memory, u, y, mask, bounds, alpha_c, offset=True):
     """Constant-order trajectories to start the smoother from: the constant fit's order (kept
     off the flat ends of the logistic map) and `START_ORDERS` across the range, each with its
-    least-squares parameters and offset. Returns (S, d)."""
+    least-squares parameters and offset (``offset=False``: 0). Returns (S, d)."""
     lo, hi = bounds
     frac = (alpha_c - lo) / (hi - lo)
     # always the same number of starts: one compiled program for every record of a shape
@@ -314,7 +323,7 @@ def starting_trajectories(memory, u, y, mask, bounds, alpha_c):
     out = []
     for f in fracs:
         alpha = lo + (hi - lo) * f
-        _, coef, _ = _constant_profile(memory, u, y, mask, alpha)
+        _, coef, _ = _constant_profile(memory, u, y, mask, alpha, offset)
         out.append(np.concatenate([[float(beta_of_np(alpha, bounds))], np.asarray(coef)]))
     return np.stack(out)
 
@@ -363,11 +372,12 @@ def hat_basis(times, last, knots=TRADE_KNOTS):
     return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
 
 
-def _drift_profile(memory, u, y, mask, alphas, basis, whiten=None):
+def _drift_profile(memory, u, y, mask, alphas, basis, whiten=None, offset=True):
     """Weighted residual sums of squares (A, 2) of least squares at each constant order of
-    `alphas` with an offset and the parameters free to drift, ``p_j(t) = Σ_k a_jk B_k(t)``:
-    as a gain on the memory term (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral
-    (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `_least_squares`)."""
+    `alphas` with an offset (``offset=False``: known to be 0) and the parameters free to
+    drift, ``p_j(t) = Σ_k a_jk B_k(t)``: as a gain on the memory term
+    (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral (``y ≈ c + Σ a_jk I^α(B_k u_j)``);
+    χ² where `whiten` is given (see `_least_squares`)."""
     u, y, mask, basis = (np.asarray(a) for a in (u, y, mask, basis))
     num, n = u.shape
     k = basis.shape[1]
@@ -379,21 +389,21 @@ def _drift_profile(memory, u, y, mask, alphas, basis, whiten=None):
         both = phi_columns(memory, columns, alpha)
         phi, inside = both[:, :n], both[:, n:]
         gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
-        out.append([_least_squares(gain, y, mask, whiten)[0],
-                    _least_squares(inside, y, mask, whiten)[0]])
+        out.append([_least_squares(gain, y, mask, whiten, offset)[0],
+                    _least_squares(inside, y, mask, whiten, offset)[0]])
     return np.asarray(out)
 
 
-def trade_interval(memory, u, y, mask, times, last, bounds, noise, whiten=None):
+def trade_interval(memory, u, y, mask, times, last, bounds, noise, whiten=None, offset=True):
     """The constant orders ``(lo, hi)`` with which a drifting parameter explains the data as
     well as the best such fit (``Δχ² ≤ TRADE_CHI2`` at the measurement variance `noise`, on the
     same scale as `y`, or under a coloured noise's `whiten`), over the forms (gain, inside)
     whose best fit passes a χ² test at 2σ (``χ² ≤ dof + 2√(2 dof)``); None when neither
-    explains the data."""
+    explains the data. ``offset=False``: the offset is known to be 0."""
     lo, hi = bounds
     alphas = np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1]
     basis = hat_basis(times, last)
-    chi2 = _drift_profile(memory, u, y, mask, alphas, basis, whiten)
+    chi2 = _drift_profile(memory, u, y, mask, alphas, basis, whiten, offset)
     chi2 = chi2 / noise if whiten is None else chi2
     dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
     found = []
@@ -763,12 +773,14 @@ def _scan_filter(tracker, u, y, steps, mask):
     return out
 
 
-def prior(num_inputs, dtype, coloured=False):
+def prior(num_inputs, dtype, coloured=False, offset_known=False):
     """Prior of θ_0 in normalised units, the same whatever the start: the order's β centred
     on the middle of the range, parameters and offset centred on zero, all wide; `coloured`:
     with a coloured noise's AR(1) part last, centred on zero (its variance, here 1, is set by
-    the intensities: `Hyper.initial`)."""
-    var = [PRIOR_BETA_VAR] + [PRIOR_VAR] * (num_inputs + 1) + [1.0] * coloured
+    the intensities: `Hyper.initial`); `offset_known`: the offset held at zero (variance
+    `OFFSET_PIN`: the same program as an estimated offset)."""
+    offset = OFFSET_PIN if offset_known else PRIOR_VAR
+    var = [PRIOR_BETA_VAR] + [PRIOR_VAR] * num_inputs + [offset] + [1.0] * coloured
     return jnp.asarray(np.zeros(len(var), dtype)), jnp.asarray(np.diag(np.asarray(var, dtype)))
 
 
@@ -799,7 +811,10 @@ class TrackResult(eqx.Module):
     drift_covered: bool = eqx.field(static=True, default=False)
 
 
-def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold):
+def _coloured(
+    memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold,
+    offset_known=False,
+):
     """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
     white-noise model's prediction errors are correlated beyond `correlation_limit`; kept when
     its evidence is higher by more than `COLOURED_EVIDENCE` and its correlation time is not at
@@ -817,7 +832,7 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
     span = float(horizon)
     time_min = NOISE_TIME_MIN * step / span
     half = max(tuning.noise / 2, noise_floor)
-    m0, p0 = prior(u.shape[1], u.dtype, coloured=True)
+    m0, p0 = prior(u.shape[1], u.dtype, coloured=True, offset_known=offset_known)
     theta = np.asarray(sm.theta)
     starts = np.concatenate([np.asarray(starts), np.zeros((len(starts), 1))], axis=1)
     nominal = jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1))
@@ -849,12 +864,13 @@ def _coloured(memory, u, y, mask, steps, horizon, sm, tuning, starts, bounds, no
 
 def track(
     memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3, times=None,
-    parameters="drifting",
+    parameters="drifting", x0=None,
 ):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
     `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `hyper` with a
     parameter drift at most `PARAM_DRIFT0`): their drift held there, and the band conditional
-    on it (no `trade_interval`)."""
+    on it (no `trade_interval`). `x0`: the output's offset, known (held there) or None
+    (estimated)."""
     # parameters stated constant, or given a drift no larger than the floor (`noise=`)
     hold = parameters == "constant" or (
         hyper is not None and float(hyper["parameter_drift"]) <= PARAM_DRIFT0
@@ -863,16 +879,21 @@ def track(
     dtype = np.dtype(u.dtype)
     mask = jnp.asarray(np.ones((num,), dtype) if mask is None else np.asarray(mask, dtype))
     scales = data_scales(u, y, mask)
+    known = x0 is not None  # the offset known: the output normalised about it, held at 0
+    if known:
+        scales = dataclasses.replace(scales, y_ref=float(x0))
     # host arithmetic before the compiled programs (an eager JAX operation compiles its own)
     un = np.asarray(u) / np.asarray(scales.u_scale)
     yn = jnp.asarray((np.asarray(y) - scales.y_ref) / scales.y_scale)
-    alpha_c, _, rss, rms_phi = constant_fit(memory, jnp.asarray(un), yn, mask, bounds)
+    alpha_c, _, rss, rms_phi = constant_fit(
+        memory, jnp.asarray(un), yn, mask, bounds, offset=not known
+    )
     if not np.all(rms_phi > 0):
         raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
     # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
     un = jnp.asarray(un / np.asarray(rms_phi))
     p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
-    m0, p0 = prior(n, u.dtype)
+    m0, p0 = prior(n, u.dtype, offset_known=known)
     # the step after each sample, t_{k+1} − t_k (the last one repeated); arrays, not Python
     # numbers: a new record length or step must not recompile
     if times is None:
@@ -885,7 +906,7 @@ def track(
     last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
     span = float(np.asarray(times)[last] - np.asarray(times)[0])
     horizon = jnp.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype)
-    starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c)
+    starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c, offset=not known)
     dof = max(float(np.sum(np.asarray(mask))) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
     noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
@@ -915,7 +936,8 @@ def track(
     whiten = None
     if smooth and tuning.tuned:
         coloured = _coloured(
-            memory, un, yn, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold
+            memory, un, yn, mask, steps, horizon, sm, tuning, starts, bounds, noise_floor, hold,
+            known,
         )
         if coloured is not None:
             hyper, sm, tuning, m0, p0, starts = coloured
@@ -967,7 +989,7 @@ def track(
         lower = np.minimum(lower, order_of_np(envelope[0], bounds)[0])
         upper = np.maximum(upper, order_of_np(envelope[1], bounds)[0])
     trade = None if hold else trade_interval(
-        memory, un, yn, mask, times, last, bounds, fit_noise, whiten
+        memory, un, yn, mask, times, last, bounds, fit_noise, whiten, offset=not known
     )
     if trade is not None:  # the band covers the constant orders a drifting parameter allows
         lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])
@@ -984,8 +1006,8 @@ def track(
         alpha_upper=as_jax(upper),
         p=as_jax(theta[:, 1 : 1 + n] * scale),
         p_std=as_jax(np.sqrt(var[:, 1 : 1 + n]) * scale),
-        x0=as_jax(scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
-        x0_std=as_jax(scales.y_scale * np.sqrt(var[-1, 1 + n])),
+        x0=as_jax(scales.y_ref if known else scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
+        x0_std=as_jax(0.0 if known else scales.y_scale * np.sqrt(var[-1, 1 + n])),
         y_hat=as_jax(scales.y_ref + scales.y_scale * y_hat_n),
         y_pred=as_jax(scales.y_ref + scales.y_scale * y_pred_n),
         converged=converged,
