@@ -30,10 +30,13 @@ draw is seeded from its family and index.
 
 Methods: ``tracker`` (`identify`'s default: the parameters may drift), ``tracker-constant``
 (``parameters="constant"``: the user states that they do not; false on the drift families,
-which measure what that costs) and ``law`` (the paper's law, automatic gains).
+which measure what that costs), ``tracker-x0`` and ``tracker-constant-x0`` (the same with the
+output's offset stated, ``x0=0``: true of every draw, whose output starts from rest) and
+``law`` (the paper's law, automatic gains).
 
-    python scripts/bench_calibration.py [--per-family 12] [--methods tracker tracker-constant law]
-        [--families ...] [--workers 2] [--out scripts/results/bench_calibration.txt]
+    python scripts/bench_calibration.py [--per-family 12] [--methods tracker tracker-constant
+        tracker-x0 tracker-constant-x0 law] [--families ...] [--workers 2] [--threads N]
+        [--out scripts/results/bench_calibration.txt]
 """
 
 import argparse
@@ -264,6 +267,10 @@ def run_method(method, case, max_points=None):
             res = vojax.identify(
                 case["u"], case["y"], method="kalman", parameters="constant", warn=False, **grid
             )
+        elif method in ("tracker-x0", "tracker-constant-x0"):  # the offset known (0 here)
+            parameters = "constant" if method == "tracker-constant-x0" else "drifting"
+            res = vojax.identify(case["u"], case["y"], method="kalman", parameters=parameters,
+                                 x0=0.0, warn=False, **grid)
         elif method == "law":
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
         else:
@@ -308,11 +315,14 @@ def score(case, out):
 
 
 def _worker(job):
-    family, index, methods, data, max_points, reuse = job
+    family, index, methods, data, max_points, reuse, threads = job
+    import contextlib
+
     import jax
 
     jax.config.update("jax_enable_x64", True)
     from vojax._identify import MAX_POINTS
+    from vojax._tracker._track import run_threads
 
     signals = _SIGNALS.get(data)
     if signals is None:
@@ -328,7 +338,8 @@ def _worker(job):
             continue
         started = time.perf_counter()
         try:
-            out = run_method(method, case, max_points)
+            with run_threads(threads) if threads else contextlib.nullcontext():
+                out = run_method(method, case, max_points)
             row = score(case, out)
         except ValueError as e:  # a refusal by error counts as not identified
             row = dict(coverage=float("nan"), inside=0, count=0, z_rms=float("nan"),
@@ -383,8 +394,12 @@ def main(argv=None):
         help="index of the first draw (the thresholds were set on draws 0–11; 12 on are held out)",
     )
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
-    parser.add_argument("--methods", nargs="*", default=["tracker", "tracker-constant", "law"])
+    parser.add_argument("--methods", nargs="*", default=[
+        "tracker", "tracker-constant", "tracker-x0", "tracker-constant-x0", "law"])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--threads", type=int, default=None,
+                        help="threads of one record's smoothings (default: one per core, at "
+                        "most 8); 1 where every core runs a worker")
     parser.add_argument("--data", default=str(DATA))
     parser.add_argument("--max-points", type=int, default=None,
                         help="the tracker's max_points (default: identify's): longer records "
@@ -402,7 +417,7 @@ def main(argv=None):
     if args.reuse:
         reuse = {(r["family"], r["index"], r["method"]): r
                  for r in json.loads(Path(args.reuse).read_text())}
-    jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse)
+    jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse, args.threads)
             for i in range(args.first, args.first + args.per_family) for f in args.families]
     started = time.perf_counter()
     rows = []

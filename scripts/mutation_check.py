@@ -686,6 +686,12 @@ MUTATIONS = {
         [("    if offset:\n        x = np.concatenate", "    if True:\n        x = np.concatenate")],
         ["tests/test_offset.py"],
     ),
+    "the command line's offset not in the model's output unit": (
+        "vojax/_data/_pipeline.py",
+        [('extra["x0"] = float(x0) / (1.0 if model == "linear" else (length or 1.0))',
+          'extra["x0"] = float(x0)')],
+        ["tests/test_offset.py::test_the_command_line_offset_is_in_the_files_unit"],
+    ),
     "a known offset reported as estimated": (
         "vojax/_tracker/_track.py",
         [("x0=as_jax(scales.y_ref if known else", "x0=as_jax(scales.y_ref + 0.0 if False else")],

@@ -143,8 +143,9 @@ def test_the_docs_band_components_tables_are_the_scripts_summaries():
 
 
 def test_the_docs_calibration_tables_are_the_benchmarks_results():
-    """The four calibration tables of the identifiability page, and the README's summary of
-    the held-out draws, are those of scripts/results/ (the benchmark's own output)."""
+    """The eight calibration tables of the identifiability page (the offset estimated, then
+    known), and the README's summary of the held-out draws, are those of scripts/results/
+    (the benchmark's own output)."""
     results = ROOT / "scripts" / "results"
     tables = [
         t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
@@ -152,10 +153,11 @@ def test_the_docs_calibration_tables_are_the_benchmarks_results():
     ]
     expected = [
         _calibration_rows(results / name, method)
+        for offset in ("", "-x0")  # the offset estimated, then known
         for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")
-        for method in ("tracker", "tracker-constant")
+        for method in ("tracker" + offset, "tracker-constant" + offset)
     ]
-    assert len(tables) == 4 and all(len(rows) == 10 for rows in expected)
+    assert len(tables) == 8 and all(len(rows) == 10 for rows in expected)
     assert [t[1:] for t in tables] == expected
     pooled = dict(zip(["family", "identified", "coverage", "z", "order", "wrong"],
                       expected[2][-1]))
@@ -165,3 +167,22 @@ def test_the_docs_calibration_tables_are_the_benchmarks_results():
     assert (f"{wrong} of the {done} records it calls identified is confidently wrong" in readme
             and f"pooled coverage {pooled['coverage']}" in readme
             and f"it identifies {round(100 * done / total)} % of the {total} records" in readme)
+
+
+def test_the_docs_band_rules_table_is_the_scripts_summary():
+    """The identifiability page's table of band rules is the summary at the head of
+    scripts/results/band_rules.txt, and its first rule of each setting (the band as reported)
+    counts what the calibration suite's results count for that setting."""
+    lines = (ROOT / "scripts" / "results" / "band_rules.txt").read_text()
+    expected = _markdown_tables(lines)[0]
+    docs = [
+        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
+        if t[0][:2] == ["parameters", "band"]
+    ]
+    assert docs == [expected]
+    results = ROOT / "scripts" / "results"
+    for setting, method in (("drifting", "tracker"), ("constant", "tracker-constant")):
+        row = next(r for r in expected if r[0] == setting and r[1].startswith("reported"))
+        pooled = [_calibration_rows(results / name, method)[-1]
+                  for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")]
+        assert row[2:] == [c for r in pooled for c in (r[1], r[5].split("/")[0])]

@@ -1,6 +1,12 @@
 """The tracker with the output's offset known (`identify(..., x0=…)`): held exactly, the same
 as a shift of the output, narrower bands where the offset traded off with the order."""
 
+import csv
+import json
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -89,3 +95,41 @@ def test_a_known_offset_must_be_a_finite_number(x0):
     t, u, y, _ = _creep(seed=2)
     with pytest.raises(ValueError, match="`x0` must be a finite number"):
         vojax.identify(u, y, DT, x0=x0)
+
+
+def _cli(*args, cwd):
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True)
+
+
+def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
+    """``--x0`` is the output column's reading at rest: with ``--length`` the tracker holds
+    the strain's offset at x0/length, as `vojax.identify(x0=…)` on the strain does."""
+    a, ell, d0 = 2.0, 5.0, 0.3
+    t, u, strain, _ = _creep(seed=3)
+    force, d = a * u, d0 + ell * strain
+    with open(tmp_path / "fd.csv", "w") as f:
+        f.write("time_s,F,d\n" + "".join(f"{x!r},{y!r},{z!r}\n"
+                                         for x, y, z in zip(t.tolist(), force.tolist(), d.tolist())))
+    common = ("identify", "fd.csv", "--time", "time_s", "--input", "F", "--output", "d",
+              "--area", str(a), "--length", str(ell), "--parameters", "constant")
+    proc = _cli(*common, "--x0", str(d0), "--out", "o", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["kalman"]["offset_model"] == "known"
+    assert summary["kalman"]["x0"] == pytest.approx(d0 / ell, rel=1e-12)
+    assert summary["kalman"]["x0_std"] == 0.0
+    assert summary["provenance"]["settings"]["x0"] == d0
+    with open(tmp_path / "o" / "identification.csv") as f:
+        alpha = np.array([float(r["alpha"]) for r in csv.DictReader(f)])
+    ref = vojax.identify(force / a, d / ell, DT, parameters="constant", x0=d0 / ell, warn=False)
+    np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-6)
+    # the offset is the tracker's: refused with the law, and a non-number is refused
+    for extra, said in ((("--method", "gradient"), "--x0 sets the tracker"),
+                        ((), "argument --x0: expected a finite number")):
+        bad = _cli(*common[:-2], "--x0", "inf" if not extra else "0", *extra, "--out", "p",
+                   cwd=tmp_path)
+        assert bad.returncode != 0 and said in bad.stderr
+        assert len(bad.stderr.strip().splitlines()) == 1
+        assert not (tmp_path / "p").exists()

@@ -447,6 +447,16 @@ def _data_options(p, *, many: bool):
         "assumption only)",
     )
     p.add_argument(
+        "--x0",
+        type=_finite,
+        default=None,
+        metavar="VALUE",
+        help="the output's offset, where it is known (the output column's reading at rest, in "
+        "its unit; a tared sensor reads 0): the tracker holds it there instead of estimating "
+        "it, which narrows the order's band where the order's level, the parameters' scale and "
+        "the offset trade off; as vojax.identify(x0=...)",
+    )
+    p.add_argument(
         "--max-points",
         type=int,
         default=None,
@@ -520,7 +530,7 @@ def _law_options(args):
         )
     points = getattr(args, "max_points", None)
     for name, value in (("--parameters", getattr(args, "parameters", None)),
-                        ("--max-points", points)):
+                        ("--max-points", points), ("--x0", getattr(args, "x0", None))):
         if value is not None and not args.method.startswith("kalman"):
             raise CLIError(
                 f"{name} sets the tracker, which --method {args.method} does not run; add "
@@ -578,6 +588,7 @@ def _settings(args) -> dict:
         **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
         **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
         **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
+        **({"x0": args.x0} if getattr(args, "x0", None) is not None else {}),
         **({"compare": True} if getattr(args, "compare", False) else {}),
     )
 

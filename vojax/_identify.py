@@ -416,14 +416,16 @@ def diagnose(
             f"the order band is ±{width:.2g} wide because a drifting parameter explains the "
             f"data as well{where}: an order and a drifting parameter can trade off (with one "
             "input they always do), and the band covers both; if the parameters are known not "
-            "to drift, say so (parameters='constant', --parameters constant), otherwise "
+            "to drift, say so (parameters='constant', --parameters constant), and the output's "
+            "offset where it is measured (x0=, --x0); otherwise "
             "another input or a test with another loading would separate them"
         )
     elif width > IDENTIFIED_HALFWIDTH:
         problems.append(
             f"the order band is ±{width:.2g} wide: these data do not determine the order "
-            "(a test with a longer hold or a second input would, or a refit with fewer free "
-            "parameters: a constant order or a few knots)"
+            "(a test with a longer hold or a second input would, or the output's offset where "
+            "it is measured (x0=, --x0), or a refit with fewer free parameters: a constant "
+            "order or a few knots)"
         )
     if at_bound >= 0.05:
         problems.append(

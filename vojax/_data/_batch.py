@@ -213,6 +213,7 @@ def run_batch(
     fit_to=None,
     parameters=None,
     max_points=None,
+    x0=None,
     client=None,
     compare=False,
 ):
@@ -239,15 +240,15 @@ def run_batch(
     `figure_workers` worker processes (default: the cores but one, at least one, at most four;
     0 draws them in this process), off the computation's path; a record counts as done when its
     figure and summary are written. Records on irregular clocks run one at a time, on their own
-    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters` and `max_points`: the
-    tracker's, as in `identify_record`.
+    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`, `max_points` and `x0`:
+    the tracker's, as in `identify_record`.
 
     `client`: a Dask ``distributed.Client`` (``pip install "vojax[dask]"``) to compute the
     records on its workers, in tasks of a few records of one length bucket each (see
     `dask_client`); this process keeps the lock, writes every record's folder and draws the
     figures, as without it. Results equal the single-process run's to rounding.
     """
-    check_parameters(method, parameters, max_points)
+    check_parameters(method, parameters, max_points, x0)
     method = canonical_method(method)
     out_dir = Path(out_dir)
     check_out_holds_no_input(out_dir, [r.source for r in records] + [f[0] for f in failures])
@@ -256,7 +257,7 @@ def run_batch(
         k: v
         for k, v in dict(
             origin=origin, fit_from=fit_from, fit_to=fit_to, parameters=parameters,
-            max_points=max_points,
+            max_points=max_points, x0=None if x0 is None else float(x0),
         ).items()
         if v is not None
     }

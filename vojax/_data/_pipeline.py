@@ -43,12 +43,17 @@ def estimator(method) -> str | None:
     return first if first in ("kalman", "gradient") else None
 
 
-def check_parameters(method, parameters, max_points=None) -> None:
-    """`parameters` and `max_points` (the tracker's) are refused with a method that does not
-    run the tracker."""
+def check_parameters(method, parameters, max_points=None, x0=None) -> None:
+    """`parameters`, `max_points` and `x0` (the tracker's) are refused with a method that does
+    not run the tracker; `x0` must be a finite number."""
+    if x0 is not None:
+        from .._identify import known_offset
+
+        known_offset(x0)
     if estimator(canonical_method(method)) == "kalman":
         return
-    for name, value in (("--parameters", parameters), ("--max-points", max_points)):
+    for name, value in (("--parameters", parameters), ("--max-points", max_points),
+                        ("--x0", x0)):
         if value is not None:
             raise ValueError(
                 f"{name} sets the tracker; use --method kalman or kalman+refit, not {method}."
@@ -402,7 +407,7 @@ def compare_part(record, area=None, length=None):
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
-    max_points=None,
+    max_points=None, x0=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -411,7 +416,8 @@ def identify_record(
     tolerances). `origin` (the test's start, before the first sample) and the fit window
     `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
     the model's coefficients physical (`p_signs`). `parameters`, `max_points`: the
-    tracker's, as in `vojax.identify` (its defaults when None)."""
+    tracker's, as in `vojax.identify` (its defaults when None); `x0`: the tracker's known
+    offset of the output, in the unit of the file's output column (None: estimated)."""
     from .._identify import identify
     from .._refit import refit
 
@@ -426,7 +432,7 @@ def identify_record(
             "--origin, --fit-from and --fit-to set the refit; use --method refit or "
             f"{method}+refit."
         )
-    check_parameters(method, parameters, max_points)
+    check_parameters(method, parameters, max_points, x0)
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
@@ -435,6 +441,8 @@ def identify_record(
     tracker = estimator(method)
     if tracker == "kalman":
         extra = {} if max_points is None else {"max_points": max_points}
+        if x0 is not None:  # in the model's output: the strain, d/length, for a law
+            extra["x0"] = float(x0) / (1.0 if model == "linear" else (length or 1.0))
         res = _padded(
             identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False,
             **extra,
@@ -446,6 +454,7 @@ def identify_record(
         columns.update(cols)
     if tracker == "kalman":
         summary["kalman"]["parameter_model"] = parameters or "drifting"
+        summary["kalman"]["offset_model"] = "estimated" if x0 is None else "known"
     columns["y"] = y
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
