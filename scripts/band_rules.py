@@ -154,24 +154,23 @@ def _record(family, index, setting, data):
     )
     if "tuned" in cap:
         sm = cap["tuned"]
-        n_ = num
-        theta = np.asarray(sm.theta)[:n_, 0]
-        out["tuned"] = dict(beta=theta[sl], var=np.asarray(sm.cov)[:n_, 0, 0][sl],
+        theta = np.asarray(sm.theta)[:, 0]
+        out["tuned"] = dict(beta=theta[sl], var=np.asarray(sm.cov)[sl, 0, 0],
                             score=float(host_score(sm)))
         betas, variances, scores, residuals = cap["mix"]
         fits = [f for ph, f in cap.get("fitting", []) if ph == "mixture"]
         out["mixture"] = dict(
             rows=cap["mix_rows"], starts=cap["starts"], hold=bool(cap["hold"]),
-            beta=betas[:, :n_][:, sl], var=variances[:, :n_][:, sl], score=np.asarray(scores),
+            beta=betas[:, sl], var=variances[:, sl], score=np.asarray(scores),
             fits=fits[0] if fits else None,
-            variance=np.asarray(cap["mix_out"][0])[:n_][sl],
+            variance=np.asarray(cap["mix_out"][0])[sl],
         )
         if "level" in cap:
             lv = cap["level"]
             fits = [f for ph, f in cap.get("fitting", []) if ph == "level"]
             out["level"] = dict(
-                beta=np.concatenate([np.asarray(o[0]) for o in lv])[:, :n_][:, sl],
-                var=np.concatenate([np.asarray(o[1]) for o in lv])[:, :n_][:, sl],
+                beta=np.concatenate([np.asarray(o[0]) for o in lv])[:, sl],
+                var=np.concatenate([np.asarray(o[1]) for o in lv])[:, sl],
                 score=np.concatenate([np.asarray(o[2]) for o in lv]),
                 fits=fits[0] if fits else None,
             )
@@ -292,7 +291,6 @@ def build(r, rule):
         elif mode == "means":  # the alternative's mode inside the band, not its band
             half = 2 * np.sqrt(var)
         elif mode == "shift":  # the band about each mode's shift: √(var + shift²)
-            half = 2 * np.sqrt(var)
             d = np.abs(b - tb)
             extra = 2 * np.sqrt(var + d**2)
             env = _union(env, tb - extra, tb + extra)

@@ -250,6 +250,16 @@ def draw_case(family, index, signals):
 # ---------------------------------------------------------------- the methods
 
 
+# the tracker's settings: the user states that the parameters are constant, that the output's
+# offset is known (0: every draw starts from rest), both, or neither
+TRACKERS = {
+    "tracker": {},
+    "tracker-constant": dict(parameters="constant"),
+    "tracker-x0": dict(x0=0.0),
+    "tracker-constant-x0": dict(parameters="constant", x0=0.0),
+}
+
+
 def run_method(method, case, max_points=None):
     """``(alpha, std, lower, upper, identified, message)`` of one method on one case;
     `max_points`: the tracker's (None: `identify`'s default)."""
@@ -261,16 +271,9 @@ def run_method(method, case, max_points=None):
         grid["max_points"] = max_points
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if method == "tracker":
-            res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid)
-        elif method == "tracker-constant":  # the user states that the parameters are constant
-            res = vojax.identify(
-                case["u"], case["y"], method="kalman", parameters="constant", warn=False, **grid
-            )
-        elif method in ("tracker-x0", "tracker-constant-x0"):  # the offset known (0 here)
-            parameters = "constant" if method == "tracker-constant-x0" else "drifting"
-            res = vojax.identify(case["u"], case["y"], method="kalman", parameters=parameters,
-                                 x0=0.0, warn=False, **grid)
+        if method in TRACKERS:
+            res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid,
+                                 **TRACKERS[method])
         elif method == "law":
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
         else:

@@ -688,8 +688,7 @@ MUTATIONS = {
     ),
     "the command line's offset not in the model's output unit": (
         "vojax/_data/_pipeline.py",
-        [('extra["x0"] = float(x0) / (1.0 if model == "linear" else (length or 1.0))',
-          'extra["x0"] = float(x0)')],
+        [('extra["x0"] = float(x0) / output_scale(model, length)', 'extra["x0"] = float(x0)')],
         ["tests/test_offset.py::test_the_command_line_offset_is_in_the_files_unit"],
     ),
     "a known offset reported as estimated": (

@@ -90,11 +90,17 @@ def test_a_known_offset_is_the_same_as_subtracting_it(creep_fits):
     assert shift > 2 * np.median(np.asarray(known.alpha_std)[half])
 
 
-@pytest.mark.parametrize("x0", [np.nan, -np.inf, "zero", [0.0, 1.0]])
-def test_a_known_offset_must_be_a_finite_number(x0):
+@pytest.mark.parametrize(
+    "x0, said",
+    [(np.nan, "`x0` must be finite, got nan"), (-np.inf, "`x0` must be finite, got -inf"),
+     ("zero", "`x0` must be a number, got 'zero'"),
+     ([0.0, 1.0], r"`x0` must be a scalar, got shape \(2,\)")],
+)
+def test_a_known_offset_must_be_a_finite_number(x0, said):
     t, u, y, _ = _creep(seed=2)
-    with pytest.raises(ValueError, match="`x0` must be a finite number"):
-        vojax.identify(u, y, DT, x0=x0)
+    for method in ("kalman", "gradient"):  # one check of x0 for both estimators
+        with pytest.raises(ValueError, match=said):
+            vojax.identify(u, y, DT, method=method, x0=x0)
 
 
 def _cli(*args, cwd):

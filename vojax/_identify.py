@@ -354,19 +354,16 @@ def check_mask(mask, num, num_inputs):
 
 
 def known_offset(x0) -> float:
-    """`x0` as a finite Python float (the tracker's known output offset), or a one-sentence
-    `ValueError`."""
-    try:
-        arr = np.asarray(x0, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"`x0` must be a finite number (the output's offset), got {x0!r}.")
-    if arr.ndim != 0 or not np.isfinite(arr):
-        raise ValueError(f"`x0` must be a finite number (the output's offset), got {x0!r}.")
-    return float(arr)
+    """`x0` as a finite Python float (the tracker's known output offset), checked as the
+    law's is (`_scalar`)."""
+    return float(_scalar(x0, "x0"))
 
 
 def _scalar(x, name):
-    arr = jnp.asarray(x, jnp.result_type(float))
+    try:
+        arr = jnp.asarray(x, jnp.result_type(float))
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a number, got {x!r}.") from None
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a scalar, got shape {arr.shape}.")
     if not isinstance(arr, jax.core.Tracer) and not np.isfinite(float(arr)):

@@ -91,6 +91,12 @@ def regressors(record, model: str, area=None, length=None):
     return np.asarray(law.inputs(stress, strain)), strain, list(law.names), law.parameters
 
 
+def output_scale(model, length) -> float:
+    """What the file's output column is divided by to give the model's output: the strain
+    ``d/length`` of a law (1 when `length` is not given), the column itself for ``linear``."""
+    return 1.0 if model == "linear" else (length or 1.0)
+
+
 def _stress_strain(record, model, area, length):
     """Eq. (35) on a record: ``σ = F/area``, ``ε = d/length`` (either 1 when not given)."""
     if record.inputs.shape[1] != 1:
@@ -100,7 +106,7 @@ def _stress_strain(record, model, area, length):
         )
     with np.errstate(over="ignore", under="ignore"):
         stress = record.inputs[:, 0] / (area or 1.0)
-        strain = record.output / (length or 1.0)
+        strain = record.output / output_scale(model, length)
     for option, value, signal in (("--area", area, stress), ("--length", length, strain)):
         big = float(np.max(np.abs(signal))) if signal.size else 0.0
         if value is not None and not big < 1e150:  # squares must stay finite
@@ -441,8 +447,8 @@ def identify_record(
     tracker = estimator(method)
     if tracker == "kalman":
         extra = {} if max_points is None else {"max_points": max_points}
-        if x0 is not None:  # in the model's output: the strain, d/length, for a law
-            extra["x0"] = float(x0) / (1.0 if model == "linear" else (length or 1.0))
+        if x0 is not None:  # in the model's output, as the output column is
+            extra["x0"] = float(x0) / output_scale(model, length)
         res = _padded(
             identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False,
             **extra,
