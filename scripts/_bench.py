@@ -10,6 +10,7 @@ import platform
 import resource
 import subprocess
 import sys
+from pathlib import Path
 
 MODES = ("default", "fast")
 
@@ -66,3 +67,11 @@ def cases(args):
     for n in sizes + [int(s) for s in args.exp_sizes]:
         for mode in args.modes:
             yield n, mode, n in sizes
+
+
+def publish(lines, out=None) -> None:
+    """Prints a script's report (its lines) and writes it to the file `out` when one is named."""
+    text = "\n".join(lines)
+    print(text)
+    if out:
+        Path(out).write_text(text + "\n")

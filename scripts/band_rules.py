@@ -32,6 +32,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+from _bench import publish  # noqa: E402
+
 SETTINGS = ("drifting", "constant")
 CONSTANT_FAMILIES = ("white", "noisy", "coloured", "irregular", "lengths")
 
@@ -395,7 +397,6 @@ def evaluate(rows, rules=RULES):
             lines.append("| family | identified | coverage | z RMS (median) | order RMS (median) "
                          "| confidently wrong |")
             lines.append("|---|---|---|---|---|---|")
-            pooled = dict(n=0, ident=0, inside=0, count=0, z=[], rms=[], wrong=0)
             for fam in families + ["pooled"]:
                 sel = [r for r in rows if r["setting"] == setting and "error" not in r
                        and (fam == "pooled" or r["family"] == fam)]
@@ -453,10 +454,7 @@ def main(argv=None):
                      [f"# {args.note}"] if args.note else []), *summary(groups)]
         for name, rows in groups.items():
             lines += ["", f"## {name}", *evaluate(rows)]
-        text = "\n".join(lines)
-        print(text)
-        if args.out:
-            Path(args.out).write_text(text + "\n")
+        publish(lines, args.out)
 
 
 if __name__ == "__main__":

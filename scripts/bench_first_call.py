@@ -19,7 +19,8 @@ import os
 import subprocess
 import sys
 import tempfile
-from pathlib import Path
+
+from _bench import publish
 
 CHILD = r"""
 import json, resource, sys, time
@@ -140,10 +141,7 @@ def main(argv=None):
               "after the law's pass as well (default, fast loops): " + ", ".join(
                   f"{n}: {a['rss_law_mb']:.0f}, {b['rss_law_mb']:.0f}" for n, a, b in
                   zip(args.lengths, base["lengths"], fast["lengths"]))]
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    publish(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The tracker's Kalman filter and RTS smoother as parallel prefix sums over the samples,
 measured against the sequential scans that vojax uses: alone (N = 1,000 samples, 3 states)
-and inside the tracker (`vojax.identify` on 400 and 1,000 samples, its smoother's linear pass
-replaced), under XLA's default CPU loops and with `vojax.use_fast_cpu_loops()`.
+and inside the tracker (`vojax.identify` on 400 and 1,000 samples, every filter and smoother
+of its smoothings and of its likelihood's gradient replaced), under XLA's default CPU loops and with `vojax.use_fast_cpu_loops()`.
 
 Each sample is an affine Gaussian map of the state before it. For the filter, sample k's
 element is the law of θ_k given θ_{k−1} and z_k, ``θ_k | θ_{k−1} ~ N(A θ_{k−1} + b, C)``, with
@@ -28,13 +28,14 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 from jax import lax
 
 from vojax._tracker._kalman import LOG_2PI, Filtered
+
+from _bench import publish
 
 _mm = lambda a, b: jnp.einsum("...ij,...jk->...ik", a, b)  # noqa: E731
 _mv = lambda a, v: jnp.einsum("...ij,...j->...i", a, v)  # noqa: E731
@@ -210,17 +211,6 @@ def _associative(fn, elems, identity, reverse=False):
 SCAN = chunked_scan
 
 
-CHILD_RECORD = """
-import numpy as np
-n, dt = {n}, 0.05
-t = dt * np.arange(n)
-u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
-x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
-                              memory="exponential"))
-y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
-"""
-
-
 def child(case, schedule, loops):
     """One measurement in this (fresh) process; prints one JSON line."""
     import numpy as np
@@ -265,18 +255,15 @@ def child(case, schedule, loops):
                   zip(jax.tree_util.tree_leaves(ref), jax.tree_util.tree_leaves(out)))
         print(json.dumps(dict(first=first, warm=warm, err=err)))
         return
-    n = int(case)
-    scope = dict(vojax=vojax)
-    exec(CHILD_RECORD.format(n=n), scope)
-    u, y, dt = scope["u"], scope["y"], scope["dt"]
-    if schedule != "sequential":
-        def linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, damping=None):
-            h0, jac = _smoother.linearise(theta, phi, dphi, bounds)
-            z = y - h0 + jnp.sum(jac * theta, axis=-1)
-            anchor = None if damping is None else theta
-            fl = filt(jac, z, r, q, m0, p0, mask, anchor, damping, f)
-            return fl, smooth(fl, q, f), jac, z
-        _smoother._linear_pass = linear_pass
+    # bench_first_call's record: a ramp and hold, a slowly moving order, 1 % white noise
+    n, dt = int(case), 0.05
+    t = dt * np.arange(n)
+    u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
+    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
+                                  memory="exponential"))
+    y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+    # every filter and smoother of the tracker's smoothings and of its likelihood's gradient
+    _smoother.kalman_filter, _smoother.rts_smoother = filt, smooth
     begun = time.perf_counter()
     res = vojax.identify(u, y, dt, warn=False)
     res.alpha.block_until_ready()
@@ -320,10 +307,7 @@ def main(argv=None):
                     f"| {'filter + smoother alone, 1000 × 3' if case == 'alone' else 'identify, ' + case + ' samples'} "
                     f"| {loops} | {s} | {r['first']:.2f} | {1e3 * r['warm']:.2f} | "
                     f"{r['warm'] / base['warm']:.2f} | {r['first'] - base['first']:+.2f} | {diff} |")
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    publish(lines, args.out)
 
 
 if __name__ == "__main__":

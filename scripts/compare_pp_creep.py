@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _bench import publish
+
 PROBES = (1e2, 1e3, 1e4, 1e5, 1e6, 1e7)
 
 
@@ -120,10 +122,7 @@ def main():
             f"{np.sqrt(np.mean((np.asarray(curve.y_hat) - eps) ** 2)) / scale:.2g} | "
             f"{np.sqrt(np.mean((published - eps) ** 2)) / scale:.2g} |"
         )
-    text = "\n".join(lines + curves)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    publish(lines + curves, args.out)
 
 
 if __name__ == "__main__":

@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _bench import publish
+
 
 def _csv(path, t, u, y, header="time_s,stress,strain", extra=None):
     rows = [header + ("" if extra is None else ",note")]
@@ -350,10 +352,7 @@ def _run(args, vojax_main):
     ]
     for _, why, argv_case, first in dirty[:20]:
         lines.append(f"dirty: {' '.join(argv_case)} -- {why} -- {first}")
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    publish(lines, args.out)
     return 1 if dirty else 0
 
 

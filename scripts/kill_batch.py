@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _bench import publish
+
 COLUMNS = ["--time", "time_s", "--input", "stress", "--output", "strain", "--quiet"]
 
 
@@ -160,10 +162,7 @@ def main(argv=None):
         f"inputs unchanged: {same_inputs}",
         "PASS" if ok else "FAIL",
     ]
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    publish(lines, args.out)
     return 0 if ok else 1
 
 
