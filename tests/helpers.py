@@ -33,11 +33,16 @@ def rel_max(a, b):
 
 
 def load_script(name):
-    """The module of ``scripts/<name>.py`` (scripts are not a package)."""
+    """The module of ``scripts/<name>.py`` (scripts are not a package), with the scripts'
+    folder on ``sys.path`` as when the script runs (its shared ``_bench`` helpers)."""
     import importlib.util
+    import sys
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / f"{name}.py"
+    folder = Path(__file__).resolve().parents[1] / "scripts"
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
+    path = folder / f"{name}.py"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
