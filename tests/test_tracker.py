@@ -1167,3 +1167,48 @@ def test_phi_of_each_column_equals_the_memory_run_on_all_columns():
     direct = np.stack([np.asarray(vojax.reference.fractional_integral(x[:, j], 0.37, dt))
                        for j in range(3)], axis=1)
     np.testing.assert_allclose(got, direct, rtol=1e-6, atol=1e-6 * np.abs(direct).max())
+
+
+def test_coloured_starts_side_by_side_equal_one_after_another(monkeypatch):
+    """The coloured-noise model's starting smoothings (one per starting correlation) run one
+    after another the first time a record shape is seen, then in threads: the two calls give
+    the same estimates and band, to the last digit (the same compiled program, the runs in
+    the same order)."""
+    from vojax._tracker import _track
+
+    monkeypatch.setattr(_track.os, "cpu_count", lambda: 2)
+    seen = []
+    original = _track._in_threads
+
+    def spy(fn, count, call, key):
+        seen.append((fn.__name__, count))
+        return original(fn, count, call, key)
+
+    monkeypatch.setattr(_track, "_in_threads", spy)
+    times = []  # the AR(1) part's correlation time of each coloured smoothing, in call order
+    smoother = _track.iterated_smoother
+
+    def spy_smoother(memory, u, y, mask, steps, horizon, hyper, *rest):
+        if hyper.coloured:
+            times.append(float(hyper.log_ar_time))
+        return smoother(memory, u, y, mask, steps, horizon, hyper, *rest)
+
+    monkeypatch.setattr(_track, "iterated_smoother", spy_smoother)
+    dt = 0.05
+    t = np.arange(211) * dt  # a length no other test uses: the first call runs them in turn
+    u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
+    x = np.asarray(vojax.simulate(u, np.full(t.size, 0.45), np.array([1.0]), dt))
+    white = np.random.default_rng(5).standard_normal(t.size)
+    ar = np.zeros(t.size)
+    for k in range(1, t.size):
+        ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
+    y = x + 0.01 * np.ptp(x) * ar
+    first, second = (vojax.identify(u, y, dt, parameters="constant", warn=False)
+                     for _ in range(2))
+    assert seen.count(("_coloured", len(_track.RHO_STARTS))) == 2
+    # each call starts once from every starting correlation (the shares cover them all)
+    starts = len(_track.RHO_STARTS)
+    assert len(times) >= 2 * starts and len(set(times[:starts])) == starts
+    assert first.tuning == second.tuning
+    for name in ("alpha", "alpha_lower", "alpha_upper", "p", "y_hat"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(second, name))

@@ -12,7 +12,7 @@ from jaxtyping import Array, Float
 
 from . import _validate as check
 from ._adaptive import LSFF, AdaptiveLaw, OrderGradient
-from ._integral import make_memory, scan_memory
+from ._integral import make_memory, scan_memory, scan_memory_orders
 from ._kernels import RULES
 from ._stats import (
     correlation_limit,
@@ -786,23 +786,24 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
         x0=x0,
     )
     mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
-    # the coarse clock's model error at the constant-order fit, against a block mean's noise
-    # (from the samples' own second differences: on the coarse clock those see more of the
-    # signal)
-    def phi_at_constant(m, x):
-        return np.asarray(scan_memory(m, x, jnp.full((x.shape[0],), res.constant_order, dtype),
-                                      False))
-
-    phi_b = phi_at_constant(mem_b, jnp.asarray(u_b))
-    coef = _least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
-    error = ((block_average(phi_at_constant(mem, u2)[:span], size) - phi_b) @ coef[:-1])
-    fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
-    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
-    block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
     # everything at every sample: linear between block times
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
     alpha, p = at_samples(res.alpha), at_samples(res.p)
-    phi = np.asarray(scan_memory(mem, u2, jnp.asarray(alpha.astype(dtype)), False))
+    # the two runs over every sample, at the constant-order fit and at the tracked order, as
+    # one batched scan
+    constant = np.full((num,), res.constant_order, dtype)
+    phi_c, phi = np.asarray(scan_memory_orders(mem, u2, jnp.asarray(
+        np.stack([constant, alpha.astype(dtype)]))))
+    # the coarse clock's model error at the constant-order fit, against a block mean's noise
+    # (from the samples' own second differences: on the coarse clock those see more of the
+    # signal)
+    phi_b = np.asarray(scan_memory(mem_b, jnp.asarray(u_b), jnp.asarray(constant[: t_b.shape[0]]),
+                                   False))
+    coef = _least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
+    error = (block_average(phi_c[:span], size) - phi_b) @ coef[:-1]
+    fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
+    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
+    block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
     full = dataclasses.replace(
         res,
         alpha=jnp.asarray(alpha),

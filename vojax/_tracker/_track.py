@@ -820,8 +820,8 @@ def _coloured(
     its evidence is higher by more than `COLOURED_EVIDENCE` and its correlation time is not at
     the top of its range. Its start: the drifts of the white-noise smoothing `sm` (its
     intensities `tuning`), the noise split evenly between a white and an AR(1) part, each
-    correlation between samples of `RHO_STARTS` smoothed from the white mode, the best by
-    evidence; from there it climbs (`climb`, in a trust region, ended early where the
+    correlation between samples of `RHO_STARTS` smoothed from the white mode (side by side in
+    threads, `_in_threads`), the best by evidence (the first of equal ones); from there it climbs (`climb`, in a trust region, ended early where the
     correlation time stays at the top of its range). Returns ``(hyper, smoothed, tuning, m0, p0, starts)`` of the coloured model (the
     starts with the noise state), or None (white noise kept)."""
     fitted = np.asarray(mask) > 0
@@ -836,15 +836,22 @@ def _coloured(
     theta = np.asarray(sm.theta)
     starts = np.concatenate([np.asarray(starts), np.zeros((len(starts), 1))], axis=1)
     nominal = jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1))
-    best = None
+    hypers = []
     for rho in RHO_STARTS:
         noise_time = float(np.clip(-step / np.log(rho) / span, 1.01 * time_min,
                                    0.99 * NOISE_TIME_MAX))
         values = (tuning.order_drift, tuning.parameter_drift, half, half, noise_time)
-        hyper = Hyper(*(jnp.asarray(np.log(v), u.dtype) for v in values))
-        smc = iterated_smoother(
-            memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
-        )
+        hypers.append(Hyper(*(jnp.asarray(np.log(v), u.dtype) for v in values)))
+
+    def call(lo, hi):  # the starts are independent: side by side in threads
+        return [jax.block_until_ready(iterated_smoother(
+            memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, MAX_ITER
+        )) for h in hypers[lo:hi]]
+
+    runs = [smc for _, out in _in_threads(_coloured, len(hypers), call, (u.shape, MAX_ITER))
+            for smc in out]
+    best = None
+    for hyper, smc in zip(hypers, runs):
         score = host_score(smc)
         if best is None or score > best[0]:
             best = (score, hyper, smc)
