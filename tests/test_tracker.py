@@ -4,6 +4,7 @@ unit invariance, the law's band against Monte Carlo, no silent NaN."""
 import functools
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -1212,3 +1213,87 @@ def test_coloured_starts_side_by_side_equal_one_after_another(monkeypatch):
     assert first.tuning == second.tuning
     for name in ("alpha", "alpha_lower", "alpha_upper", "p", "y_hat"):
         np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
+
+
+def test_batched_runs_equal_the_runs_one_by_one(ramp):
+    """`smoother_batch` and `smoother_modes` with ``batched=True`` (chunks of `RUN_BATCH`
+    runs through one vmapped program, the last chunk padded with copies of its last run):
+    11 runs (a full chunk and a padded one) give the same best run, index, iteration counts,
+    scores and modes as the runs one after another, to the smoother's convergence test (a
+    relative decrease of 1e-9: the two programs round differently)."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+    from vojax._tracker._smoother import RUN_BATCH, smoother_batch, smoother_modes
+
+    t, u, y, *_, dt = ramp
+    num = 150
+    u, y = jnp.asarray(u[:num]), jnp.asarray(y[:num])
+    bounds = (0.01, 0.99)
+    memory = make_memory("exponential", dt, num, order_range=bounds)
+    mask = jnp.ones(num)
+    steps = jnp.full(num, dt)
+    horizon = jnp.asarray(dt * (num - 1))
+    scales = _track.data_scales(u, y, mask)
+    un = u / jnp.asarray(scales.u_scale)
+    yn = (y - scales.y_ref) / scales.y_scale
+    m0, p0 = _track.prior(u.shape[1], u.dtype)
+    starts = np.asarray(_track.starting_trajectories(memory, un, yn, mask, bounds, 0.5))
+    rows = [(q, d, r) for q in (0.1, 1.0, 10.0) for d, r in ((1e-6, 1e-3), (1e-4, 1e-2))]
+    rows = (rows + rows[:5])[:11]
+    assert RUN_BATCH < len(rows) < 2 * RUN_BATCH
+    firsts = jnp.asarray(np.resize(starts, (len(rows), starts.shape[1])))
+    hyper = _track._stack_hypers(rows)
+    args = (memory, un, yn, mask, steps, horizon, hyper, m0, p0, firsts, bounds, 400)
+    one = smoother_batch(*args)
+    many = smoother_batch(*args, batched=True)
+    assert many[1] == one[1] and many[2] == one[2]
+    assert np.array_equal(many[4], one[4])  # iterations
+    assert np.all(np.isfinite(one[3][one[3] > -np.inf])) and np.sum(np.isfinite(one[3])) >= 6
+    np.testing.assert_allclose(many[3], one[3], rtol=1e-8)
+    np.testing.assert_allclose(many[0].theta, one[0].theta, rtol=0, atol=1e-6)
+    assert isinstance(many[0].theta, jax.Array)  # the best run handed on as JAX arrays
+    modes_one = smoother_modes(*args)
+    modes_many = smoother_modes(*args, batched=True)
+    for a, b in zip(modes_many, modes_one):
+        assert a.shape == b.shape
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6)
+
+
+def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
+    """Block means of ≥ `BATCHED_BLOCK` samples run the first pass's and the mixture's
+    smoothings batched under XLA's default loops, with the estimates of the runs one by one
+    to rounding; under `use_fast_cpu_loops` (its flag in XLA_FLAGS) and for shorter blocks
+    they run one by one."""
+    from vojax._tracker import _blocks, _smoother
+
+    calls = []
+    original = _smoother.smooth_batched
+
+    def spy(*args):
+        calls.append(args[1].shape)
+        return original(*args)
+
+    monkeypatch.setattr(_smoother, "smooth_batched", spy)
+    dt = 0.01
+    t = np.arange(1090) * dt
+    u = np.minimum(t / 2.0, 1.0) + 0.1 * np.sin(2 * t)
+    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
+                                  memory="exponential"))
+    y = x + 0.01 * np.ptp(x) * np.random.default_rng(2).standard_normal(t.size)
+    kwargs = dict(max_points=100, warn=False)  # blocks of 11 samples
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    batched = vojax.identify(u, y, dt, **kwargs)
+    assert calls and all(shape[0] == 100 for shape in calls)
+    del calls[:]
+    monkeypatch.setattr(_blocks, "BATCHED_BLOCK", 12)
+    alone = vojax.identify(u, y, dt, **kwargs)
+    assert not calls
+    assert batched.tuning.values == pytest.approx(alone.tuning.values, rel=1e-5)
+    for name in ("alpha", "alpha_lower", "alpha_upper", "y_hat"):
+        np.testing.assert_allclose(getattr(batched, name), getattr(alone, name), rtol=0,
+                                   atol=1e-6)
+    monkeypatch.setattr(_blocks, "BATCHED_BLOCK", 10)
+    monkeypatch.setenv("XLA_FLAGS", "--xla_backend_extra_options="
+                       "xla_cpu_small_while_loop_byte_threshold=1048576")
+    vojax.identify(u, y, dt, **kwargs)
+    assert not calls

@@ -767,7 +767,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     that order. Returns ``(TrackResult, fit)``, `fit` what the tracker fitted, for the
     diagnostics, with the coarse clock's model error (`block_error`)."""
     from ._tracker import track
-    from ._tracker._blocks import block_average, block_means, to_samples
+    from ._tracker._blocks import BATCHED_BLOCK, block_average, block_means, to_samples
     from ._tracker._track import _least_squares
 
     num = u2.shape[0]
@@ -783,7 +783,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     res = track(
         mem_b, jnp.asarray(u_b), jnp.asarray(y_b), None, bounds, smooth=smooth, hyper=noise,
         mask=None if mask is None else jnp.asarray(mask_b), times=t_b, parameters=parameters,
-        x0=x0,
+        x0=x0, batched=size >= BATCHED_BLOCK,
     )
     mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
     # everything at every sample: linear between block times

@@ -23,6 +23,7 @@ from ._smoother import (
     iterated_smoother,
     linearised_log_likelihood,
     mix_modes,
+    batch_pays,
     smoother_batch,
     smoother_modes,
 )
@@ -426,6 +427,8 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise, whiten=None, 
 _warm: set = set()  # (function, shapes) already run: their shares may run in threads
 _warm_lock = threading.Lock()
 _thread_limit = contextvars.ContextVar("vojax_run_threads", default=None)
+# the passes' runs batched (`smooth_batched`), for the duration of a `track(batched=True)`
+_batched = contextvars.ContextVar("vojax_batched_runs", default=False)
 
 
 @contextlib.contextmanager
@@ -468,13 +471,17 @@ def _share(rows, firsts, lo, hi):
 
 def _run_shares(fn, memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
     """`fn` (`smoother_batch` or `smoother_modes`) over the runs ``rows`` × ``firsts``, split
-    into shares run in threads (`_in_threads`); ``[((lo, hi), output)]``."""
+    into shares run in threads (`_in_threads`), each share's runs batched where `track` was
+    asked to and it pays (`batch_pays`); ``[((lo, hi), output)]``."""
+    batched = _batched.get() and batch_pays()  # read here: a thread starts with no context
+
     def call(lo, hi):
         hyper, first = _share(rows, firsts, lo, hi)
-        out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget)
+        out = fn(memory, u, y, mask, steps, horizon, hyper, m0, p0, first, bounds, budget,
+                 batched)
         return jax.block_until_ready(out)
 
-    return _in_threads(fn, len(rows), call, (u.shape, budget))
+    return _in_threads(fn, len(rows), call, (u.shape, budget, batched))
 
 
 def _joined(parts, k):
@@ -871,13 +878,23 @@ def _coloured(
 
 def track(
     memory, u, y, dt, bounds, *, smooth=True, hyper=None, mask=None, iterations=3, times=None,
-    parameters="drifting", x0=None,
+    parameters="drifting", x0=None, batched=False,
 ):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
     `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `hyper` with a
     parameter drift at most `PARAM_DRIFT0`): their drift held there, and the band conditional
     on it (no `trade_interval`). `x0`: the output's offset, known (held there) or None
-    (estimated)."""
+    (estimated). `batched`: the first pass's and the mixture's runs through one vmapped
+    program where that is faster (`batch_pays`; the same results to rounding)."""
+    token = _batched.set(bool(batched))
+    try:
+        return _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times,
+                      parameters, x0)
+    finally:
+        _batched.reset(token)
+
+
+def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, parameters, x0):
     # parameters stated constant, or given a drift no larger than the floor (`noise=`)
     hold = parameters == "constant" or (
         hyper is not None and float(hyper["parameter_drift"]) <= PARAM_DRIFT0
