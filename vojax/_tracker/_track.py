@@ -19,11 +19,11 @@ from .._stats import correlation_limit, noise_variance, prediction_error_correla
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of_np, model_output, order_of_np
 from ._smoother import (
+    batch_pays,
     host_score,
     iterated_smoother,
     linearised_log_likelihood,
     mix_modes,
-    batch_pays,
     smoother_batch,
     smoother_modes,
 )
