@@ -3,8 +3,8 @@
 The tracker's reported band is assembled from parts (`vojax._tracker._track`): the tuned
 smoothing's Laplace band, the evidence-weighted mixture of smoothings, the ±2σ bands of the
 alternatives whose residuals pass a χ² test (other starts, other order drifts, drifting
-parameters; with the parameters stated constant, the level profile's held scales), and the
-trade-off's constant orders. `--dump` runs both settings of the tracker on the suite's draws
+parameters; where the parameters are constant, stated or tuned, the level profile's held
+scales), and the trade-off's constant orders. `--dump` runs both settings of the tracker on the suite's draws
 (`bench_calibration.draw_case`) and saves every part, on the clock the tracker fitted (block
 means of a long record), over the second half of the record, with the truth there and the
 arguments of the verdict (`vojax._identify.diagnose`). `--evaluate` then builds the band by
@@ -85,8 +85,8 @@ def _install_spies(cap):
 
     def in_threads(fn, count, call, key):
         out = orig["_in_threads"](fn, count, call, key)
-        if cap.get("phase") == "level":
-            cap["level"] = [o for _, share in out for o in share]
+        if cap.get("phase") == "level":  # every round of the profile's held scales
+            cap.setdefault("level", []).extend(o for _, share in out for o in share)
         return out
 
     def trade_interval(*a, **k):
@@ -170,6 +170,7 @@ def _record(family, index, setting, data):
         if "level" in cap:
             lv = cap["level"]
             fits = [f for ph, f in cap.get("fitting", []) if ph == "level"]
+            fits = [np.concatenate(fits)] if fits else []
             out["level"] = dict(
                 beta=np.concatenate([np.asarray(o[0]) for o in lv])[:, sl],
                 var=np.concatenate([np.asarray(o[1]) for o in lv])[:, sl],

@@ -1297,3 +1297,59 @@ def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
                        "xla_cpu_small_while_loop_byte_threshold=1048576")
     vojax.identify(u, y, dt, **kwargs)
     assert not calls
+
+
+@pytest.mark.parametrize("fits, visited", [
+    (False, [(0.5, 0.71, 1.41, 2.0)]),
+    (True, [(0.5, 0.71, 1.41, 2.0), (0.354, 2.828), (0.25, 4.0)]),
+])
+def test_level_profile_follows_the_ridge_while_it_fits(monkeypatch, fits, visited):
+    """The level profile holds the parameters at `LEVEL_RATIOS` × the tuned ones; where the
+    outermost ratio on a side still explains the data it goes on by √2 on that side, up to
+    4× (down to ¼), and every run that fits widens the envelope."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _track
+
+    seen, widened, ratios = [], [], []
+    monkeypatch.setattr(_track, "_fitting",
+                        lambda residuals, *a: np.full(residuals.shape[0], fits))
+    monkeypatch.setattr(_track, "_widened",
+                        lambda env, beta, var: widened.append(beta) or (beta, beta))
+    original = _track._in_threads
+
+    def spy(fn, count, call, key):
+        out = original(fn, count, call, key)
+        seen.append(count)
+        return out
+
+    monkeypatch.setattr(_track, "_in_threads", spy)
+    original_modes = _track.smoother_modes
+
+    def modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, *rest):
+        ratios.append(round(float(np.asarray(start)[0, 1] / mean_p), 3))
+        return original_modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, *rest)
+
+    monkeypatch.setattr(_track, "smoother_modes", modes)
+    t, u, y, alpha, p, dt = _ramp_case(n=120)
+    bounds = (0.01, 0.99)
+    num = t.size
+    memory = make_memory("exponential", dt, num, order_range=bounds)
+    u2 = jnp.asarray(u[:, :1])
+    yn = jnp.asarray((y - y.mean()) / y.std())
+    mask, steps = jnp.ones(num), jnp.full(num, dt)
+    horizon = jnp.asarray(dt * (num - 1))
+    m0, p0 = _track.prior(1, u2.dtype)
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.1, 1e-6, 1e-2)))
+    start = jnp.asarray(np.broadcast_to([0.0, 1.0, 0.0], (num, 3)))
+    sm = _track.iterated_smoother(memory, u2, yn, mask, steps, horizon, hyper, m0, p0, start,
+                                  bounds, 400)
+    mean_p = float(np.mean(np.asarray(sm.theta)[:, 1]))
+    tuning = _track.Tuning.of(np.log([0.1, 1e-6, 1e-2]), (), sm.log_likelihood, True)
+    _track.level_profile(memory, u2, yn, mask, steps, horizon, tuning, m0, p0, sm, bounds, num,
+                         1e-2)
+    groups, k = [], 0
+    for count in seen:
+        groups.append(tuple(sorted(ratios[k : k + count])))  # the shares run in threads
+        k += count
+    assert groups == visited
+    assert len(widened) == (len(ratios) if fits else 0)

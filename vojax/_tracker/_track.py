@@ -81,6 +81,9 @@ PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
 # band, conditional on it, can miss the truth. The band also covers the smoothings with the
 # parameters held at these multiples of the tuned ones, where they explain the data
 LEVEL_RATIOS = (0.5, 0.71, 1.41, 2.0)
+# past an outermost ratio that fits, the profile goes on by this factor, as far as this
+LEVEL_STEP = float(np.sqrt(2.0))
+LEVEL_MAX = 4.0 * (1 + 1e-9)
 LEVEL_PIN = 1e-8  # prior variance of a held parameter, × its square (at least 1)
 # coloured measurement noise: where the white-noise model's prediction errors are correlated
 # (`correlation_limit`), the tracker is run again with an AR(1) noise state, kept when its
@@ -730,35 +733,49 @@ def level_profile(
     smoothing, at the tuned intensities `tuning`, with the parameters held at one of
     `LEVEL_RATIOS` × their mean over the tuned mode `sm` (a prior of variance `LEVEL_PIN`
     on θ_0's parameters, which the parameters' floor drift then keeps) whose residuals pass
-    the χ² test of `mixture`. The order's level is not settled by the data where these
-    smoothings fit; their bands then make the reported one cover that ridge."""
+    the χ² test of `mixture`. Where the largest (smallest) ratio still fits, the profile goes
+    on by factors of `LEVEL_STEP` up to `LEVEL_MAX` (down to its inverse) until one does not.
+    The order's level is not settled by the data where these smoothings fit; their bands
+    then make the reported one cover that ridge."""
     if not LEVEL_RATIOS:
         return envelope
     n = u.shape[1]
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
     hyper = _stack_hypers([tuning.values])
-    runs = []
-    for ratio in LEVEL_RATIOS:
-        held = ratio * mean[1 : 1 + n]
-        m, p = np.array(m0), np.array(p0)
-        m[1 : 1 + n] = held
-        p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN * np.maximum(held * held, 1.0))
-        start = mean.copy()
-        start[1 : 1 + n] = held
-        runs.append((jnp.asarray(m), jnp.asarray(p), start[None]))
 
-    def call(lo, hi):
-        return [
-            smoother_modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, bounds,
-                           MAX_ITER)
-            for m, p, start in runs[lo:hi]
-        ]
+    def held_runs(ratios):
+        runs = []
+        for ratio in ratios:
+            held = ratio * mean[1 : 1 + n]
+            m, p = np.array(m0), np.array(p0)
+            m[1 : 1 + n] = held
+            p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN * np.maximum(held * held, 1.0))
+            start = mean.copy()
+            start[1 : 1 + n] = held
+            runs.append((jnp.asarray(m), jnp.asarray(p), start[None]))
 
-    outs = [o for _, share in _in_threads(smoother_modes, len(runs), call, (u.shape, MAX_ITER))
-            for o in share]
-    betas, variances, scores, residuals = (np.concatenate([o[k] for o in outs]) for k in range(4))
-    for c in np.flatnonzero(_fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)):
-        envelope = _widened(envelope, betas[c], variances[c])
+        def call(lo, hi):
+            return [
+                smoother_modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, bounds,
+                               MAX_ITER)
+                for m, p, start in runs[lo:hi]
+            ]
+
+        outs = [o for _, share in _in_threads(smoother_modes, len(runs), call,
+                                               (u.shape, MAX_ITER)) for o in share]
+        return (np.concatenate([o[k] for o in outs]) for k in range(4))
+
+    ratios = list(LEVEL_RATIOS)
+    while ratios:
+        betas, variances, scores, residuals = held_runs(ratios)
+        fits = _fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)
+        for c in np.flatnonzero(fits):
+            envelope = _widened(envelope, betas[c], variances[c])
+        # the ridge goes on past an outermost ratio that fits
+        ratios = [r for r, edge in ((max(ratios) * LEVEL_STEP, max(ratios)),
+                                    (min(ratios) / LEVEL_STEP, min(ratios)))
+                  if fits[ratios.index(edge)] and 1 / LEVEL_MAX <= r <= LEVEL_MAX]
+        ratios = list(dict.fromkeys(ratios))  # one ratio left: both sides name it
     return envelope
 
 
@@ -985,7 +1002,9 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
                 memory, un, yn, mask, steps, horizon, tuning, m0, p0, starts, sm, bounds,
                 last + 1, hold, fit_noise, whiten,
             )
-            if hold:  # the order's level against the parameters' scale
+            # the order's level against the parameters' scale, where the parameters are
+            # constant: stated so, or tuned to no more drift than `held_order` tolerates
+            if hold or tuning.parameter_drift <= HELD_RATIO * PARAM_DRIFT0:
                 envelope = level_profile(
                     memory, un, yn, mask, steps, horizon, tuning, m0, p0, sm, bounds, last + 1,
                     fit_noise, whiten, envelope,
