@@ -83,7 +83,7 @@ PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
 LEVEL_RATIOS = (0.5, 0.71, 1.41, 2.0)
 # past an outermost ratio that fits, the profile goes on by this factor, as far as this
 LEVEL_STEP = float(np.sqrt(2.0))
-LEVEL_MAX = 4.0 * (1 + 1e-9)
+LEVEL_MAX = 4.0
 LEVEL_PIN = 1e-8  # prior variance of a held parameter, × its square (at least 1)
 # coloured measurement noise: where the white-noise model's prediction errors are correlated
 # (`correlation_limit`), the tracker is run again with an AR(1) noise state, kept when its
@@ -766,16 +766,21 @@ def level_profile(
         return (np.concatenate([o[k] for o in outs]) for k in range(4))
 
     ratios = list(LEVEL_RATIOS)
+    up, down = max(ratios), min(ratios)  # the outermost ratio run on each side
     while ratios:
         betas, variances, scores, residuals = held_runs(ratios)
         fits = _fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)
         for c in np.flatnonzero(fits):
             envelope = _widened(envelope, betas[c], variances[c])
-        # the ridge goes on past an outermost ratio that fits
-        ratios = [r for r, edge in ((max(ratios) * LEVEL_STEP, max(ratios)),
-                                    (min(ratios) / LEVEL_STEP, min(ratios)))
-                  if fits[ratios.index(edge)] and 1 / LEVEL_MAX <= r <= LEVEL_MAX]
-        ratios = list(dict.fromkeys(ratios))  # one ratio left: both sides name it
+        # the ridge goes on past an outermost ratio that fits, on its own side
+        fitting = {r for r, f in zip(ratios, fits) if f}
+        ratios = []
+        if up in fitting and up * LEVEL_STEP <= LEVEL_MAX * (1 + 1e-9):
+            up *= LEVEL_STEP
+            ratios.append(up)
+        if down in fitting and down / LEVEL_STEP >= (1 - 1e-9) / LEVEL_MAX:
+            down /= LEVEL_STEP
+            ratios.append(down)
     return envelope
 
 
