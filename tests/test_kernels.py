@@ -262,10 +262,12 @@ def test_lgamma1p_series():
     assert abs(float(lgamma1p(jnp.asarray(1.0)))) < 1e-15
 
 
+@pytest.mark.parametrize("unroll", [1, 8])
 @pytest.mark.parametrize("memory", MEMORIES)
-def test_scan_memory_orders_is_one_scan_per_order(memory):
+def test_scan_memory_orders_is_one_scan_per_order(memory, unroll):
     """The batched scan over K order trajectories gives, row by row, what K separate scans
-    give (a different compiled program: the vmapped carry), for two input columns."""
+    give (a different compiled program: the vmapped carry), for two input columns; also with
+    the loop unrolled by 8 samples a step (300 samples: a remainder of 4)."""
     from vojax._integral import make_memory, scan_memory, scan_memory_orders
 
     n, dt = 300, 0.02
@@ -274,7 +276,7 @@ def test_scan_memory_orders_is_one_scan_per_order(memory):
     s = np.linspace(0.0, 1.0, n)
     orders = np.stack([np.full(n, 0.4), 0.2 + 0.6 * s, 0.5 + 0.3 * np.sin(6 * s)])
     mem = make_memory(memory, dt, n, order_range=(0.1, 0.9))
-    batched = np.asarray(scan_memory_orders(mem, u2, jnp.asarray(orders)))
+    batched = np.asarray(scan_memory_orders(mem, u2, jnp.asarray(orders), unroll))
     assert batched.shape == (3, n, 2)
     for k in range(3):
         one = np.asarray(scan_memory(mem, u2, jnp.asarray(orders[k]), False))

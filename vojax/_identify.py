@@ -767,7 +767,10 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     that order. Returns ``(TrackResult, fit)``, `fit` what the tracker fitted, for the
     diagnostics, with the coarse clock's model error (`block_error`)."""
     from ._tracker import track
-    from ._tracker._blocks import BATCHED_BLOCK, block_average, block_means, to_samples
+    from ._tracker._blocks import (
+        BATCHED_BLOCK, SCAN_UNROLL, block_average, block_means, to_samples,
+    )
+    from ._tracker._smoother import batch_pays
     from ._tracker._track import _least_squares
 
     num = u2.shape[0]
@@ -793,7 +796,7 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     # one batched scan
     constant = np.full((num,), res.constant_order, dtype)
     phi_c, phi = np.asarray(scan_memory_orders(mem, u2, jnp.asarray(
-        np.stack([constant, alpha.astype(dtype)]))))
+        np.stack([constant, alpha.astype(dtype)])), SCAN_UNROLL if batch_pays() else 1))
     # the coarse clock's model error at the constant-order fit, against a block mean's noise
     # (from the samples' own second differences: on the coarse clock those see more of the
     # signal)

@@ -86,13 +86,14 @@ def scan_memory(memory: AbstractMemory, u, order, sensitivity: bool):
 
 
 @eqx.filter_jit
-def scan_memory_orders(memory: AbstractMemory, u, orders):
+def scan_memory_orders(memory: AbstractMemory, u, orders, unroll: int = 1):
     """``Φ`` (K, N, n) of the samples ``u`` (N, n) at each of the K order trajectories
     ``orders`` (K, N): the K scans run as one (a batched carry), which costs on a CPU about
     what one scan costs where the per-sample launch of XLA's kernels, not arithmetic, sets
-    the time. Equal to K calls of `scan_memory` to rounding."""
+    the time. `unroll`: samples per step of the compiled loop (fewer launches, a larger
+    program). Equal to K calls of `scan_memory` to rounding."""
     TRACES["scan"] += 1
-    return jax.vmap(lambda order: memory.run(u, order, False))(orders)
+    return jax.vmap(lambda order: memory.run(u, order, False, unroll))(orders)
 
 
 def order_map(memory: AbstractMemory, u):

@@ -52,10 +52,11 @@ class AbstractMemory(eqx.Module):
         """Returns ``(new_state, (Φ, ∂Φ/∂b))`` at the current sample, with order ``b``."""
         return self.update(state, u_k), self.readout_and_sensitivity(state, u_k, b)
 
-    def run(self, u, order, sensitivity: bool):
+    def run(self, u, order, sensitivity: bool, unroll: int = 1):
         """``Φ`` (and ``∂Φ/∂b``) over a whole record ``u`` (N, n) with known orders (N,).
 
-        One `lax.scan` of `step`; a memory may override it with an equivalent, faster schedule.
+        One `lax.scan` of `step`, `unroll` samples per loop step; a memory may override it
+        with an equivalent, faster schedule.
         """
 
         @jax.checkpoint
@@ -65,4 +66,4 @@ class AbstractMemory(eqx.Module):
                 return self.step(state, u_k, b_k)
             return self.update(state, u_k), self.readout(state, u_k, b_k)
 
-        return lax.scan(body, self.init(u.shape[1]), (u, order))[1]
+        return lax.scan(body, self.init(u.shape[1]), (u, order), unroll=unroll)[1]
