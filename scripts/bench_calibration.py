@@ -5,7 +5,9 @@ Each draw is a semi-synthetic record: a segment of a real recorded signal (every
 staircase and load–unload stress, myocardium stretch, PP/PVC creep strain, rheometer creep
 stress, LAOS strain) drives a drawn order trajectory α(t) and parameter p(t) through eq. (12)
 — p inside the integral — computed by `vojax.reference`'s direct sums on a grid twice as fine
-(never the code under test), plus a drawn measurement noise. Families vary one thing at a
+(never the code under test; for the ``long`` family, whose direct sums would take hours,
+by the reference's NumPy recursion of the exponential memory at a tolerance of 1e-10: within
+2e-12 of the direct sums on 4,000 samples), plus a drawn measurement noise. Families vary one thing at a
 time over a common base (white noise of 0.5–2 % of the output's range, p constant):
 
 - ``white``: the base; ``noisy``: white noise of 5–10 % with 12-bit quantisation;
@@ -17,7 +19,9 @@ time over a common base (white noise of 0.5–2 % of the output's range, p const
   ``y = p(t)·I^α u`` (a tissue stiffening: ``σ = η(t)·D^q ε``), the tracker's own model of a
   drifting parameter;
 - ``irregular``: samples at irregular times (gaps of 1–7 fine steps), run with ``t=``;
-- ``lengths``: 100–4,800 samples (the other families use 300–1,200).
+- ``lengths``: 100–4,800 samples (the other families use 300–1,200);
+- ``long``: 20,000–100,000 samples, which `identify` fits as block means of 21–101 samples
+  (its default ``max_points``): much less noisy than the samples.
 
 Orders are drawn from five shapes: constant, a smooth random curve (a Gaussian-process draw,
 non-monotone), a step, a fast early decay, and an order that follows the load level.
@@ -54,11 +58,13 @@ import numpy as np
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 FAMILIES = (
     "white", "noisy", "coloured", "drift", "drift-constant", "gain-drift", "gain-drift-constant",
-    "irregular", "lengths",
+    "irregular", "lengths", "long",
 )
 SHAPES = ("constant", "smooth", "step", "decay", "load")
 LENGTHS = (300, 600, 1200)  # few lengths: each compiles once per worker
 LONG_LENGTHS = (100, 2400, 4800)
+LONG_RECORDS = (20000, 50000, 100000)  # the `long` family: block means of 21, 51 and 101
+DIRECT_MAX = 10000  # fine-grid samples up to which the truth is the reference's direct sums
 
 
 # ---------------------------------------------------------------- the real inputs
@@ -161,10 +167,10 @@ def draw_order(shape, s, u, rng):
         return np.full_like(s, rng.uniform(0.15, 0.85))
     if shape == "smooth":
         ell = rng.uniform(0.15, 0.4)
-        cov = np.exp(-0.5 * ((s[:, None] - s[None, :]) / ell) ** 2)
         idx = np.linspace(0, s.size - 1, min(s.size, 200)).astype(int)
+        cov = np.exp(-0.5 * ((s[idx, None] - s[None, idx]) / ell) ** 2)
         jitter = 1e-9 * np.eye(idx.size)
-        g = rng.multivariate_normal(np.zeros(idx.size), cov[np.ix_(idx, idx)] + jitter)
+        g = rng.multivariate_normal(np.zeros(idx.size), cov + jitter)
         g = np.interp(s, s[idx], g)
         return rng.uniform(0.35, 0.65) + 0.22 * np.tanh(g / 1.5)
     if shape == "step":
@@ -191,7 +197,8 @@ def draw_case(family, index, signals):
     rng = np.random.default_rng(zlib.crc32(f"calibration/{family}/{index}".encode()))
     name, t_raw, v_raw = signals[int(rng.integers(len(signals)))]
     shape = SHAPES[index % len(SHAPES)] if not family.endswith("-constant") else "constant"
-    n = int(rng.choice(LONG_LENGTHS if family == "lengths" else LENGTHS))
+    lengths = {"lengths": LONG_LENGTHS, "long": LONG_RECORDS}.get(family, LENGTHS)
+    n = int(rng.choice(lengths))
     # a window of at least half the recording, resampled onto a fine uniform grid (2 per sample)
     span = t_raw[-1] - t_raw[0]
     width = rng.uniform(0.5, 1.0) * span
@@ -221,10 +228,14 @@ def draw_case(family, index, signals):
         drift = rng.choice([-1, 1]) * rng.uniform(0.1, 0.4)
         centre, w = rng.uniform(0.3, 0.7), rng.uniform(0.1, 0.3)
         p_fine = 1.0 + drift * (1 + np.tanh((s_fine - centre) / w)) / 2
+    truth = (dict(memory="direct") if fine_n <= DIRECT_MAX
+             else dict(memory="exponential", tol=1e-10))
+    integral = lambda v: np.asarray(  # noqa: E731
+        reference.fractional_integral(v, alpha_fine, h, **truth))
     if gain:  # the gain of the memory term drifts: y = p(t)·I^α(t) u (σ = η(t)·D^q ε)
-        x = (p_fine * np.asarray(reference.fractional_integral(u_fine, alpha_fine, h)))[picks]
+        x = (p_fine * integral(u_fine))[picks]
     else:  # eq. (12): D^α x = p(t)·u, p inside the integral
-        x = np.asarray(reference.fractional_integral(p_fine * u_fine, alpha_fine, h))[picks]
+        x = integral(p_fine * u_fine)[picks]
     u, alpha, p = u_fine[picks], alpha_fine[picks], p_fine[picks]
     spread = float(np.ptp(x)) or 1.0
     level = rng.uniform(0.05, 0.10) if family == "noisy" else rng.uniform(0.005, 0.02)
