@@ -35,7 +35,7 @@ sys.path.insert(0, str(HERE))
 from _bench import publish  # noqa: E402
 
 SETTINGS = ("drifting", "constant")
-CONSTANT_FAMILIES = ("white", "noisy", "coloured", "irregular", "lengths")
+CONSTANT_FAMILIES = ("white", "noisy", "coloured", "irregular", "lengths", "long")
 
 
 # ---------------------------------------------------------------- the dump

@@ -424,6 +424,12 @@ def main(argv=None):
         help="the rows (JSON) of a run of the same code at identify's default max_points: with "
         "--max-points, a record that both runs fit sample by sample takes its row from there",
     )
+    parser.add_argument(
+        "--keep", nargs="*", default=[],
+        help="the rows (JSON) of earlier runs: each (family, index, method) not run now is "
+        "taken from there (e.g. the law's rows, after a change to the tracker only)",
+    )
+    parser.add_argument("--note", default="", help="a line for the table's header")
     args = parser.parse_args(argv)
     if not Path(args.data).is_dir():
         sys.exit(f"no data folder at {args.data}: the suite draws its inputs from ../shared/data")
@@ -448,6 +454,14 @@ def main(argv=None):
             rows.extend(out)
             _progress(out)
     wall = time.perf_counter() - started
+    ran = {(r["family"], r["index"], r["method"]) for r in rows}
+    kept = [dict(r, kept=True) for path in args.keep
+            for r in json.loads(Path(path).read_text())
+            if r["family"] in args.families and args.first <= r["index"] < args.first
+            + args.per_family and (r["family"], r["index"], r["method"]) not in ran]
+    rows.extend(kept)
+    methods = [*args.methods, *dict.fromkeys(r["method"] for r in kept
+                                             if r["method"] not in args.methods)]
     lines = [
         f"# bench_calibration: {args.per_family} draws per family (indices {args.first}–"
         f"{args.first + args.per_family - 1}), seeds from family/index; "
@@ -456,8 +470,11 @@ def main(argv=None):
            f"; the tracker at max_points={args.max_points} (longer records as block means)")
         + ("" if not args.reuse else
            f"; {sum(r.get('reused', False) for r in rows)} rows of records no longer than "
-           "max_points and identify's default taken from the run at the default"),
-        *summarise(rows, args.methods, args.families),
+           "max_points and identify's default taken from the run at the default")
+        + ("" if not kept else f"; {len(kept)} rows ({', '.join(methods[len(args.methods):])})"
+           " kept from an earlier run")
+        + (f"; {args.note}" if args.note else ""),
+        *summarise(rows, methods, args.families),
     ]
     print("\n".join(lines))
     if args.out:

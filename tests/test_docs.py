@@ -157,7 +157,7 @@ def test_the_docs_calibration_tables_are_the_benchmarks_results():
         for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")
         for method in ("tracker" + offset, "tracker-constant" + offset)
     ]
-    assert len(tables) == 8 and all(len(rows) == 10 for rows in expected)
+    assert len(tables) == 8 and all(len(rows) == 11 for rows in expected)
     assert [t[1:] for t in tables] == expected
     pooled = dict(zip(["family", "identified", "coverage", "z", "order", "wrong"],
                       expected[2][-1]))

@@ -1306,10 +1306,12 @@ def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
 def test_level_profile_follows_the_ridge_while_it_fits(monkeypatch, fits, visited):
     """The level profile holds the parameters at `LEVEL_RATIOS` × the tuned ones; where the
     outermost ratio on a side still explains the data it goes on by √2 on that side, up to
-    4× (down to ¼), and every run that fits widens the envelope."""
+    4× (down to ¼), and every run that fits widens the envelope (its bisections, which
+    depend on the runs' orders, are held off here: `test_level_profile_bisects_...`)."""
     from vojax._tracker import _track
 
     seen, widened, ratios = [], [], []
+    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)
     monkeypatch.setattr(_track.os, "cpu_count", lambda: 1)  # the runs in order
     monkeypatch.setattr(_track, "_fitting", lambda residuals, *a: np.array(
         [fits(r) for r in ratios[len(ratios) - residuals.shape[0]:]]))
@@ -1346,3 +1348,44 @@ def test_level_profile_follows_the_ridge_while_it_fits(monkeypatch, fits, visite
         k += count
     assert groups == visited
     assert len(widened) == sum(fits(r) for r in ratios)
+
+
+def test_level_profile_bisects_between_a_fitting_and_a_failing_scale():
+    """`_level_next`: between the nearest held ratio that does not fit and its fitting inner
+    neighbour (the tuned scale, ratio 1, at the least) the profile bisects on the log scale
+    while the failing run's order is more than 2σ of the neighbour's from it, down to √2's
+    `LEVEL_SPLITS`-th halving; past an outermost ratio that fits it goes on by √2."""
+    from vojax._tracker._track import LEVEL_SPLITS, _level_next
+
+    n = 50
+    sd = np.full(n, 0.01)
+
+    def run(fits, beta):
+        return (fits, np.full(n, beta), sd)
+
+    def step(tried, side):
+        return [round(r, 4) for r in _level_next(tried, side, n)]
+
+    anchor = {1.0: run(True, 0.0)}
+    # above: 1.41 fails with its order 5σ away → the log-midpoint 2^(1/4); below: every
+    # ratio fits → past the outermost, 0.5/√2
+    tried = {**anchor, 1.41421356: run(False, 0.05), 2.0: run(False, 0.2),
+             0.70710678: run(True, -0.01), 0.5: run(True, -0.02)}
+    assert step(tried, 1) == [round(2**0.25, 4)]
+    assert step(tried, -1) == [round(0.5 / 2**0.5, 4)]
+    # the failing run's order within 2σ of its neighbour's: that band covers the gap
+    assert step({**anchor, 1.41421356: run(False, 0.015)}, 1) == []
+    # the bisections go on from the ratio that fits, until √2's LEVEL_SPLITS-th halving
+    tried = {**anchor, 1.41421356: run(False, 0.05)}
+    visited = []
+    while nxt := _level_next(tried, 1, n):
+        (r,) = nxt
+        visited.append(r)
+        tried[r] = run(r < 1.2, 0.01 if r < 1.2 else 0.05)
+    assert len(visited) == LEVEL_SPLITS == 3
+    np.testing.assert_allclose(visited, [2 ** (1 / 4), 2 ** (3 / 8), 2 ** (5 / 16)])
+    # a ratio that fits beyond one that does not: both the bisection and the extension
+    tried = {**anchor, 1.41421356: run(False, 0.05), 2.0: run(True, 0.1)}
+    assert sorted(step(tried, 1)) == [round(2**0.25, 4), round(2 * 2**0.5, 4)]
+    # nothing beyond the outermost allowed ratio (4)
+    assert step({**anchor, 4.0: run(True, 0.3)}, 1) == []

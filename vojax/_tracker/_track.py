@@ -84,6 +84,12 @@ LEVEL_RATIOS = (0.5, 0.71, 1.41, 2.0)
 # past an outermost ratio that fits, the profile goes on by this factor, as far as this
 LEVEL_STEP = float(np.sqrt(2.0))
 LEVEL_MAX = 4.0
+# between the tuned scale (or a held ratio that fits) and the nearest held ratio that does
+# not, the profile bisects (on the log scale) while the failing run's order lies outside the
+# ±2σ band of its fitting neighbour (median over the record), at most this many times a side:
+# sharp records (long ones: block means) have a narrow ridge whose fitting scales fall
+# between the ratios above
+LEVEL_SPLITS = 3
 LEVEL_PIN = 1e-8  # prior variance of a held parameter, × its square (at least 1)
 # coloured measurement noise: where the white-noise model's prediction errors are correlated
 # (`correlation_limit`), the tracker is run again with an AR(1) noise state, kept when its
@@ -735,8 +741,11 @@ def level_profile(
     on θ_0's parameters, which the parameters' floor drift then keeps) whose residuals pass
     the χ² test of `mixture`. Where the largest (smallest) ratio still fits, the profile goes
     on by factors of `LEVEL_STEP` up to `LEVEL_MAX` (down to its inverse) until one does not.
-    The order's level is not settled by the data where these smoothings fit; their bands
-    then make the reported one cover that ridge."""
+    Between the tuned scale (or a ratio that fits) and the nearest ratio that does not, it
+    bisects on the log scale while the failing run's order is outside its fitting
+    neighbour's ±2σ band, up to `LEVEL_SPLITS` times a side (`_level_next`). The order's level
+    is not settled by the data where these smoothings fit; their bands then make the reported
+    one cover that ridge."""
     if not LEVEL_RATIOS:
         return envelope
     n = u.shape[1]
@@ -765,23 +774,44 @@ def level_profile(
                                                (u.shape, MAX_ITER)) for o in share]
         return (np.concatenate([o[k] for o in outs]) for k in range(4))
 
+    # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
+    tried = {1.0: (True, np.asarray(sm.theta)[:, 0],
+                   np.sqrt(np.maximum(np.asarray(sm.cov)[:, 0, 0], 0.0)))}
     ratios = list(LEVEL_RATIOS)
-    up, down = max(ratios), min(ratios)  # the outermost ratio run on each side
     while ratios:
         betas, variances, scores, residuals = held_runs(ratios)
         fits = _fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)
         for c in np.flatnonzero(fits):
             envelope = _widened(envelope, betas[c], variances[c])
-        # the ridge goes on past an outermost ratio that fits, on its own side
-        fitting = {r for r, f in zip(ratios, fits) if f}
-        ratios = []
-        if up in fitting and up * LEVEL_STEP <= LEVEL_MAX * (1 + 1e-9):
-            up *= LEVEL_STEP
-            ratios.append(up)
-        if down in fitting and down / LEVEL_STEP >= (1 - 1e-9) / LEVEL_MAX:
-            down /= LEVEL_STEP
-            ratios.append(down)
+        for r, f, b, v in zip(ratios, fits, betas, variances):
+            tried[r] = (bool(f), b, np.sqrt(np.maximum(v, 0.0)))
+        ratios = [r for side in (1, -1) for r in _level_next(tried, side, span)]
     return envelope
+
+
+def _level_next(tried, side, span):
+    """The held ratios to run next on one side of the tuned scale (``side`` +1: above 1, −1:
+    below), from `tried` (ratio ↦ ``(fits, β, σ)``): past the outermost ratio, by
+    `LEVEL_STEP` up to `LEVEL_MAX`, where it fits; and the log-midpoint between the nearest
+    ratio that does not fit and its inner neighbour (one that fits, or 1), where the failing
+    run's β is more than 2σ of the neighbour's from it (median over the first `span`
+    samples) and the two are more than ``LEVEL_STEP``'s `LEVEL_SPLITS`-th halving apart."""
+    x = {float(np.log(r)) * side: v for r, v in tried.items()}  # outward: x > 0
+    own = sorted(k for k in x if k > 0)
+    out = []
+    if own and x[own[-1]][0] and own[-1] + np.log(LEVEL_STEP) <= np.log(LEVEL_MAX) + 1e-9:
+        out.append(own[-1] + np.log(LEVEL_STEP))
+    failing = [k for k in own if not x[k][0]]
+    if failing:
+        outer = failing[0]
+        inner = max(k for k in x if k < outer)  # fits: the anchor 0, or a ratio that fits
+        _, b_in, sd_in = x[inner]
+        apart = np.median(np.abs(x[outer][1][:span] - b_in[:span])
+                          / np.maximum(sd_in[:span], 1e-300))
+        finest = np.log(LEVEL_STEP) / 2**LEVEL_SPLITS
+        if apart > 2.0 and outer - inner > finest * (1 + 1e-9):
+            out.append((outer + inner) / 2)
+    return [float(np.exp(side * k)) for k in out]
 
 
 def run_filter(memory, hyper, u, y, mask, steps, horizon, m0, p0, bounds, iterations=3):
