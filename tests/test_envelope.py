@@ -36,7 +36,9 @@ def _profile(envelope=None):
     u = jnp.ones((N, 1))
     theta = np.zeros((N, 3))
     theta[:, 0], theta[:, 1], theta[:, 2] = 0.3, 2.0, -1.0  # β, p, offset
-    sm = types.SimpleNamespace(theta=theta)
+    cov = np.zeros((N, 3, 3))
+    cov[:, 0, 0] = 0.01  # the tuned run's β ± 0.1
+    sm = types.SimpleNamespace(theta=theta, cov=cov)
     tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
     m0, p0 = _track.prior(1, np.float64)
     return _track.level_profile(None, u, None, np.ones(N), None, None, tuning, m0, p0, sm,
@@ -44,6 +46,7 @@ def _profile(envelope=None):
 
 
 def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypatch):
+    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)  # the first round's ratios only
     calls = _fake_modes(monkeypatch, fits_at=())
     _profile()
     assert sorted(c["ratio"] for c in calls) == sorted(_track.LEVEL_RATIOS)
@@ -63,6 +66,7 @@ def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypat
 
 
 def test_the_band_covers_exactly_the_runs_that_fit(monkeypatch):
+    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)  # no bisections (the next test)
     # none fits: the envelope is left as it was
     _fake_modes(monkeypatch, fits_at=())
     assert _profile() is None
@@ -80,6 +84,19 @@ def test_the_band_covers_exactly_the_runs_that_fit(monkeypatch):
     lo, hi = _profile(before)
     np.testing.assert_allclose(lo, 0.2)  # min(0.2, 0.5 − 0.2)
     np.testing.assert_allclose(hi, 2.2)
+
+
+def test_the_profile_bisects_to_a_fitting_scale_between_its_ratios(monkeypatch):
+    """Only the scale √1.41 (β = 1.19 in the stand-in) fits: none of the first ratios does,
+    the bisection between 1 and 1.41 finds it, and the band is that run's ±2σ alone. Above it
+    the profile stops once the failing run's β (1.29) is within 2σ of the fitting one's; below
+    1 it halves the gap until √2's third halving (0.84, 0.92, 0.96: none fits)."""
+    calls = _fake_modes(monkeypatch, fits_at=(1.19,))
+    lo, hi = _profile()
+    # log-midpoints: √1.41 = 1.19, √0.71 = 0.84, √(1.19·1.41) = 1.29, √0.84 = 0.92, …
+    assert [c["ratio"] for c in calls] == [0.5, 0.71, 1.41, 2.0, 1.19, 0.84, 1.29, 0.92, 0.96]
+    np.testing.assert_allclose(lo, 1.19 - 0.2)
+    np.testing.assert_allclose(hi, 1.19 + 0.2)
 
 
 # ------------------------------------------------ the mixture's envelope
