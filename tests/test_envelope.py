@@ -91,6 +91,7 @@ def test_the_profile_bisects_to_a_fitting_scale_between_its_ratios(monkeypatch):
     the bisection between 1 and 1.41 finds it, and the band is that run's ±2σ alone. Above it
     the profile stops once the failing run's β (1.29) is within 2σ of the fitting one's; below
     1 it halves the gap until √2's third halving (0.84, 0.92, 0.96: none fits)."""
+    monkeypatch.setattr(_track.os, "cpu_count", lambda: 1)  # each round's runs in order
     calls = _fake_modes(monkeypatch, fits_at=(1.19,))
     lo, hi = _profile()
     # log-midpoints: √1.41 = 1.19, √0.71 = 0.84, √(1.19·1.41) = 1.29, √0.84 = 0.92, …
