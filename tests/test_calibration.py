@@ -99,15 +99,21 @@ def test_constant_parameters_band_covers_the_level_another_scale_allows(suite):
     assert row["rms"] > 0.1
 
 
-def test_long_truth_by_the_reference_recursion_matches_the_direct_sums(suite):
+@pytest.fixture(scope="module")
+def long_draw(suite):
+    """Long draw 1 (20,000 samples; its truth takes a few seconds), drawn once."""
+    module, signals = suite
+    return module.draw_case("long", 1, signals)
+
+
+def test_long_truth_by_the_reference_recursion_matches_the_direct_sums(long_draw):
     """The long family's truth is the reference's NumPy recursion of the exponential memory
     (the direct sums of 2e5 fine samples would take hours): on a record short enough for both,
     its first 4,000 fine samples of a long draw, the two agree to far below the noise, and the
     long draw's truth is inside vojax's model on its own samples as the other families' is."""
     from vojax import reference
 
-    module, signals = suite
-    case = module.draw_case("long", 1, signals)
+    case = long_draw
     assert case["samples"] == 20000
     u, alpha = case["u"][:4000], case["alpha"][:4000]
     dt = float(case["t"][1] - case["t"][0])
@@ -119,15 +125,14 @@ def test_long_truth_by_the_reference_recursion_matches_the_direct_sums(suite):
     assert np.sqrt(np.mean((case["x"] - model) ** 2)) < 0.2 * sd
 
 
-def test_a_sharp_long_record_is_not_confidently_wrong_with_constant_parameters(suite):
+def test_a_sharp_long_record_is_not_confidently_wrong_with_constant_parameters(suite, long_draw):
     """Long draw 1 (a beef force input, a smooth order, 20,000 samples fitted as block means
     of 21), the parameters constant and stated so: the parameter scales that fit lie between
     0.8 and 1.24 of the tuned one, between the level profile's first ratios. Its band must hold
     the truth at more than half of the second half's samples (without the profile's
     bisection it held it at none, identified, an order 0.01 below the truth)."""
-    module, signals = suite
-    case = module.draw_case("long", 1, signals)
-    row = module.score(case, module.run_method("tracker-constant", case))
+    module, _ = suite
+    row = module.score(long_draw, module.run_method("tracker-constant", long_draw))
     assert row["coverage"] > 0.5 and not row["wrong"]
 
 
