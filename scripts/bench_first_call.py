@@ -64,7 +64,8 @@ if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, g
 rss_law = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # and the law's pass
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
                       second=second - first, law=law, rss_mb=rss, rss_law_mb=rss_law,
-                      block=res.diagnostics.block,
+                      block=res.diagnostics.block, jax=jax.__version__,
+                      device=f"{jax.default_backend()} ({jax.devices()[0].device_kind})",
                       coloured=res.diagnostics.noise_correlation == res.diagnostics.noise_correlation)))
 """
 
@@ -75,17 +76,23 @@ def run(n, cache="none", loops="default", law=False, noise="white"):
                           noise],
                          capture_output=True,
                          text=True, env=env, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    print(f"{n} samples, cache {cache}, {loops} loops, {noise}: {json.dumps(result)}",
+          file=sys.stderr, flush=True)  # progress, kept where a run is cut short
+    return result
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--samples", type=int, default=400)
     parser.add_argument("--lengths", type=int, nargs="*", default=[1000, 10000, 100000, 1000000])
+    parser.add_argument("--loops", nargs="+", choices=("default", "fast"), default=["default", "fast"],
+                        help="XLA's default loops, vojax.use_fast_cpu_loops() (a CPU setting: a "
+                        "GPU ignores it, so there run `--loops default`)")
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
     results = {}
-    for loops in ("default", "fast"):
+    for loops in args.loops:
         cold = run(args.samples, loops=loops)
         with tempfile.TemporaryDirectory() as folder:
             empty = run(args.samples, folder, loops)
@@ -103,46 +110,50 @@ def main(argv=None):
             lengths=[run(n, loops=loops, law=True) for n in args.lengths],
             coloured=coloured["coloured"],
         )
-    base, fast = results["default"], results["fast"]
+    modes = list(results)
+    both = modes == ["default", "fast"]
+    label = {"default": "default", "fast": "fast loops"}
+    first = results[modes[0]]["cold"]
     lines = [
         f"# bench_first_call: identify (default: the tracker), {args.samples} samples; "
-        f"import of vojax and JAX {base['cold']['imported']:.2f} s; {os.cpu_count()} CPUs; "
-        "XLA's default loops, and vojax.use_fast_cpu_loops()",
-        "| case | default s | ÷ second call | fast loops s | ÷ second call (fast) | default ÷ fast |",
-        "|---|---|---|---|---|---|",
+        f"import of vojax and JAX {first['imported']:.2f} s; {first['device']}, "
+        f"{os.cpu_count()} CPUs, JAX {first['jax']}; "
+        + " and ".join({"default": "XLA's default loops", "fast": "vojax.use_fast_cpu_loops()"}[m]
+                       for m in modes),
+        "| case | " + " | ".join(f"{label[m]} s | ÷ second call ({label[m]})" for m in modes)
+        + (" | default ÷ fast |" if both else " |"),
+        "|---|" + "---|---|" * len(modes) + ("---|" if both else ""),
     ]
-    for (name, a), (_, b) in zip(base["rows"], fast["rows"]):
-        lines.append(
-            f"| {name} | {a:.2f} | {a / base['cold']['second']:.1f} | {b:.2f} | "
-            f"{b / fast['cold']['second']:.1f} | {a / b:.1f} |"
-        )
-    kept = {loops: "kept" if results[loops]["coloured"] else "rejected by its evidence rule"
-            for loops in results}
+    for k, (name, _) in enumerate(results[modes[0]]["rows"]):
+        row = [results[m]["rows"][k][1] for m in modes]
+        lines.append(f"| {name} | " + " | ".join(
+            f"{a:.2f} | {a / results[m]['cold']['second']:.1f}" for a, m in zip(row, modes))
+            + (f" | {row[0] / row[1]:.1f} |" if both else " |"))
+    kept = {m: "kept" if results[m]["coloured"] else "rejected by its evidence rule"
+            for m in modes}
     lines += ["", "coloured noise: the tracker fits the white-noise model, then the AR(1) noise "
-              f"model (both timed); the AR(1) model was {kept['default']} (default loops) and "
-              f"{kept['fast']} (fast loops)"]
+              "model (both timed); the AR(1) model was " + " and ".join(
+                  f"{kept[m]} ({label[m]})" for m in modes)]
     lines += ["", "Longer records: the tracker fits at most `max_points` (default 1,000) block "
               "means; law: one pass of the paper's law at given gains (warm), the unit of cost.",
-              "", "| samples | block | first call s | warm call s | µs per sample (warm) | ÷ law "
-              "pass | peak RSS MB | fast loops: first call s | warm call s | µs per sample | "
-              "÷ law pass | peak RSS MB |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for n, a, b in zip(args.lengths, base["lengths"], fast["lengths"]):
-        lines.append(
-            f"| {n} | {a['block']} | {a['first']:.2f} | {a['second']:.2f} | "
-            f"{1e6 * a['second'] / n:.3g} | {a['second'] / a['law']:.2g} | {a['rss_mb']:.0f} | "
-            f"{b['first']:.2f} | {b['second']:.2f} | {1e6 * b['second'] / n:.3g} | "
-            f"{b['second'] / b['law']:.2g} | {b['rss_mb']:.0f} |"
-        )
-    lines += ["", "law pass s (default, fast loops): " + ", ".join(
-        f"{n}: {a['law']:.3g}, {b['law']:.3g}" for n, a, b in
-        zip(args.lengths, base["lengths"], fast["lengths"]))]
+              "", "| samples | block | " + " | ".join(
+                  f"{'' if m == 'default' else 'fast loops: '}first call s | warm call s | "
+                  "µs per sample" + (" (warm)" if m == "default" else "") + " | ÷ law pass | "
+                  "peak RSS MB" for m in modes) + " |",
+              "|---|---|" + "---|---|---|---|---|" * len(modes)]
+    for k, n in enumerate(args.lengths):
+        rs = [results[m]["lengths"][k] for m in modes]
+        lines.append(f"| {n} | {rs[0]['block']} | " + " | ".join(
+            f"{a['first']:.2f} | {a['second']:.2f} | {1e6 * a['second'] / n:.3g} | "
+            f"{a['second'] / a['law']:.2g} | {a['rss_mb']:.0f}" for a in rs) + " |")
+    lines += ["", f"law pass s ({', '.join(label[m] for m in modes)}): " + ", ".join(
+        f"{n}: " + ", ".join(f"{results[m]['lengths'][k]['law']:.3g}" for m in modes)
+        for k, n in enumerate(args.lengths))]
     lines += ["", "peak RSS MB: the process's after the simulation and the two identify calls; "
-              "after the law's pass as well (default, fast loops): " + ", ".join(
-                  f"{n}: {a['rss_law_mb']:.0f}, {b['rss_law_mb']:.0f}" for n, a, b in
-                  zip(args.lengths, base["lengths"], fast["lengths"]))]
+              f"after the law's pass as well ({', '.join(label[m] for m in modes)}): " + ", ".join(
+                  f"{n}: " + ", ".join(f"{results[m]['lengths'][k]['rss_law_mb']:.0f}"
+                                       for m in modes) for k, n in enumerate(args.lengths))]
     publish(lines, args.out)
-
 
 if __name__ == "__main__":
     main()

@@ -279,23 +279,33 @@ def measure(case, schedule, loops):
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
     out = subprocess.run([sys.executable, __file__, "--child", case, schedule, loops],
                          capture_output=True, text=True, env=env, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    print(f"{case}, {schedule}, {loops} loops: first {result['first']:.2f} s, warm "
+          f"{result['warm']:.4f} s", file=sys.stderr, flush=True)  # progress
+    return result
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--cases", nargs="+", default=["alone", "400", "1000"],
+                        help="'alone' (the filter and smoother on 1,000 samples) and record "
+                        "lengths for identify")
+    parser.add_argument("--loops", nargs="+", choices=("default", "fast"), default=["default", "fast"],
+                        help="XLA's default loops, vojax.use_fast_cpu_loops() (a CPU setting: a "
+                        "GPU ignores it, so there run `--loops default`)")
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
     if args.child:
         return child(*args.child)
     schedules = ("sequential", "associative", "chunked")
-    lines = [f"# bench_parallel_smoother: {os.cpu_count()} CPUs, JAX {jax.__version__}; every "
-             "case in a fresh process; first: compile and run; warm: one more run",
+    device = f"{jax.default_backend()} ({jax.devices()[0].device_kind})"
+    lines = [f"# bench_parallel_smoother: {device}, {os.cpu_count()} CPUs, JAX {jax.__version__}; "
+             "every case in a fresh process; first: compile and run; warm: one more run",
              "| case | loops | schedule | first s | warm ms | warm ÷ sequential | "
              "first − sequential s | max difference |", "|---|---|---|---|---|---|---|---|"]
-    for case in ("alone", "400", "1000"):
-        for loops in ("default", "fast"):
+    for case in args.cases:
+        for loops in args.loops:
             rows = {s: measure(case, s, loops) for s in schedules}
             base = rows["sequential"]
             for s, r in rows.items():
