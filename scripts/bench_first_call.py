@@ -89,6 +89,9 @@ def main(argv=None):
     parser.add_argument("--loops", nargs="+", choices=("default", "fast"), default=["default", "fast"],
                         help="XLA's default loops, vojax.use_fast_cpu_loops() (a CPU setting: a "
                         "GPU ignores it, so there run `--loops default`)")
+    parser.add_argument("--law-max", type=int, default=None,
+                        help="the law's pass only up to this many samples (on a GPU its "
+                        "sample-by-sample loop costs a launch a step)")
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
     results = {}
@@ -107,7 +110,8 @@ def main(argv=None):
                 ("coloured noise (AR(1), 0.9): first call", coloured["first"]),
                 ("coloured noise: second call", coloured["second"]),
             ],
-            lengths=[run(n, loops=loops, law=True) for n in args.lengths],
+            lengths=[run(n, loops=loops, law=args.law_max is None or n <= args.law_max)
+                     for n in args.lengths],
             coloured=coloured["coloured"],
         )
     modes = list(results)

@@ -19,12 +19,44 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from ._kalman import kalman_filter, rts_smoother
+from ._parallel import parallel_filter, parallel_smoother
 from ._model import Hyper, linearise, model_output, objective, order_of, posterior_cost
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
 MU_START, MU_MIN, MU_MAX = 1e-2, 1e-9, 1e12  # Levenberg–Marquardt damping (normalised units)
 MU_DOWN = 1.0 / 3.0  # the largest fall of the damping after a step the linearised model predicted
+# how the linear filter and smoother run over the samples: "sequential" (two scans, N steps
+# each) or parallel in time (`_parallel`: "associative", "chunked"). None: sequential on a CPU,
+# ACCELERATOR_SCHEDULE on a GPU or TPU, where each step of a scan is a kernel launch. On an
+# H200, identify on 1,000 samples, first call and second call: sequential 26.9 s and 22.2 s,
+# associative 23.8 s and 1.25 s, chunked 10.6 s and 2.5 s (the best first call, and within 2×
+# of the best second). Read when a program is traced: a compiled program keeps its schedule.
+SCHEDULE = None
+ACCELERATOR_SCHEDULE = "chunked"
+
+
+def schedule() -> str:
+    """The filter and smoother's schedule here (see `SCHEDULE`)."""
+    if SCHEDULE is not None:
+        return SCHEDULE
+    return "sequential" if jax.default_backend() == "cpu" else ACCELERATOR_SCHEDULE
+
+
+def _filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=None):
+    """`kalman_filter`, or `parallel_filter` by `schedule()`."""
+    how = schedule()
+    if how == "sequential":
+        return kalman_filter(h, z, r, q, m0, p0, mask, anchor, damping, f)
+    return parallel_filter(h, z, r, q, m0, p0, mask, anchor, damping, f, schedule=how)
+
+
+def _smooth(filtered, q, f=None):
+    """`rts_smoother`, or `parallel_smoother` by `schedule()`."""
+    how = schedule()
+    if how == "sequential":
+        return rts_smoother(filtered, q, f)
+    return parallel_smoother(filtered, q, f, schedule=how)
 
 
 class Smoothed(eqx.Module):
@@ -51,8 +83,8 @@ def _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, damping=Non
     h0, jac = linearise(theta, phi, dphi, bounds)
     z = y - h0 + jnp.sum(jac * theta, axis=-1)
     anchor = None if damping is None else theta
-    filtered = kalman_filter(jac, z, r, q, m0, p0, mask, anchor, damping, f)
-    return filtered, rts_smoother(filtered, q, f), jac, z
+    filtered = _filter(jac, z, r, q, m0, p0, mask, anchor, damping, f)
+    return filtered, _smooth(filtered, q, f), jac, z
 
 
 def iterated_smoother(
@@ -296,7 +328,7 @@ def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0
     of the noise intensities (differentiable: one filter scan)."""
     n = jac.shape[1] - (3 if hyper.coloured else 2)
     q, f = hyper.process(steps, horizon, n), hyper.transition(steps, horizon, n)
-    return kalman_filter(jac, z, hyper.r, q, m0, hyper.initial(p0), mask, f=f).log_likelihood
+    return _filter(jac, z, hyper.r, q, m0, hyper.initial(p0), mask, f=f).log_likelihood
 
 
 def mix_modes(betas, variances, scores, best, span, same=0.25):

@@ -1,0 +1,140 @@
+"""The parallel-in-time filter and smoother (the tracker's schedule on a GPU): equal to the
+sequential scans and to the dense posterior, with every option the tracker uses (masked
+samples, the Levenberg–Marquardt anchor, an AR(1) state, a constant component), their
+likelihood's gradient, and the tracker run through them."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vojax
+from vojax._tracker import _smoother, kalman_filter, rts_smoother
+from vojax._tracker._parallel import chunked_scan, parallel_filter, parallel_smoother
+
+from .test_tracker import _batch_posterior
+
+SCHEDULES = ("associative", "chunked")
+
+
+def _problem(n, d=3, seed=0):
+    rng = np.random.default_rng(seed)
+    h = rng.standard_normal((n, d))
+    z = rng.standard_normal(n)
+    q = np.abs(rng.standard_normal((n, d))) * 0.05
+    q[:, -1] = 0.0  # a constant component, as the tracker's offset
+    m0 = rng.standard_normal(d)
+    a = rng.standard_normal((d, d))
+    p0 = a @ a.T + np.eye(d)
+    mask = (rng.random(n) > 0.2).astype(float)
+    anchor = rng.standard_normal((n, d))
+    f = np.ones((n, d))
+    f[:, 0] = 0.9  # an AR(1) component, as the coloured noise's state
+    return h, z, 0.3, q, m0, p0, mask, anchor, f
+
+
+def _close(a, b, rtol):
+    a, b = np.asarray(a), np.asarray(b)
+    assert np.max(np.abs(a - b)) <= rtol * np.max(np.abs(b)), np.max(np.abs(a - b))
+
+
+@pytest.mark.parametrize("schedule", SCHEDULES)
+@pytest.mark.parametrize("n", [1, 2, 37, 400])
+def test_parallel_filter_and_smoother_equal_the_sequential_scans(schedule, n):
+    h, z, r, q, m0, p0, mask, anchor, f = (jnp.asarray(x) for x in _problem(n))
+    for options in [dict(), dict(mask=mask), dict(mask=mask, anchor=anchor, damping=0.7, f=f)]:
+        ref = kalman_filter(h, z, r, q, m0, p0, **options)
+        got = parallel_filter(h, z, r, q, m0, p0, **options, schedule=schedule)
+        for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation", "innovation_var"):
+            _close(getattr(got, name), getattr(ref, name), 1e-11)
+        assert abs(float(got.log_likelihood - ref.log_likelihood)) <= 1e-11 * abs(
+            float(ref.log_likelihood)) + 1e-12
+        fk = options.get("f")
+        for a, b in zip(parallel_smoother(got, q, fk, schedule=schedule), rts_smoother(ref, q, fk)):
+            _close(a, b, 1e-11)
+
+
+@pytest.mark.parametrize("schedule", SCHEDULES)
+def test_parallel_smoother_equals_the_dense_posterior(schedule):
+    h, z, r, q, m0, p0, *_ = _problem(30, seed=4)
+    mean, covs, loglik = _batch_posterior(h, z, r, q, m0, p0)
+    filt = parallel_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)), schedule=schedule)
+    ms, ps = parallel_smoother(filt, jnp.asarray(q), schedule=schedule)
+    _close(ms, mean, 1e-9)
+    _close(ps, covs, 1e-9)
+    assert float(filt.log_likelihood) == pytest.approx(loglik, rel=1e-10)
+
+
+@pytest.mark.parametrize("schedule", SCHEDULES)
+def test_parallel_likelihood_gradient_equals_the_sequential_one(schedule):
+    """The tracker tunes its noise intensities on the gradient of this likelihood."""
+    h, z, _, q, m0, p0, mask, _, f = (jnp.asarray(x) for x in _problem(50, seed=2))
+
+    def loglik(run, log_r, log_q):
+        return run(h, z, jnp.exp(log_r), q * jnp.exp(log_q), m0, p0, mask, f=f).log_likelihood
+
+    args = (jnp.log(0.3), jnp.zeros(3))
+    ref = jax.grad(lambda a, b: loglik(kalman_filter, a, b), argnums=(0, 1))(*args)
+    got = jax.grad(lambda a, b: loglik(
+        lambda *x, **k: parallel_filter(*x, **k, schedule=schedule), a, b), argnums=(0, 1))(*args)
+    for a, b in zip(got, ref):
+        _close(a, b, 1e-9)
+
+
+@pytest.mark.parametrize("n", [1, 5, 16, 17, 101])
+@pytest.mark.parametrize("reverse", [False, True])
+def test_chunked_scan_equals_cumulative_sums_and_products(n, reverse):
+    """Against NumPy's cumulative sums, and a non-commutative operation (2 × 2 products)."""
+    rng = np.random.default_rng(n)
+    x = rng.standard_normal(n)
+    got = chunked_scan(lambda a, b: a + b, jnp.asarray(x), jnp.zeros(()), reverse)
+    want = np.cumsum(x[::-1])[::-1] if reverse else np.cumsum(x)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    m = rng.standard_normal((n, 2, 2))
+    # associative_scan's order: fn(earlier, later); with reverse, fn(later, earlier)
+    got = chunked_scan(lambda a, b: b @ a, jnp.asarray(m), jnp.eye(2), reverse)
+    want, acc = [], np.eye(2)
+    for k in (range(n - 1, -1, -1) if reverse else range(n)):
+        acc = m[k] @ acc
+        want.append(acc)
+    want = np.stack(want[::-1] if reverse else want)
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10)
+
+
+def test_schedule_is_sequential_on_a_cpu_and_parallel_elsewhere(monkeypatch):
+    monkeypatch.setattr(_smoother, "SCHEDULE", None)
+    monkeypatch.setattr(jax, "default_backend", lambda: "cpu")
+    assert _smoother.schedule() == "sequential"
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert _smoother.schedule() == _smoother.ACCELERATOR_SCHEDULE == "chunked"
+    monkeypatch.setattr(_smoother, "SCHEDULE", "associative")
+    assert _smoother.schedule() == "associative"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("schedule", SCHEDULES)
+def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(schedule, monkeypatch):
+    """`identify` on a 200-sample record, its filters and smoothers run as prefix sums (the
+    GPU's path, here on the CPU): the same order and band to rounding of the iterations."""
+    dt, n = 0.05, 200
+    t = dt * np.arange(n)
+    u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
+    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
+                                  memory="exponential"))
+    y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+    monkeypatch.setattr(_smoother, "SCHEDULE", "sequential")
+    jax.clear_caches()
+    ref = vojax.identify(u, y, dt, warn=False)
+    calls = []
+    monkeypatch.setattr(_smoother, "SCHEDULE", schedule)
+    monkeypatch.setattr(_smoother, "parallel_filter",
+                        lambda *a, **k: calls.append(1) or parallel_filter(*a, **k))
+    jax.clear_caches()  # the programs compiled with the sequential scans
+    try:
+        got = vojax.identify(u, y, dt, warn=False)
+    finally:
+        jax.clear_caches()  # later tests trace the sequential scans again
+    assert calls, "the parallel filter was not traced"
+    np.testing.assert_allclose(got.alpha, ref.alpha, atol=1e-7)
+    np.testing.assert_allclose(got.alpha_std, ref.alpha_std, rtol=1e-5)
+    assert got.diagnostics.identified == ref.diagnostics.identified
