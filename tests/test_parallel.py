@@ -10,6 +10,7 @@ import pytest
 
 import vojax
 from vojax._tracker import _smoother, kalman_filter, rts_smoother
+from vojax._tracker._blocks import BATCHED_BLOCK
 from vojax._tracker._parallel import chunked_scan, parallel_filter, parallel_smoother
 
 from .test_tracker import _batch_posterior
@@ -112,29 +113,41 @@ def test_schedule_is_sequential_on_a_cpu_and_parallel_elsewhere(monkeypatch):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("schedule", SCHEDULES)
-def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(schedule, monkeypatch):
-    """`identify` on a 200-sample record, its filters and smoothers run as prefix sums (the
-    GPU's path, here on the CPU): the same order and band to rounding of the iterations."""
-    dt, n = 0.05, 200
+@pytest.mark.parametrize("schedule, n, max_points", [
+    ("associative", 200, None), ("chunked", 200, None),
+    # block means of 21 samples: the first pass's smoothings run vmapped, 9 at a time
+    ("chunked", 4000, 200),
+])
+def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
+        schedule, n, max_points, monkeypatch):
+    """`identify`, its filters and smoothers run as prefix sums (the GPU's path, here on the
+    CPU): the same order and band to rounding of the iterations."""
+    dt = 0.05
     t = dt * np.arange(n)
     u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
     x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
                                   memory="exponential"))
     y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+    kwargs = dict(warn=False) if max_points is None else dict(warn=False, max_points=max_points)
     monkeypatch.setattr(_smoother, "SCHEDULE", "sequential")
     jax.clear_caches()
-    ref = vojax.identify(u, y, dt, warn=False)
-    calls = []
+    ref = vojax.identify(u, y, dt, **kwargs)
+    calls, batched = [], []
     monkeypatch.setattr(_smoother, "SCHEDULE", schedule)
     monkeypatch.setattr(_smoother, "parallel_filter",
                         lambda *a, **k: calls.append(1) or parallel_filter(*a, **k))
+    run_batched = _smoother.smooth_batched
+    monkeypatch.setattr(_smoother, "smooth_batched",
+                        lambda *a, **k: batched.append(1) or run_batched(*a, **k))
     jax.clear_caches()  # the programs compiled with the sequential scans
     try:
-        got = vojax.identify(u, y, dt, warn=False)
+        got = vojax.identify(u, y, dt, **kwargs)
     finally:
         jax.clear_caches()  # later tests trace the sequential scans again
     assert calls, "the parallel filter was not traced"
+    assert bool(batched) == (max_points is not None)  # the vmapped runs on the blocked record
+    assert got.diagnostics.block == ref.diagnostics.block
+    assert (got.diagnostics.block >= BATCHED_BLOCK) == (max_points is not None)
     np.testing.assert_allclose(got.alpha, ref.alpha, atol=1e-7)
     np.testing.assert_allclose(got.alpha_std, ref.alpha_std, rtol=1e-5)
     assert got.diagnostics.identified == ref.diagnostics.identified
