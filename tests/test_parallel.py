@@ -116,7 +116,7 @@ def test_schedule_is_sequential_on_a_cpu_and_parallel_elsewhere(monkeypatch):
 @pytest.mark.parametrize("schedule, n, max_points", [
     ("associative", 200, None), ("chunked", 200, None),
     # block means of 21 samples: the first pass's smoothings run vmapped, 9 at a time
-    ("chunked", 4000, 200),
+    ("chunked", 4000, 200), ("associative", 4000, 200),
 ])
 def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
         schedule, n, max_points, monkeypatch):
@@ -151,3 +151,19 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
     np.testing.assert_allclose(got.alpha, ref.alpha, atol=1e-7)
     np.testing.assert_allclose(got.alpha_std, ref.alpha_std, rtol=1e-5)
     assert got.diagnostics.identified == ref.diagnostics.identified
+
+
+def test_tracker_runs_one_thread_with_a_parallel_schedule_on_a_cpu(monkeypatch):
+    """XLA:CPU deadlocked running the prefix sums' programs from two threads at once: with a
+    parallel schedule on a CPU the tracker's runs go one after another, in one share."""
+    from vojax._tracker import _track
+
+    monkeypatch.setattr(_track.os, "cpu_count", lambda: 4)
+    shares = {}
+    for how in ("sequential", "chunked"):
+        monkeypatch.setattr(_smoother, "SCHEDULE", how)
+        for _ in range(2):  # the second time warm: the shares run side by side
+            out = _track._in_threads(_problem, 8, lambda lo, hi: hi - lo, ("test", how))
+        shares[how] = [share for share, _ in out]
+    assert len(shares["sequential"]) == 4
+    assert shares["chunked"] == [(0, 8)]

@@ -24,6 +24,7 @@ from ._smoother import (
     iterated_smoother,
     linearised_log_likelihood,
     mix_modes,
+    schedule,
     smoother_batch,
     smoother_modes,
 )
@@ -457,6 +458,10 @@ def _in_threads(fn, count, call, key):
     first time one share after another, so that two threads never compile the same
     program. Returns the shares' outputs in order, with their ``(lo, hi)``."""
     limit = _thread_limit.get()
+    if schedule() != "sequential" and jax.default_backend() == "cpu":
+        # XLA:CPU's runtime was seen to deadlock running the prefix sums' programs from two
+        # threads at once (1e6 samples, 1,000 block means): one thread on a CPU
+        limit = 1
     workers = max(1, min(count, os.cpu_count() or 1, RUN_THREADS, limit or RUN_THREADS))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
