@@ -60,7 +60,7 @@ def _diag(v):
 def _inv(a):
     """Inverses of a batch (..., d, d) of small matrices whose leading principal minors are
     nonzero (here ``I + C J`` with C and J positive semidefinite), by Gauss–Jordan elimination
-    written out as elementwise operations, which XLA fuses (d ≤ 4 here)."""
+    written out as elementwise operations, which XLA fuses (d is the few states here)."""
     d = a.shape[-1]
     m = [[a[..., i, j] for j in range(d)] for i in range(d)]
     one, zero = jnp.ones_like(m[0][0]), jnp.zeros_like(m[0][0])
