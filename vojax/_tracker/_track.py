@@ -780,8 +780,10 @@ def level_profile(
         return (np.concatenate([o[k] for o in outs]) for k in range(4))
 
     # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
-    tried = {1.0: (True, np.asarray(sm.theta)[:, 0],
-                   np.sqrt(np.maximum(np.asarray(sm.cov)[:, 0, 0], 0.0)))}
+    def sd(variance):
+        return np.sqrt(np.maximum(variance, 0.0))
+
+    tried = {1.0: (True, np.asarray(sm.theta)[:, 0], sd(np.asarray(sm.cov)[:, 0, 0]))}
     ratios = list(LEVEL_RATIOS)
     while ratios:
         betas, variances, scores, residuals = held_runs(ratios)
@@ -789,7 +791,7 @@ def level_profile(
         for c in np.flatnonzero(fits):
             envelope = _widened(envelope, betas[c], variances[c])
         for r, f, b, v in zip(ratios, fits, betas, variances):
-            tried[r] = (bool(f), b, np.sqrt(np.maximum(v, 0.0)))
+            tried[r] = (bool(f), b, sd(v))
         ratios = [r for side in (1, -1) for r in _level_next(tried, side, span)]
     return envelope
 
