@@ -12,10 +12,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jax import lax
 
 from .._stats import correlation_limit, noise_variance, prediction_error_correlation
+from . import _bfgs as bfgs
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of_np, model_output, order_of_np
 from ._smoother import (
@@ -108,6 +108,10 @@ RHO_STARTS = (0.5, 0.7, 0.85, 0.95)  # the AR(1) part's starting correlations be
 # the current ones, the radius halved after a refinement the re-smoothed evidence rejects
 CLIMB_RADIUS = float(np.log(3.0))
 CLIMB_ROUNDS = 6
+# each refinement's BFGS stops where its step and the change of its loss (the negative
+# linearised likelihood per fitted sample) are both within atol + rtol·|·|, or after 60
+# evaluations
+REFINE_RTOL, REFINE_ATOL = 1e-7, 1e-9
 # a coloured climb whose correlation time sat at the top of its range after this many accepted
 # rounds in a row ends there: the coloured model is rejected at that edge anyway
 FATAL_EDGE_ROUNDS = 2
@@ -306,7 +310,7 @@ def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, limits, max_steps=60)
 def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps):
     count = jnp.sum(mask)
 
-    def loss(zeta, _):
+    def loss(zeta):
         # box by a smooth squashing, so that BFGS works unconstrained
         x = lo + (hi - lo) * jax.nn.sigmoid(zeta)
         return -linearised_log_likelihood(Hyper.from_array(x), jac, z, mask, steps, horizon, m0, p0) / count
@@ -315,10 +319,9 @@ def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps
     margin = jnp.minimum(1e-3, (hi - lo) / 2)
     x0 = jnp.clip(x0, lo + margin, hi - margin)
     zeta0 = jnp.where(hi > lo, jnp.log((x0 - lo) / jnp.where(hi > lo, hi - x0, 1.0)), 0.0)
-    sol = optx.minimise(
-        loss, optx.BFGS(rtol=1e-7, atol=1e-9), zeta0, max_steps=max_steps, throw=False
-    )
-    zeta = jnp.where(jnp.all(jnp.isfinite(sol.value)), sol.value, zeta0)
+    # optimistix's BFGS(rtol=1e-7, atol=1e-9), written as one small loop (`_bfgs`)
+    zeta, _ = bfgs.minimise(loss, zeta0, max_steps, rtol=REFINE_RTOL, atol=REFINE_ATOL)
+    zeta = jnp.where(jnp.all(jnp.isfinite(zeta)), zeta, zeta0)
     return Hyper.from_array(lo + (hi - lo) * jax.nn.sigmoid(zeta))
 
 
