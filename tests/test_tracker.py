@@ -1007,49 +1007,73 @@ def test_tracker_order_barely_depends_on_the_unit_of_time():
         assert np.max(np.abs(np.asarray(b.alpha) - np.asarray(a.alpha))) < sd
 
 
-def _gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3):
-    """One input, a constant order, and a gain that rises by 30 % mid-record:
-    ``y = p(t)·I^α u + c`` (a tissue stiffening during a test)."""
+def _gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3, width=0.15):
+    """One input, a constant order, and a gain that rises by 30 % mid-record over about
+    ±`width` of it: ``y = p(t)·I^α u + c`` (a tissue stiffening during a test)."""
     from vojax import reference
 
     dt = 0.05
     t = np.arange(n) * dt
     u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
     s = t / t[-1]
-    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / 0.15)) / 2.0
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / width)) / 2.0
     x = p * np.asarray(reference.fractional_integral(u[:, None], np.full(n, alpha), dt))[:, 0]
     sd = noise * np.ptp(x)
     y = x + 0.2 + sd * np.random.default_rng(seed).standard_normal(n)
     return t, u, y, dt, sd
 
 
-def test_trade_interval_against_an_independent_profile():
+def test_coarse_hats_are_sums_of_the_fine_ones():
+    """The trade-off's profile runs the memory once for both of its drifts: the hat functions
+    on 8 knots are `refinement`'s sums of those on 15 (the 8 and their midpoints), at
+    irregular times with the fitted span ending before the record does."""
+    from vojax._tracker import _track
+
+    t = np.concatenate([[0.0], np.sort(np.random.default_rng(0).uniform(0, 3, 499))])
+    for knots in (2, 3, 8):
+        fine = _track.hat_basis(t, 450, 2 * knots - 1)
+        coarse = _track.hat_basis(t, 450, knots)
+        np.testing.assert_allclose(fine @ _track.refinement(knots), coarse, rtol=0, atol=1e-15)
+        assert np.all(coarse[451:] == coarse[450])  # held after the fitted span
+
+
+@pytest.mark.parametrize("width, noise, fine", [
+    (0.15, 0.01, False),
+    pytest.param(0.1, 0.005, True, marks=pytest.mark.slow),
+])
+def test_trade_interval_against_an_independent_profile(width, noise, fine):
     """The constant orders with which a drifting parameter explains the data as well, against
     the same profile computed independently: `vojax.reference`'s direct sums on a grid of
-    orders 0.02 apart refined to 0.0025 at the minimum and the ends, least squares in NumPy over hat functions built here, for a gain on the
-    memory term and for a parameter inside the integral; the interval is where the better
-    form's Δχ² ≤ 4. It holds the true order; with a noise level far below the data's, no
+    orders 0.02 apart refined to 0.0025 at the minimum and the ends, least squares in NumPy
+    over hat functions built here on 8 knots and on 15, for a gain on the memory term and for
+    a parameter inside the integral; each form on 15 knots where that lowers its best χ² by
+    more than 14 (Akaike: 7 more coefficients), the interval where the better form's
+    Δχ² ≤ 4. A smooth rise of the gain (over ±0.15 of the record, 1 % noise) keeps 8 knots;
+    a faster one (±0.1, 0.5 % noise) takes 15, where both forms' intervals on 8 knots miss
+    the true order. It holds the true order; with a noise level far below the data's, no
     drifting parameter explains them and there is no interval."""
     from vojax import reference
     from vojax._integral import make_memory
     from vojax._tracker import _track
 
-    t, u, y, dt, sd = _gain_drift_case()
-    n, bounds, knots = t.size, (0.01, 0.99), _track.TRADE_KNOTS
+    t, u, y, dt, sd = _gain_drift_case(width=width, noise=noise)
+    n, bounds = t.size, (0.01, 0.99)
     memory = make_memory("exponential", dt, n, order_range=bounds)
     mask = np.ones(n)
     got = _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
                                 jnp.asarray(mask), t, n - 1, bounds, sd**2)
     s = t / t[-1]
-    hats = np.stack([np.interp(s, np.linspace(0, 1, knots), np.eye(knots)[k])
-                     for k in range(knots)], axis=1)
+    hats = [np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j]) for j in range(k)],
+                     axis=1) for k in (8, 15)]
+
     @functools.cache
-    def chi2_at(a):  # both forms' χ² at one constant order, by direct sums
+    def chi2_at(a):  # χ² of (8 knots: gain, inside; 15 knots: gain, inside) at one order
         order = np.full(n, a)
-        gain = np.asarray(reference.fractional_integral(u[:, None], order, dt)) * hats
-        inside = np.asarray(reference.fractional_integral(u[:, None] * hats, order, dt))
+        phi = np.asarray(reference.fractional_integral(u[:, None], order, dt))
+        inside = np.asarray(reference.fractional_integral(
+            u[:, None] * np.concatenate(hats, axis=1), order, dt))
         out = []
-        for x in (gain, inside):
+        for x in (phi * hats[0], inside[:, :8], phi * hats[1], inside[:, 8:]):
             x = np.column_stack([x, np.ones(n)])
             res = y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
             out.append(res @ res / sd**2)
@@ -1059,22 +1083,36 @@ def test_trade_interval_against_an_independent_profile():
     # (an interval is one stretch of orders: χ² is convex in the order on this record)
     coarse = np.linspace(0.02, 0.98, 49)
     chi2 = np.array([chi2_at(a) for a in coarse])
-    dof = n - knots - 1
-    fits = [f for f in range(2) if chi2[:, f].min() <= dof + 2 * np.sqrt(2 * dof)]
+    near = lambda a: np.round(np.clip(np.linspace(a - 0.02, a + 0.02, 17), 0.01, 0.99), 12)  # noqa: E731
+
+    def best(f):
+        return min(chi2[:, f].min(), min(chi2_at(a)[f] for a in near(coarse[chi2[:, f].argmin()])))
+
+    # each form's knots: 15 where its best χ² is lower by more than 14
+    forms = [f + 2 if best(f) - best(f + 2) > 14 else f for f in range(2)]
+    assert (forms[0] >= 2) == fine  # the true gain form takes the finer drift where it needs it
+    fits = [f for f in forms
+            if chi2[:, f].min() <= (dof := n - (15 if f >= 2 else 8) - 1) + 2 * np.sqrt(2 * dof)]
     assert fits  # the gain form is the truth: it must explain the data
-    within = []
-    for f in fits:
-        near = lambda a: np.round(np.clip(np.linspace(a - 0.02, a + 0.02, 17), 0.01, 0.99), 12)  # noqa: E731
-        best = min(chi2[:, f].min(), min(chi2_at(a)[f] for a in near(coarse[chi2[:, f].argmin()])))
-        inside = coarse[chi2[:, f] - best <= 4.0]
+
+    def interval(f):  # the orders within Δχ² ≤ 4 of form f's best
+        low, out = best(f), []
+        inside = coarse[chi2[:, f] - low <= 4.0]
         for edge in (inside.min(), inside.max()):
-            fine = near(edge)
-            within.extend(fine[[chi2_at(a)[f] - best <= 4.0 for a in fine]])
-        within.extend(inside)
-    within = np.array(within)
+            grid = near(edge)
+            out.extend(grid[[chi2_at(a)[f] - low <= 4.0 for a in grid]])
+        return out + list(inside)
+
+    if fine:  # 8 knots alone would have left the truth out
+        assert all(not min(interval(f)) <= 0.45 <= max(interval(f)) for f in range(2))
+    within = np.array([a for f in fits for a in interval(f)])
     assert got is not None
-    assert got[0] == pytest.approx(within.min(), abs=0.01)
-    assert got[1] == pytest.approx(within.max(), abs=0.01)
+    step = (bounds[1] - bounds[0]) / (_track.TRADE_ORDERS + 1)  # the library's grid of orders
+    for end, want, bound in ((got[0], within.min(), bounds[0]), (got[1], within.max(), bounds[1])):
+        if end == bound:  # its outermost grid order is inside: the interval reaches the bound
+            assert abs(want - bound) <= step + 0.0025
+        else:
+            assert end == pytest.approx(want, abs=0.01)
     assert got[0] <= 0.45 <= got[1]
     assert _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
                                  jnp.asarray(mask), t, n - 1, bounds, 1e-4 * sd**2) is None

@@ -73,9 +73,13 @@ ENVELOPE_EVIDENCE = 200.0
 # `TRADE_KNOTS` knots, as a gain on the memory term or inside the integral) explains the data
 # as well (Δχ² ≤ `TRADE_CHI2` from the best), when such a fit explains them at all
 TRADE_KNOTS = 8
+# … or on `TRADE_KNOTS_FINE` knots (those and their midpoints) where that lowers the form's
+# best χ² by more than 2 for each added coefficient (Akaike's criterion): a drift faster than
+# 8 knots follow leaves a misfit that biases the coarse profile's orders
+TRADE_KNOTS_FINE = 2 * TRADE_KNOTS - 1
 TRADE_ORDERS = 25  # constant orders profiled, evenly across the bounds
 TRADE_CHI2 = 4.0
-PHI_BLOCK = TRADE_KNOTS + 1  # the columns of one run of Φ at a constant order
+PHI_BLOCK = TRADE_KNOTS_FINE + 1  # the columns of one run of Φ at a constant order
 # with the parameters stated constant, the order's level and the parameters' scale trade off
 # along a ridge that one input can leave flat (a lower order with larger parameters and
 # another offset fits as well); the random-walk prior then settles the level, and the Laplace
@@ -386,25 +390,48 @@ def hat_basis(times, last, knots=TRADE_KNOTS):
     return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
 
 
-def _drift_profile(memory, u, y, mask, alphas, basis, whiten=None, offset=True):
-    """Weighted residual sums of squares (A, 2) of least squares at each constant order of
+def refinement(knots):
+    """The matrix R (2k − 1, k) with ``coarse = fine @ R`` for hat functions on `knots`
+    evenly spaced knots (coarse) and on those knots with their midpoints added (fine): a
+    coarse hat is its knot's fine hat plus half of each neighbouring one (exact: it is linear
+    between the fine knots)."""
+    r = np.zeros((2 * knots - 1, knots))
+    for k in range(knots):
+        r[2 * k, k] = 1.0
+        if k > 0:
+            r[2 * k - 1, k] = 0.5
+        if k < knots - 1:
+            r[2 * k + 1, k] = 0.5
+    return r
+
+
+def _drift_profile(memory, u, y, mask, alphas, fine, whiten=None, offset=True):
+    """Weighted residual sums of squares (A, 2, 2) of least squares at each constant order of
     `alphas` with an offset (``offset=False``: known to be 0) and the parameters free to
-    drift, ``p_j(t) = Σ_k a_jk B_k(t)``: as a gain on the memory term
-    (``y ≈ c + Σ a_jk B_k Φ_j``) and inside the integral (``y ≈ c + Σ a_jk I^α(B_k u_j)``);
-    χ² where `whiten` is given (see `_least_squares`)."""
-    u, y, mask, basis = (np.asarray(a) for a in (u, y, mask, basis))
+    drift, ``p_j(t) = Σ_k a_jk B_k(t)``: on `TRADE_KNOTS` knots, then on the hat functions
+    `fine` (N, `TRADE_KNOTS_FINE`: those knots and their midpoints); each as a gain on the
+    memory term (``y ≈ c + Σ a_jk B_k Φ_j``), then inside the integral
+    (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `_least_squares`).
+    The integral is linear: the coarse hats' columns are sums of the fine ones'
+    (`refinement`), so one run of the memory a constant order serves both."""
+    u, y, mask, fine = (np.asarray(a) for a in (u, y, mask, fine))
     num, n = u.shape
-    k = basis.shape[1]
-    inside_u = (u[:, :, None] * basis[:, None, :]).reshape(num, n * k)
+    k = fine.shape[1]
+    r = refinement(TRADE_KNOTS)
+    coarse = fine @ r
+    inside_u = (u[:, :, None] * fine[:, None, :]).reshape(num, n * k)
     # one block of `PHI_BLOCK` = k + 1 columns an input: its own and its k drifting ones
     columns = np.concatenate([u, inside_u], axis=1)
     out = []
     for alpha in alphas:
         both = phi_columns(memory, columns, alpha)
-        phi, inside = both[:, :n], both[:, n:]
-        gain = (phi[:, :, None] * basis[:, None, :]).reshape(num, n * k)
-        out.append([_least_squares(gain, y, mask, whiten, offset)[0],
-                    _least_squares(inside, y, mask, whiten, offset)[0]])
+        phi, inside = both[:, :n], both[:, n:].reshape(num, n, k)
+        row = []
+        for basis, drifting in ((coarse, inside @ r), (fine, inside)):
+            gain = phi[:, :, None] * basis[:, None, :]
+            row.append([_least_squares(x.reshape(num, -1), y, mask, whiten, offset)[0]
+                        for x in (gain, drifting)])
+        out.append(row)
     return np.asarray(out)
 
 
@@ -413,16 +440,25 @@ def trade_interval(memory, u, y, mask, times, last, bounds, noise, whiten=None, 
     well as the best such fit (``Δχ² ≤ TRADE_CHI2`` at the measurement variance `noise`, on the
     same scale as `y`, or under a coloured noise's `whiten`), over the forms (gain, inside)
     whose best fit passes a χ² test at 2σ (``χ² ≤ dof + 2√(2 dof)``); None when neither
-    explains the data. ``offset=False``: the offset is known to be 0."""
+    explains the data. Each form's drift is on `TRADE_KNOTS` knots, or on `TRADE_KNOTS_FINE`
+    where Akaike's criterion prefers them. ``offset=False``: the offset is known to be 0."""
     lo, hi = bounds
+    n = u.shape[1]
     alphas = np.linspace(lo, hi, TRADE_ORDERS + 2)[1:-1]
-    basis = hat_basis(times, last)
-    chi2 = _drift_profile(memory, u, y, mask, alphas, basis, whiten, offset)
+    fine = hat_basis(times, last, TRADE_KNOTS_FINE)
+    chi2 = _drift_profile(memory, u, y, mask, alphas, fine, whiten, offset)
     chi2 = chi2 / noise if whiten is None else chi2
-    dof = max(float(np.sum(np.asarray(mask))) - u.shape[1] * TRADE_KNOTS - 1, 1.0)
+    fitted = float(np.sum(np.asarray(mask)))
     found = []
-    for form in range(chi2.shape[1]):
-        c = chi2[:, form]
+    for form in range(chi2.shape[2]):
+        c, knots = chi2[:, 0, form], TRADE_KNOTS
+        c_fine = chi2[:, 1, form]
+        # the finer drift where its added coefficients pay for themselves (Akaike)
+        if np.all(np.isfinite(c_fine)) and (
+            c.min() - c_fine.min() > 2 * n * (TRADE_KNOTS_FINE - TRADE_KNOTS)
+        ):
+            c, knots = c_fine, TRADE_KNOTS_FINE
+        dof = max(fitted - n * knots - 1, 1.0)
         if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):
             continue
         excess = c - c.min() - TRADE_CHI2
