@@ -323,7 +323,7 @@ def _refine_compiled(x0, jac, z, mask, steps, horizon, m0, p0, lo, hi, max_steps
     margin = jnp.minimum(1e-3, (hi - lo) / 2)
     x0 = jnp.clip(x0, lo + margin, hi - margin)
     zeta0 = jnp.where(hi > lo, jnp.log((x0 - lo) / jnp.where(hi > lo, hi - x0, 1.0)), 0.0)
-    # optimistix's BFGS(rtol=1e-7, atol=1e-9), written as one small loop (`_bfgs`)
+    # optimistix's BFGS at REFINE_RTOL, REFINE_ATOL, written as one small loop (`_bfgs`)
     zeta, _ = bfgs.minimise(loss, zeta0, max_steps, rtol=REFINE_RTOL, atol=REFINE_ATOL)
     zeta = jnp.where(jnp.all(jnp.isfinite(zeta)), zeta, zeta0)
     return Hyper.from_array(lo + (hi - lo) * jax.nn.sigmoid(zeta))
