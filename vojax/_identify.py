@@ -21,6 +21,7 @@ from ._stats import (
     prediction_error_correlation,
 )
 from ._tracker._blocks import block_size
+from ._xla import to_device
 
 DEFAULT_BOUNDS = (0.05, 0.95)  # the law's projection
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
@@ -289,7 +290,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
     check.choice(memory, check.MEMORIES, "memory")
     check.choice(rule, RULES, "rule")
     if x0 is None:  # (NumPy on concrete data: an eager slice would compile per length)
-        x0 = y[0] if isinstance(y, jax.core.Tracer) else jnp.asarray(np.asarray(y)[0])
+        x0 = y[0] if isinstance(y, jax.core.Tracer) else to_device(np.asarray(y)[0])
     else:
         x0 = _scalar(x0, "x0")
     if isinstance(r0, str):
@@ -884,7 +885,7 @@ def _identify_kalman(
     )
     if warn and diagnostics.message:
         warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning, stacklevel=3)
-    nan = jnp.asarray(jnp.nan)
+    nan = to_device(np.nan)
     return Identification(
         alpha=res.alpha,
         alpha_std=res.alpha_std,
@@ -901,7 +902,7 @@ def _identify_kalman(
         gamma=nan,
         lam=nan,
         alpha0=nan,
-        dt=jnp.asarray(nominal_step(dt, t)),
+        dt=to_device(nominal_step(dt, t)),
         alpha_bounds=bounds,
         memory=memory,
         method="kalman",

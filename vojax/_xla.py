@@ -113,3 +113,14 @@ def use_compilation_cache(path: str | None = None) -> str | None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     return path
+
+
+def to_device(value):
+    """A host value (NumPy array, NumPy or Python scalar) as a JAX array of its NumPy dtype,
+    by a transfer. Newer JAX turns ``jnp.asarray`` of a host array into a small compiled
+    program (``stage``), one per shape and dtype: about 10 ms each on a first call, a dozen of
+    them in the tracker's first call."""
+    import jax
+    import numpy as np
+
+    return jax.device_put(np.asarray(value))

@@ -20,6 +20,7 @@ from jaxtyping import Array, Float, Int
 from ._base import AbstractMemory
 from ._special import digamma, lgamma
 from ._weights import TRAPEZOID, end_weights, log_norm
+from .._xla import to_device
 
 DEFAULT_TOL = 1e-10
 DEFAULT_ORDER_RANGE = (0.01, 0.99)
@@ -171,12 +172,12 @@ class ExponentialMemory(AbstractMemory):
         w_prev, w_cur = modal_weights(s, h, rule)
         return cls(
             dt=jnp.asarray(h, jnp.float64),
-            log_s=jnp.asarray(log_s),
-            log_q=jnp.asarray(modes["log_q"]),
-            log_readout=jnp.asarray(modes["log_q"] - s * h),
-            decay=jnp.asarray(np.exp(-s * h)),
-            weight_previous=jnp.asarray(w_prev),
-            weight_current=jnp.asarray(w_cur),
+            log_s=to_device(log_s),
+            log_q=to_device(modes["log_q"]),
+            log_readout=to_device(modes["log_q"] - s * h),
+            decay=to_device(np.exp(-s * h)),
+            weight_previous=to_device(w_prev),
+            weight_current=to_device(w_cur),
             steps=steps,
             order_range=tuple(map(float, order_range)),
             rule=rule,

@@ -18,6 +18,7 @@ from jax import lax
 from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
+from .._xla import to_device
 from ._kalman import kalman_filter, rts_smoother
 from ._parallel import parallel_filter, parallel_smoother
 from ._model import Hyper, linearise, model_output, objective, order_of, posterior_cost
@@ -95,7 +96,7 @@ def iterated_smoother(
     the first call in a process compiles the smoother once, not once per way of running it."""
     return smooth_compiled(
         memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds,
-        jnp.asarray(np.int32(max_iter)),  # a host value: no conversion program
+        to_device(np.int32(max_iter)),  # a host value: no conversion program
     )
 
 
@@ -163,8 +164,8 @@ def _rows(hyper, starts, num):
     values = [np.asarray(a) for a in jax.tree_util.tree_leaves(hyper)]
     starts = np.asarray(starts)
     for b in range(starts.shape[0]):
-        h = Hyper(*(jnp.asarray(v[b]) for v in values))
-        yield h, jnp.asarray(np.broadcast_to(starts[b], (num, starts.shape[1])))
+        h = Hyper(*(to_device(v[b]) for v in values))
+        yield h, to_device(np.broadcast_to(starts[b], (num, starts.shape[1])))
 
 
 def host_score(sm):

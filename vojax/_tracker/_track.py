@@ -15,6 +15,7 @@ import numpy as np
 from jax import lax
 
 from .._stats import correlation_limit, noise_variance, prediction_error_correlation
+from .._xla import to_device
 from . import _bfgs as bfgs
 from ._filter import KalmanTracker
 from ._model import Hyper, beta_of_np, model_output, order_of_np
@@ -182,7 +183,7 @@ def phi_columns(memory, x, alpha):
     padded[:, :m] = x
     a = jnp.asarray(alpha, x.dtype)
     return np.concatenate(
-        [np.asarray(_phi_constant(memory, jnp.asarray(padded[:, j : j + PHI_BLOCK]), a))
+        [np.asarray(_phi_constant(memory, to_device(padded[:, j : j + PHI_BLOCK]), a))
          for j in range(0, padded.shape[1], PHI_BLOCK)],
         axis=1,
     )[:, :m]
@@ -301,12 +302,13 @@ def box(noise_floor, hold=False, time_min=None):
 
 def _refine(hyper, smoothed, mask, steps, horizon, m0, p0, limits, max_steps=60):
     """Maximises the linearised innovation likelihood over the three log-intensities."""
-    lo = jnp.asarray([v[0] for v in limits.values()], smoothed.pseudo.dtype)
-    hi = jnp.asarray([v[1] for v in limits.values()], smoothed.pseudo.dtype)
+    dtype = smoothed.pseudo.dtype
+    lo = to_device(np.asarray([v[0] for v in limits.values()], dtype))
+    hi = to_device(np.asarray([v[1] for v in limits.values()], dtype))
     # a strongly typed start: a weakly typed one (from Python numbers) would compile anew
     return _refine_compiled(
-        jnp.asarray(_host_hyper(hyper), lo.dtype), smoothed.jacobian, smoothed.pseudo, mask, steps, horizon, m0, p0, lo,
-        hi, max_steps,
+        to_device(np.asarray(_host_hyper(hyper), dtype)), smoothed.jacobian, smoothed.pseudo,
+        mask, steps, horizon, m0, p0, lo, hi, max_steps,
     )
 
 
@@ -571,7 +573,7 @@ def _stack_hypers(values):
     """A batched `Hyper` from rows of intensities in its order (``(q_order, q_params, r)``,
     and a coloured noise's ``(s, τ)``)."""
     arr = np.log(np.asarray(values, dtype=float))
-    return Hyper(*(jnp.asarray(arr[:, i]) for i in range(arr.shape[1])))
+    return Hyper(*(to_device(arr[:, i]) for i in range(arr.shape[1])))
 
 
 def tune(
@@ -590,7 +592,7 @@ def tune(
     states and no noise at all, with meaningless, vanishing bands. `hold`: the parameters'
     drift held at `PARAM_DRIFT0` (the parameters known to be constant)."""
     limits = box(noise_floor, hold)
-    first = jnp.asarray(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
+    first = to_device(np.repeat(np.asarray(starts), len(GRID_ORDER), axis=0))
     passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]
     for noise, budget in passes:
         rows = [(qo, PARAM_DRIFT0, noise) for _ in starts for qo in GRID_ORDER]
@@ -602,7 +604,7 @@ def tune(
     i = i if i >= 0 else i_alt
     if i < 0:
         raise ValueError("the tracker diverged from every starting order; check the data.")
-    hyper = Hyper(*(jnp.asarray(np.log(float(v))) for v in rows[i]))
+    hyper = Hyper(*(to_device(np.log(float(v))) for v in rows[i]))
     if not np.isfinite(np.asarray(scores)[i]):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
@@ -676,13 +678,13 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
                  jnp.log(jnp.asarray(noise, u.dtype)), hyper.log_ar_var, hyper.log_ar_time)
     sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
-    return jnp.asarray(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
+    return to_device(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
 
 
 def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds):
     """One smoothing at fixed intensities `hyper`, from the constant trajectory `start` (d,)."""
     start = np.asarray(start, np.dtype(u.dtype))
-    nominal = jnp.asarray(np.broadcast_to(start, (u.shape[0], start.shape[0])))
+    nominal = to_device(np.broadcast_to(start, (u.shape[0], start.shape[0])))
     return iterated_smoother(
         memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, MAX_ITER
     )
@@ -886,7 +888,7 @@ def prior(num_inputs, dtype, coloured=False, offset_known=False):
     `OFFSET_PIN`: the same program as an estimated offset)."""
     offset = OFFSET_PIN if offset_known else PRIOR_VAR
     var = [PRIOR_BETA_VAR] + [PRIOR_VAR] * num_inputs + [offset] + [1.0] * coloured
-    return jnp.asarray(np.zeros(len(var), dtype)), jnp.asarray(np.diag(np.asarray(var, dtype)))
+    return to_device(np.zeros(len(var), dtype)), to_device(np.diag(np.asarray(var, dtype)))
 
 
 class TrackResult(eqx.Module):
@@ -999,27 +1001,27 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
     )
     num, n = u.shape
     dtype = np.dtype(u.dtype)
-    mask = jnp.asarray(np.ones((num,), dtype) if mask is None else np.asarray(mask, dtype))
+    mask = to_device(np.ones((num,), dtype) if mask is None else np.asarray(mask, dtype))
     scales = data_scales(u, y, mask)
     known = x0 is not None  # the offset known: the output normalised about it, held at 0
     if known:
         scales = dataclasses.replace(scales, y_ref=float(x0))
     # host arithmetic before the compiled programs (an eager JAX operation compiles its own)
     un = np.asarray(u) / np.asarray(scales.u_scale)
-    yn = jnp.asarray((np.asarray(y) - scales.y_ref) / scales.y_scale)
+    yn = to_device((np.asarray(y) - scales.y_ref) / scales.y_scale)
     alpha_c, _, rss, rms_phi = constant_fit(
-        memory, jnp.asarray(un), yn, mask, bounds, offset=not known
+        memory, to_device(un), yn, mask, bounds, offset=not known
     )
     if not np.all(rms_phi > 0):
         raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
     # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
-    un = jnp.asarray(un / np.asarray(rms_phi))
+    un = to_device(un / np.asarray(rms_phi))
     p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
     m0, p0 = prior(n, u.dtype, offset_known=known)
     # the step after each sample, t_{k+1} − t_k (the last one repeated); arrays, not Python
     # numbers: a new record length or step must not recompile
     if times is None:
-        steps = jnp.asarray(np.full((num,), float(dt), dtype))
+        steps = to_device(np.full((num,), float(dt), dtype))
         times = float(dt) * np.arange(num)
     else:
         gaps = np.diff(np.asarray(times))
@@ -1122,7 +1124,7 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
     scale = np.asarray(p_scale)
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
     y_hat_n, y_pred_n = np.asarray(y_hat_n), np.asarray(y_pred_n)
-    as_jax = jnp.asarray  # the fields are JAX arrays, as everywhere in vojax
+    as_jax = to_device  # the fields are JAX arrays, as everywhere in vojax
     return TrackResult(
         alpha=as_jax(alpha),
         alpha_std=as_jax(alpha_std),
