@@ -82,6 +82,9 @@ def test_tracker_traces_once(monkeypatch):
     vojax.identify(u2, y2, 0.1 * 1.01, method="kalman", warn=False)
     # a known offset is held by the prior: the same programs
     vojax.identify(u2, y2, 0.1, method="kalman", x0=0.0, warn=False)
+    # given intensities (Python numbers) smooth with the tuned path's program
+    vojax.identify(u2, y2, 0.1, method="kalman", warn=False,
+                   noise=dict(order_drift=1e-3, parameter_drift=1e-4, noise_std=0.01))
     assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1]
 
 
@@ -89,9 +92,10 @@ def test_the_first_tracker_call_compiles_a_handful_of_programs():
     """A fresh process's first `identify` (the tracker) compiles one smoothing program for
     all its smoothings, the refinement, and one program of Φ at a constant order for the
     constant fit and the trade-off's profile, and next to nothing else: an eager JAX
-    operation on the host side (each compiles a program of its own, ~0.05 s), a second way
-    of running the smoother (~1 s) or a profile compiled for its own shapes (~0.3 s) shows
-    up here."""
+    operation on the host side (each compiles a program of its own, ~0.01–0.05 s; newer JAX
+    compiles one for every `jnp.asarray` of a host array of a new shape or dtype), a second
+    way of running the smoother (~1 s) or a profile compiled for its own shapes (~0.3 s)
+    shows up here."""
     import subprocess
     import sys
 
@@ -122,7 +126,13 @@ print(",".join(names))
     names = done.stdout.strip().splitlines()[-1].split(",")
     heavy = ["smooth_compiled", "_refine_compiled", "_phi_constant"]
     assert [names.count(n) for n in heavy] == [1, 1, 1], names
-    # besides them only JAX's own moves of host arrays onto the device (`jnp.asarray`)
-    moves = {"stage", "convert_element_type", "broadcast_in_dim"}
-    # (JAX 0.4.30 also compiles one `add` while it traces the constant fit)
-    assert [n for n in names if n not in heavy and n not in moves] in ([], ["add"]), names
+    # besides them at most the log of the held order's two intensities (`held_order`: kept
+    # in JAX, whose log may differ from NumPy's in the last bit); JAX 0.4 also compiles an
+    # `add` and a `convert_element_type` while it traces the constant fit
+    import jax
+
+    allowed = {"log"}
+    if tuple(int(v) for v in jax.__version__.split(".")[:2]) < (0, 5):
+        allowed |= {"add", "convert_element_type"}
+    rest = [n for n in names if n not in heavy]
+    assert set(rest) <= allowed and len(rest) == len(set(rest)), names

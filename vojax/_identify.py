@@ -266,7 +266,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
     """Validates the arguments shared by `identify`, `tune_gains` and `refit` (the grid: the
     step `dt`, or the sample times `t` where given); returns prepared arrays."""
     u = check.samples(u, "u")
-    u2 = u[:, None] if u.ndim == 1 else u
+    u2 = check.columns(u)
     y = check.samples(y, "y")
     if y.ndim != 1:
         raise ValueError(f"`y` must have shape (N,), got shape {y.shape}.")
@@ -785,8 +785,8 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     mem_b = make_memory(memory, None, t_b.shape[0], rule=rule, tol=tol, order_range=bounds,
                         times=t_b)
     res = track(
-        mem_b, jnp.asarray(u_b), jnp.asarray(y_b), None, bounds, smooth=smooth, hyper=noise,
-        mask=None if mask is None else jnp.asarray(mask_b), times=t_b, parameters=parameters,
+        mem_b, to_device(u_b), to_device(y_b), None, bounds, smooth=smooth, hyper=noise,
+        mask=None if mask is None else to_device(mask_b), times=t_b, parameters=parameters,
         x0=x0, batched=size >= BATCHED_BLOCK,
     )
     mem = make_memory(memory, dt, num, rule=rule, tol=tol, order_range=bounds, times=t)
@@ -796,12 +796,12 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     # the two runs over every sample, at the constant-order fit and at the tracked order, as
     # one batched scan
     constant = np.full((num,), res.constant_order, dtype)
-    phi_c, phi = np.asarray(scan_memory_orders(mem, u2, jnp.asarray(
+    phi_c, phi = np.asarray(scan_memory_orders(mem, u2, to_device(
         np.stack([constant, alpha.astype(dtype)])), SCAN_UNROLL if batch_pays() else 1))
     # the coarse clock's model error at the constant-order fit, against a block mean's noise
     # (from the samples' own second differences: on the coarse clock those see more of the
     # signal)
-    phi_b = np.asarray(scan_memory(mem_b, jnp.asarray(u_b), jnp.asarray(constant[: t_b.shape[0]]),
+    phi_b = np.asarray(scan_memory(mem_b, to_device(u_b), to_device(constant[: t_b.shape[0]]),
                                    False))
     coef = _least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
     error = (block_average(phi_c[:span], size) - phi_b) @ coef[:-1]
@@ -810,15 +810,15 @@ def _track_blocks(u2, y, dt, t, bounds, smooth, memory, rule, tol, noise, mask, 
     block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
     full = dataclasses.replace(
         res,
-        alpha=jnp.asarray(alpha),
-        alpha_std=jnp.asarray(at_samples(res.alpha_std)),
-        alpha_lower=jnp.asarray(at_samples(res.alpha_lower)),
-        alpha_upper=jnp.asarray(at_samples(res.alpha_upper)),
-        p=jnp.asarray(p),
-        p_std=jnp.asarray(at_samples(res.p_std)),
-        y_hat=jnp.asarray(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
-        y_pred=jnp.asarray(at_samples(res.y_pred)),
-        alpha_held=None if res.alpha_held is None else jnp.asarray(at_samples(res.alpha_held)),
+        alpha=to_device(alpha),
+        alpha_std=to_device(at_samples(res.alpha_std)),
+        alpha_lower=to_device(at_samples(res.alpha_lower)),
+        alpha_upper=to_device(at_samples(res.alpha_upper)),
+        p=to_device(p),
+        p_std=to_device(at_samples(res.p_std)),
+        y_hat=to_device(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
+        y_pred=to_device(at_samples(res.y_pred)),
+        alpha_held=None if res.alpha_held is None else to_device(at_samples(res.alpha_held)),
     )
     fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
                held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],

@@ -124,7 +124,7 @@ def order_map(memory: AbstractMemory, u):
 def _prepare(u, order, dt, t, rule, memory, tol, order_range):
     u = check.samples(u)
     squeeze = u.ndim == 1
-    u2 = u[:, None] if squeeze else u
+    u2 = check.columns(u)
     order = check.order(order, u2.shape[0])
     dt, t = check.grid(dt, t, u2.shape[0])
     mem = make_memory(

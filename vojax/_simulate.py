@@ -23,7 +23,7 @@ def simulate(
     **Returns:** ``x`` of shape ``(N,)``.
     """
     u = check.samples(u, "u")
-    u2 = u[:, None] if u.ndim == 1 else u
+    u2 = check.columns(u)
     p = jnp.asarray(check.float_array(p, "p"))
     n = u2.shape[1]
     if p.shape not in ((n,), (u2.shape[0], n)) and not (p.ndim == 0 and n == 1):

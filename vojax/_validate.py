@@ -4,6 +4,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._xla import to_device
+
 MEMORIES = ("direct", "exponential")
 
 
@@ -35,7 +37,18 @@ def float_array(x, name: str):
             raise TypeError(
                 f"`{name}` must have a real floating-point dtype, got {np.dtype(dtype).name}."
             )
-    return jnp.asarray(x, dtype=jnp.result_type(float))
+    if isinstance(x, jax.Array):  # on the device already, or traced
+        return jnp.asarray(x, dtype=jnp.result_type(float))
+    # a host value moves by a transfer (`to_device`), not by a compiled conversion
+    return to_device(np.asarray(x, dtype=np.float64))
+
+
+def columns(u):
+    """Samples ``u`` (N,) or (N, n) as (N, n), without an eager JAX operation on a concrete
+    array (each would compile a program of its own on a first call)."""
+    if u.ndim == 2:
+        return u
+    return u[:, None] if isinstance(u, jax.core.Tracer) else to_device(np.asarray(u)[:, None])
 
 
 def check_finite(x, name: str):

@@ -171,7 +171,7 @@ class ExponentialMemory(AbstractMemory):
         s = np.exp(log_s)
         w_prev, w_cur = modal_weights(s, h, rule)
         return cls(
-            dt=jnp.asarray(h, jnp.float64),
+            dt=to_device(np.float64(h)),
             log_s=to_device(log_s),
             log_q=to_device(modes["log_q"]),
             log_readout=to_device(modes["log_q"] - s * h),

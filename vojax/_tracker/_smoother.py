@@ -146,11 +146,11 @@ def _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max
     values = [np.asarray(a) for a in jax.tree_util.tree_leaves(hyper)]
     starts = np.asarray(starts)
     count = starts.shape[0]
-    budget = jnp.asarray(np.int32(max_iter))  # a host value: no conversion program
+    budget = to_device(np.int32(max_iter))  # a host value: no conversion program
     for lo in range(0, count, RUN_BATCH):
         index = np.minimum(np.arange(lo, lo + RUN_BATCH), count - 1)
-        h = Hyper(*(jnp.asarray(v[index]) for v in values))
-        nominal = jnp.asarray(np.broadcast_to(starts[index][:, None, :],
+        h = Hyper(*(to_device(v[index]) for v in values))
+        nominal = to_device(np.broadcast_to(starts[index][:, None, :],
                                               (RUN_BATCH, num, starts.shape[1])))
         out = jax.tree_util.tree_map(np.asarray, smooth_batched(
             memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, budget))

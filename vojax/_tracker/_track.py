@@ -181,7 +181,7 @@ def phi_columns(memory, x, alpha):
     num, m = x.shape
     padded = np.zeros((num, -(-m // PHI_BLOCK) * PHI_BLOCK), x.dtype)
     padded[:, :m] = x
-    a = jnp.asarray(alpha, x.dtype)
+    a = to_device(np.asarray(alpha, x.dtype))
     return np.concatenate(
         [np.asarray(_phi_constant(memory, to_device(padded[:, j : j + PHI_BLOCK]), a))
          for j in range(0, padded.shape[1], PHI_BLOCK)],
@@ -675,8 +675,8 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     held parameters leave more of it), from the constant-order fit `start`. With one input an
     order and drifting parameters trade off; where the tuned parameters drift, this is the
     order the data give without that drift. None if the smoothing does not converge."""
-    held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),
-                 jnp.log(jnp.asarray(noise, u.dtype)), hyper.log_ar_var, hyper.log_ar_time)
+    held = Hyper(hyper.log_q_order, jnp.log(to_device(np.asarray(PARAM_DRIFT0, u.dtype))),
+                 jnp.log(to_device(np.asarray(noise, u.dtype))), hyper.log_ar_var, hyper.log_ar_time)
     sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
     return to_device(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
 
@@ -721,7 +721,7 @@ def mixture(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
     betas, variances, scores, residuals = run_mode_shares(
-        memory, u, y, mask, steps, horizon, rows, m0, p0, jnp.asarray(firsts, u.dtype), bounds,
+        memory, u, y, mask, steps, horizon, rows, m0, p0, to_device(np.asarray(firsts, u.dtype)), bounds,
         MAX_ITER,
     )
     betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
@@ -807,7 +807,7 @@ def level_profile(
             p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN * np.maximum(held * held, 1.0))
             start = mean.copy()
             start[1 : 1 + n] = held
-            runs.append((jnp.asarray(m), jnp.asarray(p), start[None]))
+            runs.append((to_device(m), to_device(p), start[None]))
 
         def call(lo, hi):
             return [
@@ -942,13 +942,13 @@ def _coloured(
     m0, p0 = prior(u.shape[1], u.dtype, coloured=True, offset_known=offset_known)
     theta = np.asarray(sm.theta)
     starts = np.concatenate([np.asarray(starts), np.zeros((len(starts), 1))], axis=1)
-    nominal = jnp.asarray(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1))
+    nominal = to_device(np.concatenate([theta, np.zeros((theta.shape[0], 1))], axis=1))
     hypers = []
     for rho in RHO_STARTS:
         noise_time = float(np.clip(-step / np.log(rho) / span, 1.01 * time_min,
                                    0.99 * NOISE_TIME_MAX))
         values = (tuning.order_drift, tuning.parameter_drift, half, half, noise_time)
-        hypers.append(Hyper(*(jnp.asarray(np.log(v), u.dtype) for v in values)))
+        hypers.append(Hyper(*(to_device(np.asarray(np.log(v), u.dtype)) for v in values)))
 
     def call(lo, hi):  # the starts are independent: side by side in threads
         return [jax.block_until_ready(iterated_smoother(
@@ -1025,11 +1025,11 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
         times = float(dt) * np.arange(num)
     else:
         gaps = np.diff(np.asarray(times))
-        steps = jnp.asarray(np.concatenate([gaps, gaps[-1:]]).astype(dtype))
+        steps = to_device(np.concatenate([gaps, gaps[-1:]]).astype(dtype))
     # the record's span up to its last fitted sample (padding after it does not count)
     last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
     span = float(np.asarray(times)[last] - np.asarray(times)[0])
-    horizon = jnp.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype)
+    horizon = to_device(np.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype))
     starts = starting_trajectories(memory, un, yn, mask, bounds, alpha_c, offset=not known)
     dof = max(float(np.sum(np.asarray(mask))) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
@@ -1051,9 +1051,9 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
         )
     else:
         hyper = Hyper(
-            jnp.log(jnp.asarray(float(hyper["order_drift"]))),
-            jnp.log(jnp.asarray(float(hyper["parameter_drift"]))),
-            jnp.log(jnp.asarray((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
+            jnp.log(to_device(float(hyper["order_drift"]))),
+            jnp.log(to_device(float(hyper["parameter_drift"]))),
+            jnp.log(to_device((float(hyper["noise_std"]) / scales.y_scale) ** 2)),
         )
         sm = smooth_from(memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0], bounds)
         tuning = Tuning.of(_host_hyper(hyper), (), sm.log_likelihood, False)
@@ -1096,7 +1096,7 @@ def _track(memory, u, y, dt, bounds, smooth, hyper, mask, iterations, times, par
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
         out = run_filter(
-            memory, hyper, un, yn, mask, steps, horizon, jnp.asarray(starts[0]), p0, bounds,
+            memory, hyper, un, yn, mask, steps, horizon, to_device(starts[0]), p0, bounds,
             iterations,
         )
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
