@@ -136,3 +136,25 @@ print(",".join(names))
         allowed |= {"add", "convert_element_type"}
     rest = [n for n in names if n not in heavy]
     assert set(rest) <= allowed and len(rest) == len(set(rest)), names
+
+
+def test_import_leaves_the_solvers_and_plotting_for_when_they_are_used():
+    """`import vojax` does not import optimistix (about 0.07 s of the import: only the refit,
+    the law's gain tuning and the design use it), matplotlib or tqdm; the refit imports
+    optimistix when it runs."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np, jax\n"
+        "jax.config.update('jax_enable_x64', True)\n"
+        "import vojax\n"
+        "print(sorted(m for m in ('optimistix', 'matplotlib', 'tqdm') if m in sys.modules))\n"
+        "u = np.ones(60)\n"
+        "vojax.refit(u, np.asarray(vojax.reference.fractional_integral(u, 0.5, 0.1)), 0.1)\n"
+        "print('optimistix' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["[]", "True"], done.stdout

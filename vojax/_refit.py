@@ -1,15 +1,19 @@
 """`refit`: offline batch fit of the order trajectory and the parameters (optimistix)."""
 
+from typing import TYPE_CHECKING
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array, Float
 
 from . import _validate as check
 from ._identify import check_options
 from ._integral import make_memory, order_map, scan_memory
+
+if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
+    import optimistix
 
 
 class Refit(eqx.Module):
@@ -52,7 +56,7 @@ class Refit(eqx.Module):
     y_hat: Float[Array, " N"]
     residuals: Float[Array, " N"]
     sigma: Float[Array, ""]
-    result: optx.RESULTS
+    result: "optimistix.RESULTS"
     steps: Array
     p_at_bound: tuple[bool, ...] = eqx.field(static=True, default=())
     at_bound: bool = eqx.field(static=True, default=False)
@@ -106,6 +110,8 @@ class Refit(eqx.Module):
             out[name] = row(p[j], se[j], "held at 0 by its sign" if held else "")
         out["x0"] = row(self.x0, self.x0_stderr)
         out["residual sigma"] = row(self.sigma)
+        import optimistix as optx
+
         out["converged"] = row("yes" if self.result == optx.RESULTS.successful else "no")
         return out
 
@@ -448,6 +454,8 @@ def _fit(
     """The Levenberg–Marquardt fit and its Gauss–Newton errors, compiled once per shape and
     static setting (numbers are arrays, the model is built inside: no retracing). ``sw`` is the
     square root of each sample's weight; coefficients with ``active = 0`` are held at 0."""
+    import optimistix as optx
+
     TRACES["fit"] += 1  # runs only while tracing
     num, width = u2.shape
     count = active.shape[0]  # coefficients: of the integrated inputs, then of `direct`
@@ -545,6 +553,8 @@ def _fit(
 def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
     """With the order fixed the model is linear in the coefficients (and the offset): weighted
     least squares, with the sign constraints by the same active set as `refit`."""
+    import optimistix as optx
+
     parts = [phi, v] + ([jnp.ones((phi.shape[0], 1), phi.dtype)] if estimate else [])
     full = jnp.concatenate(parts, 1)
     count = signs.size

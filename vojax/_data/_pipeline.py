@@ -6,7 +6,6 @@ import io
 from pathlib import Path
 
 import numpy as np
-import optimistix as optx
 
 from .._io import atomic_path, write_json
 from .._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
@@ -465,6 +464,8 @@ def identify_record(
     if "alpha" in columns:
         columns["y_hat"] = np.asarray(res.y_hat)
     if runs_refit(method):
+        import optimistix as optx  # imported where it is used: 0.07 s of `import vojax`
+
         options = refit_options(record, model, area, length, origin, fit_from, fit_to)
         fit = _padded(refit, u, y, pad_to, **grid, **options)
         p = np.asarray(fit.p)

@@ -676,9 +676,12 @@ def held_order(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds,
     order and drifting parameters trade off; where the tuned parameters drift, this is the
     order the data give without that drift. None if the smoothing does not converge."""
     held = Hyper(hyper.log_q_order, jnp.log(to_device(np.asarray(PARAM_DRIFT0, u.dtype))),
-                 jnp.log(to_device(np.asarray(noise, u.dtype))), hyper.log_ar_var, hyper.log_ar_time)
+                 jnp.log(to_device(np.asarray(noise, u.dtype))), hyper.log_ar_var,
+                 hyper.log_ar_time)
     sm = smooth_from(memory, u, y, mask, steps, horizon, held, m0, p0, start, bounds)
-    return to_device(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0]) if bool(sm.converged) else None
+    if not bool(sm.converged):
+        return None
+    return to_device(order_of_np(np.asarray(sm.theta)[:, 0], bounds)[0])
 
 
 def smooth_from(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds):
@@ -721,8 +724,8 @@ def mixture(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
     betas, variances, scores, residuals = run_mode_shares(
-        memory, u, y, mask, steps, horizon, rows, m0, p0, to_device(np.asarray(firsts, u.dtype)), bounds,
-        MAX_ITER,
+        memory, u, y, mask, steps, horizon, rows, m0, p0, to_device(np.asarray(firsts, u.dtype)),
+        bounds, MAX_ITER,
     )
     betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
     variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
