@@ -85,7 +85,7 @@ def test_the_blocked_order_agrees_with_the_fit_of_every_sample(long_record):
     read at the wrong time or a misplaced first sample move the order out of these)."""
     t, u, y, alpha, x, blocked, full = long_record
     half = t > t[-1] / 2
-    a_b, a_f = np.asarray(blocked.alpha)[half], np.asarray(full.alpha)[half]
+    a_b = np.asarray(blocked.alpha)[half]
     lo, hi = np.asarray(full.alpha_lower)[half], np.asarray(full.alpha_upper)[half]
     assert np.all((a_b >= lo) & (a_b <= hi))
     for res in (blocked, full):

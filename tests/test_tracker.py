@@ -140,7 +140,7 @@ def test_damped_pass_is_the_posterior_with_the_anchor_observed():
     filt = kalman_filter(*(jnp.asarray(x) for x in (h, z, r, q, m0, p0)), None, jnp.asarray(anchor), mu)
     ms, ps = rts_smoother(filt, jnp.asarray(q))
     # dense: append d identity rows per sample, measured as the anchor with variance 1/μ
-    rows_h, rows_z, rows_r = [], [], []
+    rows_h, rows_z = [], []
     for k in range(n):
         rows_h.append(np.eye(d))
         rows_z.append(anchor[k])

@@ -11,6 +11,10 @@ The threshold is read from ``XLA_FLAGS`` when JAX creates its CPU backend, so it
 of the whole process, made before the first computation. vojax never sets it on import; the
 ``vojax`` command sets it for itself (``VOJAX_FAST_CPU_LOOPS=0`` turns that off), and a
 notebook or script opts in with `use_fast_cpu_loops` before its first JAX computation.
+
+Also here, for the first call's cost: `use_compilation_cache` (compiled programs kept on
+disk) and `to_device` (host arrays moved to the device by a transfer, not by a compiled
+program).
 """
 
 import os

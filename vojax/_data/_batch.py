@@ -131,7 +131,7 @@ def _locked(out_dir: Path):
     path = out_dir / LOCK_NAME
     try:  # never through a link: the lock would create or touch a file elsewhere
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | getattr(os, "O_NOFOLLOW", 0))
-    except OSError as e:
+    except OSError:
         if path.is_symlink():
             raise BatchBusy(
                 f"{path} is a symbolic link; vojax does not follow links in --out: remove it."
