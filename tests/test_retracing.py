@@ -138,6 +138,54 @@ print(",".join(names))
     assert set(rest) <= allowed and len(rest) == len(set(rest)), names
 
 
+@pytest.mark.slow
+def test_a_blocked_first_call_compiles_only_its_programs():
+    """A long record fitted as block means (20,000 samples, blocks of 21) compiles the
+    batched smoothing, the single one (the climb), the refinement, Φ at a constant order and
+    the two runs over every sample, and no program that moves host arrays (the batch's
+    fields, the block clock's steps)."""
+    import subprocess
+    import sys
+
+    code = r"""
+import logging, re, jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np, vojax
+names = []
+class Keep(logging.Handler):
+    def emit(self, record):
+        m = re.search(r"Finished XLA compilation of jit\((\w+)\)", record.getMessage())
+        if m:
+            names.append(m.group(1))
+logging.getLogger("jax").addHandler(Keep())
+logging.getLogger("jax").setLevel(logging.WARNING)
+dt, n = 0.05, 20000
+t = np.arange(n) * dt
+u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
+x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt))
+y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+jax.config.update("jax_log_compiles", True)
+res = vojax.identify(u, y, dt, warn=False)
+print(res.diagnostics.block)
+print(",".join(names))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    block, names = done.stdout.strip().splitlines()[-2:]
+    names = names.split(",")
+    assert int(block) == 21
+    programs = ["smooth_batched", "smooth_compiled", "_refine_compiled", "_phi_constant",
+                "scan_memory_orders", "scan_memory"]
+    assert [names.count(n) for n in programs] == [1] * len(programs), names
+    import jax
+
+    allowed = {"log"}
+    if tuple(int(v) for v in jax.__version__.split(".")[:2]) < (0, 5):
+        allowed |= {"add", "convert_element_type"}
+    rest = [n for n in names if n not in programs]
+    assert set(rest) <= allowed and len(rest) == len(set(rest)), names
+
 def test_import_leaves_the_solvers_and_plotting_for_when_they_are_used():
     """`import vojax` does not import optimistix (about 0.07 s of the import: only the refit,
     the law's gain tuning and the design use it), matplotlib or tqdm; the refit imports

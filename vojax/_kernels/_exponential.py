@@ -213,7 +213,7 @@ class ExponentialMemory(AbstractMemory):
         h_min = float(steps.min())
         horizon = max(float(t[-1] - t[0]), 2.0 * h_min)
         modes = design_span(h_min, horizon, float(tol), tuple(map(float, order_range)))
-        grid_steps = jnp.asarray(np.concatenate([steps[:1], steps]))  # h_0: a placeholder
+        grid_steps = to_device(np.concatenate([steps[:1], steps]))  # h_0: a placeholder
         return cls._build(modes, h_min, grid_steps, rule, order_range)
 
     def _step_terms(self, k):

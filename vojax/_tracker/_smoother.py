@@ -202,7 +202,7 @@ def smoother_batch(
         iterations.append(int(sm.iterations))
     if best is None:
         best = sm
-    best = jax.tree_util.tree_map(jnp.asarray, best)  # a run of a batch: NumPy fields
+    best = jax.tree_util.tree_map(to_device, best)  # a run of a batch: NumPy fields
     return best, i_best, i_alt, np.array(scores), np.array(iterations), np.array(alts)
 
 
