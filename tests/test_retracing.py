@@ -3,7 +3,11 @@ new data, new numbers (gains, steps, tolerances, start orders) reuse them. Each 
 replaced by a fresh `eqx.debug.assert_max_traces(max_traces=1)` wrapper, so a second trace
 raises; `get_num_traces` checks that the wrapper was really used."""
 
+import subprocess
+import sys
+
 import equinox as eqx
+import jax
 import numpy as np
 import pytest
 
@@ -88,6 +92,51 @@ def test_tracker_traces_once(monkeypatch):
     assert [eqx.debug.get_num_traces(f) for f in limited] == [1, 1, 1]
 
 
+# a fresh process that records the name of every program XLA compiles once the record is
+# made (`jax_log_compiles`), runs `identify` on it and prints its block size and the names
+_FIRST_CALL = r"""
+import logging, re, jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np, vojax
+names = []
+class Keep(logging.Handler):
+    def emit(self, record):
+        m = re.search(r"Finished XLA compilation of jit\((\w+)\)", record.getMessage())
+        if m:
+            names.append(m.group(1))
+logging.getLogger("jax").addHandler(Keep())
+logging.getLogger("jax").setLevel(logging.WARNING)
+{record}
+jax.config.update("jax_log_compiles", True)
+res = vojax.identify(u, y, dt, warn=False)
+print(res.diagnostics.block)
+print(",".join(names))
+"""
+
+
+def _first_call_programs(record: str, timeout: int):
+    """``(block, names)`` of a fresh process's first `identify` on the record that the code
+    `record` makes (``u``, ``y``, ``dt``)."""
+    done = subprocess.run([sys.executable, "-c", _FIRST_CALL.format(record=record)],
+                          capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, done.stderr[-2000:]
+    block, names = done.stdout.strip().splitlines()[-2:]
+    return int(block), names.split(",")
+
+
+def _assert_only(names, programs):
+    """Each of `programs` compiled once, and besides them at most the log of the held order's
+    two intensities (`held_order`: kept in JAX, whose log may differ from NumPy's in the last
+    bit); JAX 0.4 also compiles an `add` and a `convert_element_type` while it traces the
+    constant fit."""
+    assert [names.count(n) for n in programs] == [1] * len(programs), names
+    allowed = {"log"}
+    if tuple(int(v) for v in jax.__version__.split(".")[:2]) < (0, 5):
+        allowed |= {"add", "convert_element_type"}
+    rest = [n for n in names if n not in programs]
+    assert set(rest) <= allowed and len(rest) == len(set(rest)), names
+
+
 def test_the_first_tracker_call_compiles_a_handful_of_programs():
     """A fresh process's first `identify` (the tracker) compiles one smoothing program for
     all its smoothings, the refinement, and one program of Φ at a constant order for the
@@ -96,46 +145,15 @@ def test_the_first_tracker_call_compiles_a_handful_of_programs():
     compiles one for every `jnp.asarray` of a host array of a new shape or dtype), a second
     way of running the smoother (~1 s) or a profile compiled for its own shapes (~0.3 s)
     shows up here."""
-    import subprocess
-    import sys
-
-    code = r"""
-import logging, re, jax
-jax.config.update("jax_enable_x64", True)
-import numpy as np, vojax
-names = []
-class Keep(logging.Handler):
-    def emit(self, record):
-        m = re.search(r"Finished XLA compilation of jit\((\w+)\)", record.getMessage())
-        if m:
-            names.append(m.group(1))
-logging.getLogger("jax").addHandler(Keep())
-logging.getLogger("jax").setLevel(logging.WARNING)
+    block, names = _first_call_programs("""
 dt = 0.1
 t = np.arange(200) * dt
 u = np.minimum(t, 5.0) + 0.2 * np.sin(t)
 y = np.asarray(vojax.reference.fractional_integral(u, 0.3 + 0.3 * t / t[-1], dt))
 y = y + 0.01 * np.ptp(y) * np.random.default_rng(0).standard_normal(t.size)
-jax.config.update("jax_log_compiles", True)
-vojax.identify(u, y, dt, warn=False)
-print(",".join(names))
-"""
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=600)
-    assert done.returncode == 0, done.stderr[-2000:]
-    names = done.stdout.strip().splitlines()[-1].split(",")
-    heavy = ["smooth_compiled", "_refine_compiled", "_phi_constant"]
-    assert [names.count(n) for n in heavy] == [1, 1, 1], names
-    # besides them at most the log of the held order's two intensities (`held_order`: kept
-    # in JAX, whose log may differ from NumPy's in the last bit); JAX 0.4 also compiles an
-    # `add` and a `convert_element_type` while it traces the constant fit
-    import jax
-
-    allowed = {"log"}
-    if tuple(int(v) for v in jax.__version__.split(".")[:2]) < (0, 5):
-        allowed |= {"add", "convert_element_type"}
-    rest = [n for n in names if n not in heavy]
-    assert set(rest) <= allowed and len(rest) == len(set(rest)), names
+""", timeout=600)
+    assert block == 1
+    _assert_only(names, ["smooth_compiled", "_refine_compiled", "_phi_constant"])
 
 
 @pytest.mark.slow
@@ -144,55 +162,22 @@ def test_a_blocked_first_call_compiles_only_its_programs():
     batched smoothing, the single one (the climb), the refinement, Φ at a constant order and
     the two runs over every sample, and no program that moves host arrays (the batch's
     fields, the block clock's steps)."""
-    import subprocess
-    import sys
-
-    code = r"""
-import logging, re, jax
-jax.config.update("jax_enable_x64", True)
-import numpy as np, vojax
-names = []
-class Keep(logging.Handler):
-    def emit(self, record):
-        m = re.search(r"Finished XLA compilation of jit\((\w+)\)", record.getMessage())
-        if m:
-            names.append(m.group(1))
-logging.getLogger("jax").addHandler(Keep())
-logging.getLogger("jax").setLevel(logging.WARNING)
+    block, names = _first_call_programs("""
 dt, n = 0.05, 20000
 t = np.arange(n) * dt
 u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
 x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt))
 y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
-jax.config.update("jax_log_compiles", True)
-res = vojax.identify(u, y, dt, warn=False)
-print(res.diagnostics.block)
-print(",".join(names))
-"""
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=900)
-    assert done.returncode == 0, done.stderr[-2000:]
-    block, names = done.stdout.strip().splitlines()[-2:]
-    names = names.split(",")
-    assert int(block) == 21
-    programs = ["smooth_batched", "smooth_compiled", "_refine_compiled", "_phi_constant",
-                "scan_memory_orders", "scan_memory"]
-    assert [names.count(n) for n in programs] == [1] * len(programs), names
-    import jax
+""", timeout=900)
+    assert block == 21
+    _assert_only(names, ["smooth_batched", "smooth_compiled", "_refine_compiled",
+                         "_phi_constant", "scan_memory_orders", "scan_memory"])
 
-    allowed = {"log"}
-    if tuple(int(v) for v in jax.__version__.split(".")[:2]) < (0, 5):
-        allowed |= {"add", "convert_element_type"}
-    rest = [n for n in names if n not in programs]
-    assert set(rest) <= allowed and len(rest) == len(set(rest)), names
 
 def test_import_leaves_the_solvers_and_plotting_for_when_they_are_used():
     """`import vojax` does not import optimistix (about 0.07 s of the import: only the refit,
     the law's gain tuning and the design use it), matplotlib or tqdm; the refit imports
     optimistix when it runs."""
-    import subprocess
-    import sys
-
     code = (
         "import sys, numpy as np, jax\n"
         "jax.config.update('jax_enable_x64', True)\n"
