@@ -54,16 +54,27 @@ res = vojax.identify(u, 1.001 * y, dt, warn=False)
 res.alpha.block_until_ready()
 second = time.perf_counter()
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the simulation and identify
-law = float("nan")
+law = recursion = float("nan")
 if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, given its gains
+    import vojax._identify as ident
+    run_law, spent = ident.run_law, []
+
+    def timed_run_law(*args):  # the recursion alone, without the band computed after it
+        begun = time.perf_counter()
+        out = jax.block_until_ready(run_law(*args))
+        spent.append(time.perf_counter() - begun)
+        return out
+
+    ident.run_law = timed_run_law
     for _ in range(2):  # the second call, warm
         begun = time.perf_counter()
         vojax.identify(u, y, dt, method="gradient", gamma=0.01, lam=0.9, warn=False
                        ).alpha.block_until_ready()
         law = time.perf_counter() - begun
+    recursion = spent[-1]
 rss_law = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # and the law's pass
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
-                      second=second - first, law=law, rss_mb=rss, rss_law_mb=rss_law,
+                      second=second - first, law=law, recursion=recursion, rss_mb=rss, rss_law_mb=rss_law,
                       block=res.diagnostics.block, jax=jax.__version__,
                       device=f"{jax.default_backend()} ({jax.devices()[0].device_kind})",
                       coloured=res.diagnostics.noise_correlation == res.diagnostics.noise_correlation)))
@@ -139,20 +150,25 @@ def main(argv=None):
               "model (both timed); the AR(1) model was " + " and ".join(
                   f"{kept[m]} ({label[m]})" for m in modes)]
     lines += ["", "Longer records: the tracker fits at most `max_points` (default 1,000) block "
-              "means; law: one pass of the paper's law at given gains (warm), the unit of cost.",
+              "means; law: one pass of the paper's law at given gains (warm), the unit of cost: "
+              "`identify(method=\"gradient\")`, its recursion and its band (the noise's spread "
+              "through the recursion, by forward-mode derivatives of each step); recursion: the "
+              "law's scan alone.",
               "", "| samples | block | " + " | ".join(
                   f"{'' if m == 'default' else 'fast loops: '}first call s | warm call s | "
                   "µs per sample" + (" (warm)" if m == "default" else "") + " | ÷ law pass | "
-                  "peak RSS MB" for m in modes) + " |",
-              "|---|---|" + "---|---|---|---|---|" * len(modes)]
+                  "÷ law recursion | peak RSS MB" for m in modes) + " |",
+              "|---|---|" + "---|---|---|---|---|---|" * len(modes)]
     for k, n in enumerate(args.lengths):
         rs = [results[m]["lengths"][k] for m in modes]
         lines.append(f"| {n} | {rs[0]['block']} | " + " | ".join(
             f"{a['first']:.2f} | {a['second']:.2f} | {1e6 * a['second'] / n:.3g} | "
-            f"{a['second'] / a['law']:.2g} | {a['rss_mb']:.0f}" for a in rs) + " |")
-    lines += ["", f"law pass s ({', '.join(label[m] for m in modes)}): " + ", ".join(
-        f"{n}: " + ", ".join(f"{results[m]['lengths'][k]['law']:.3g}" for m in modes)
-        for k, n in enumerate(args.lengths))]
+            f"{a['second'] / a['law']:.2g} | {a['second'] / a['recursion']:.2g} | "
+            f"{a['rss_mb']:.0f}" for a in rs) + " |")
+    for key, name in (("law", "law pass"), ("recursion", "law recursion")):
+        lines += ["", f"{name} s ({', '.join(label[m] for m in modes)}): " + ", ".join(
+            f"{n}: " + ", ".join(f"{results[m]['lengths'][k][key]:.3g}" for m in modes)
+            for k, n in enumerate(args.lengths))]
     lines += ["", "peak RSS MB: the process's after the simulation and the two identify calls; "
               f"after the law's pass as well ({', '.join(label[m] for m in modes)}): " + ", ".join(
                   f"{n}: " + ", ".join(f"{results[m]['lengths'][k]['rss_law_mb']:.0f}"

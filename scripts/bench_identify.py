@@ -1,4 +1,6 @@
-"""Benchmark of `identify`: time per sample, direct vs exponential memory (n = 2 inputs).
+"""Benchmark of the paper's law's recursion (`run_law`, what `identify(method="gradient")` runs
+before it computes the law's band): time per sample, direct vs exponential memory (n = 2
+inputs).
 
 Each (N, memory) runs in its own process so that its peak resident memory is its own; the
 scan is compiled ahead of time, so the times exclude compilation.

@@ -4,8 +4,9 @@ XLA:CPU's thunk runtime launches one kernel per fused operation; a step of the a
 about fifty of them, so on a CPU its ~0.1 µs launch cost, not arithmetic, sets the time per
 sample. XLA compiles a *small* while loop (bytes touched per iteration below a threshold,
 default 1 KiB) as a single kernel instead. Raising the threshold to cover vojax's loops makes
-`identify` about 9× and the exponential memory about 2–7× faster on a CPU, with results equal
-to rounding (see ``scripts/bench_identify.py``, ``scripts/bench_memory.py``).
+the tracker 2–3×, the paper's law's recursion about 5× and the exponential memory about 2–7×
+faster on a CPU, with results equal to rounding (see ``scripts/bench_first_call.py``,
+``scripts/bench_loop_threshold.py``, ``scripts/bench_memory.py``).
 
 The threshold is read from ``XLA_FLAGS`` when JAX creates its CPU backend, so it is a setting
 of the whole process, made before the first computation. vojax never sets it on import; the
