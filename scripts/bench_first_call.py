@@ -74,7 +74,8 @@ if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, g
     recursion = spent[-1]
 rss_law = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # and the law's pass
 print(json.dumps(dict(samples=n, imported=imported - started, first=first - prepared,
-                      second=second - first, law=law, recursion=recursion, rss_mb=rss, rss_law_mb=rss_law,
+                      second=second - first, law=law, recursion=recursion, rss_mb=rss,
+                      rss_law_mb=rss_law,
                       block=res.diagnostics.block, jax=jax.__version__,
                       device=f"{jax.default_backend()} ({jax.devices()[0].device_kind})",
                       coloured=res.diagnostics.noise_correlation == res.diagnostics.noise_correlation)))
