@@ -6,6 +6,7 @@ Every case is measured twice, in separate processes: under XLA:CPU's default run
 
 import argparse
 import json
+import os
 import platform
 import resource
 import subprocess
@@ -75,3 +76,36 @@ def publish(lines, out=None) -> None:
     print(text)
     if out:
         Path(out).write_text(text + "\n")
+
+
+def ramp_hold_record(n: int, dt: float = 0.05, correlation: float = 0.0):
+    """The record of the first-call benchmarks: a ramp-and-hold input (with a small sine on
+    it) driving an order that rises from 0.35 to 0.55, the parameter 2, and noise of 1 % of
+    the output's range, white or AR(1) with `correlation` between samples (seed 0). Returns
+    ``(u, y, dt)``."""
+    import numpy as np
+
+    import vojax
+
+    t = dt * np.arange(n)
+    u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
+    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
+                                  memory="exponential"))
+    noise = np.random.default_rng(0).standard_normal(n)
+    if correlation:
+        for k in range(1, n):
+            noise[k] = correlation * noise[k - 1] + np.sqrt(1 - correlation**2) * noise[k]
+    return u, x + 0.01 * np.ptp(x) * noise, dt
+
+
+def fresh_process(code: str, *args, xla_flags: str | None = None, drop=("XLA_FLAGS",)) -> dict:
+    """Runs `code` with ``python -c`` and `args` in a fresh process that can import this
+    module, without the environment variables `drop` (and with ``XLA_FLAGS`` set to
+    `xla_flags` where given); returns the JSON object its last line of output prints."""
+    env = {k: v for k, v in os.environ.items() if k not in drop}
+    if xla_flags is not None:
+        env["XLA_FLAGS"] = xla_flags
+    here = f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})\n"
+    out = subprocess.run([sys.executable, "-c", here + code, *map(str, args)],
+                         capture_output=True, text=True, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])

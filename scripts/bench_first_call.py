@@ -16,16 +16,14 @@ table gives ratios measured in the same run.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
-from _bench import publish
+from _bench import fresh_process, publish
 
 CHILD = r"""
 import json, resource, sys, time
 started = time.perf_counter()
-import numpy as np
 import jax
 jax.config.update("jax_enable_x64", True)
 import vojax
@@ -36,16 +34,9 @@ cache = sys.argv[2]
 if cache != "none":
     vojax.use_compilation_cache(cache)
 n = int(sys.argv[1])
-dt = 0.05
-t = dt * np.arange(n)
-u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
-alpha = 0.35 + 0.2 * t / t[-1]
-x = np.asarray(vojax.simulate(u, alpha, np.array([2.0]), dt, memory="exponential"))
-noise = np.random.default_rng(0).standard_normal(n)
-if len(sys.argv) > 5 and sys.argv[5] == "coloured":  # AR(1), 0.9 between samples
-    for k in range(1, n):
-        noise[k] = 0.9 * noise[k - 1] + np.sqrt(1 - 0.81) * noise[k]
-y = x + 0.01 * np.ptp(x) * noise
+from _bench import ramp_hold_record
+# AR(1) noise, 0.9 between samples, where asked for
+u, y, dt = ramp_hold_record(n, correlation=0.9 if sys.argv[5] == "coloured" else 0.0)
 prepared = time.perf_counter()
 res = vojax.identify(u, y, dt, warn=False)
 res.alpha.block_until_ready()
@@ -83,12 +74,8 @@ print(json.dumps(dict(samples=n, imported=imported - started, first=first - prep
 
 
 def run(n, cache="none", loops="default", law=False, noise="white"):
-    env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR")}
-    out = subprocess.run([sys.executable, "-c", CHILD, str(n), cache, loops, "law" if law else "-",
-                          noise],
-                         capture_output=True,
-                         text=True, env=env, check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
+    result = fresh_process(CHILD, n, cache, loops, "law" if law else "-", noise,
+                           drop=("XLA_FLAGS", "JAX_COMPILATION_CACHE_DIR"))
     print(f"{n} samples, cache {cache}, {loops} loops, {noise}: {json.dumps(result)}",
           file=sys.stderr, flush=True)  # progress, kept where a run is cut short
     return result

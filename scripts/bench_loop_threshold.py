@@ -23,23 +23,14 @@ import statistics
 import subprocess
 import sys
 
-from _bench import publish
+from _bench import fresh_process, publish
 
 CHILD = r"""
 import json, sys, time
-import numpy as np
 import jax
 jax.config.update("jax_enable_x64", True)
 import vojax
-
-
-def record(n):  # bench_first_call's record: a ramp and hold, a slowly moving order, 1 % noise
-    dt = 0.05
-    t = dt * np.arange(n)
-    u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
-    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
-                                  memory="exponential"))
-    return u, x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n), dt
+from _bench import ramp_hold_record as record
 
 
 def timed(call):
@@ -79,14 +70,10 @@ except Exception as e:  # XLA's answer, printed as it is
 
 
 def run(threshold):
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    if threshold is not None:
-        env["XLA_FLAGS"] = (
-            f"--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold={threshold}"
-        )
-    out = subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True, env=env,
-                         check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
+    flags = None if threshold is None else (
+        f"--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold={threshold}"
+    )
+    result = fresh_process(CHILD, xla_flags=flags)
     print(f"threshold {threshold}: {json.dumps(result)}", file=sys.stderr, flush=True)
     return result
 

@@ -25,7 +25,7 @@ import time
 import jax
 import jax.numpy as jnp
 
-from _bench import publish
+from _bench import publish, ramp_hold_record
 
 def child(case, schedule, loops):
     """One measurement in this (fresh) process; prints one JSON line."""
@@ -72,12 +72,7 @@ def child(case, schedule, loops):
         print(json.dumps(dict(first=first, warm=warm, err=err)))
         return
     # bench_first_call's record: a ramp and hold, a slowly moving order, 1 % white noise
-    n, dt = int(case), 0.05
-    t = dt * np.arange(n)
-    u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
-    x = np.asarray(vojax.simulate(u, 0.35 + 0.2 * t / t[-1], np.array([2.0]), dt,
-                                  memory="exponential"))
-    y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
+    u, y, dt = ramp_hold_record(int(case))
     # every filter and smoother of the tracker's smoothings and of its likelihood's gradient
     _smoother.SCHEDULE = schedule
     begun = time.perf_counter()
