@@ -21,7 +21,15 @@ time over a common base (white noise of 0.5–2 % of the output's range, p const
 - ``irregular``: samples at irregular times (gaps of 1–7 fine steps), run with ``t=``;
 - ``lengths``: 100–4,800 samples (the other families use 300–1,200);
 - ``long``: 20,000–100,000 samples, which `identify` fits as block means of 21–101 samples
-  (its default ``max_points``): much less noisy than the samples.
+  (its default ``max_points``): much less noisy than the samples;
+- ``informative``: the recorded input with a superposed oscillation (a sine or an
+  exponential chirp, 5–25 % of the load's RMS, 10–40 cycles over the record), which a
+  springpot answers with a phase lag set by its order alone: the parameter constant (a
+  third of the draws) or drifting by ±10–40 % inside the integral or as a gain (a third
+  each); white noise or AR(1) noise (ρ 0.5–0.95), half the draws each;
+- ``stated-drift``: the parameter drifting as a gain, the user stating a bound D on its
+  drift (0.1, 0.2 or 0.3: ``parameters=D``), the true drift below it (0.3–0.9 D) on even
+  draws and above it (1.5–3 D) on odd ones.
 
 Orders are drawn from five shapes: constant, a smooth random curve (a Gaussian-process draw,
 non-monotone), a step, a fast early decay, and an order that follows the load level.
@@ -58,7 +66,7 @@ import numpy as np
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 FAMILIES = (
     "white", "noisy", "coloured", "drift", "drift-constant", "gain-drift", "gain-drift-constant",
-    "irregular", "lengths", "long",
+    "irregular", "lengths", "long", "informative", "stated-drift",
 )
 SHAPES = ("constant", "smooth", "step", "decay", "load")
 LENGTHS = (300, 600, 1200)  # few lengths: each compiles once per worker
@@ -224,8 +232,19 @@ def draw_case(family, index, signals):
     p_fine = np.ones(fine_n)
     drift = 0.0
     gain = family.startswith("gain-drift")
-    if "drift" in family:
+    stated = None
+    drifting = "drift" in family
+    if family == "informative":
+        u_fine = u_fine + oscillation(s_fine, rng)
+        form = index % 3  # constant, drifting inside the integral, drifting as a gain
+        drifting, gain = form > 0, form == 2
+    if family == "stated-drift":
+        gain, stated = True, float(rng.choice([0.1, 0.2, 0.3]))
+    if drifting:
         drift = rng.choice([-1, 1]) * rng.uniform(0.1, 0.4)
+        if stated is not None:  # below the stated bound on even draws, above it on odd ones
+            drift = rng.choice([-1, 1]) * stated * (
+                rng.uniform(0.3, 0.9) if index % 2 == 0 else rng.uniform(1.5, 3.0))
         centre, w = rng.uniform(0.3, 0.7), rng.uniform(0.1, 0.3)
         p_fine = 1.0 + drift * (1 + np.tanh((s_fine - centre) / w)) / 2
     truth = (dict(memory="direct") if fine_n <= DIRECT_MAX
@@ -241,7 +260,7 @@ def draw_case(family, index, signals):
     level = rng.uniform(0.05, 0.10) if family == "noisy" else rng.uniform(0.005, 0.02)
     noise = rng.standard_normal(n)
     rho = 0.0
-    if family == "coloured":
+    if family == "coloured" or (family == "informative" and (index // 3) % 2 == 1):
         rho = rng.uniform(0.5, 0.95)
         ar = np.empty(n)
         ar[0] = noise[0]
@@ -252,10 +271,26 @@ def draw_case(family, index, signals):
     if family == "noisy":  # a 12-bit converter over the output's range
         q = 1.2 * spread / 4096
         y = np.round(y / q) * q
+    # the true relative drift over the record, as `parameters=` states it: (max − min)/|mean|
+    true_drift = float(np.ptp(p) / abs(np.mean(p)))
     return dict(
         family=family, index=index, input=name, shape=shape, samples=n, noise=level, rho=rho,
-        drift=drift, t=t, u=u, x=x, y=y, alpha=alpha, p=p, irregular=irregular,
+        drift=drift, t=t, u=u, x=x, y=y, alpha=alpha, p=p, irregular=irregular, stated=stated,
+        true_drift=true_drift,
     )
+
+
+def oscillation(s, rng):
+    """A superposed oscillation on the normalised time ``s`` ∈ [0, 1] (an input of unit RMS):
+    a sine or an exponential chirp (frequency rising tenfold), 5–25 % of the RMS, 10–40
+    cycles over the record."""
+    amplitude, cycles = rng.uniform(0.05, 0.25), rng.uniform(10.0, 40.0)
+    if rng.uniform() < 0.5:
+        phase = 2 * np.pi * cycles * s
+    else:  # f(s) = f0·10^s with ∫₀¹ f = cycles
+        f0 = cycles * np.log(10.0) / 9.0
+        phase = 2 * np.pi * f0 * (10.0**s - 1.0) / np.log(10.0)
+    return amplitude * np.sqrt(2.0) * np.sin(phase + rng.uniform(0, 2 * np.pi))
 
 
 # ---------------------------------------------------------------- the methods
@@ -271,15 +306,18 @@ TRACKERS = {
 }
 
 
-def run_method(method, case, max_points=None):
+def run_method(method, case, max_points=None, threads=None):
     """``(alpha, std, lower, upper, identified, message)`` of one method on one case;
-    `max_points`: the tracker's (None: `identify`'s default)."""
+    `max_points`: the tracker's (None: `identify`'s default); `threads`: the most threads of
+    one record's smoothings (None: the tracker's default)."""
     import vojax
     from vojax._stats import noise_variance
 
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
     if max_points is not None and method.startswith("tracker"):
         grid["max_points"] = max_points
+    if threads and method.startswith("tracker"):
+        grid["settings"] = vojax.TrackerSettings(run_threads=threads)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if method in TRACKERS:
@@ -330,13 +368,12 @@ def score(case, out):
 
 def _worker(job):
     family, index, methods, data, max_points, reuse, threads = job
-    import contextlib
-
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from vojax._identify import MAX_POINTS
-    from vojax._tracker._track import run_threads
+    import vojax
+
+    MAX_POINTS = vojax.TrackerSettings().max_points
 
     signals = _SIGNALS.get(data)
     if signals is None:
@@ -352,8 +389,7 @@ def _worker(job):
             continue
         started = time.perf_counter()
         try:
-            with run_threads(threads) if threads else contextlib.nullcontext():
-                out = run_method(method, case, max_points)
+            out = run_method(method, case, max_points, threads)
             row = score(case, out)
         except ValueError as e:  # a refusal by error counts as not identified
             row = dict(coverage=float("nan"), inside=0, count=0, z_rms=float("nan"),

@@ -24,8 +24,8 @@ import time
 
 import jax
 import jax.numpy as jnp
-
 from _bench import publish, ramp_hold_record
+
 
 def child(case, schedule, loops):
     """One measurement in this (fresh) process; prints one JSON line."""
@@ -33,7 +33,6 @@ def child(case, schedule, loops):
 
     jax.config.update("jax_enable_x64", True)
     import vojax
-    from vojax._tracker import _smoother
     from vojax._tracker._kalman import kalman_filter, rts_smoother
     from vojax._tracker._parallel import parallel_filter, parallel_smoother
 
@@ -74,13 +73,13 @@ def child(case, schedule, loops):
     # bench_first_call's record: a ramp and hold, a slowly moving order, 1 % white noise
     u, y, dt = ramp_hold_record(int(case))
     # every filter and smoother of the tracker's smoothings and of its likelihood's gradient
-    _smoother.SCHEDULE = schedule
+    settings = vojax.TrackerSettings(schedule=schedule)
     begun = time.perf_counter()
-    res = vojax.identify(u, y, dt, warn=False)
+    res = vojax.identify(u, y, dt, warn=False, settings=settings)
     res.alpha.block_until_ready()
     first = time.perf_counter() - begun
     begun = time.perf_counter()
-    res = vojax.identify(u, 1.001 * y, dt, warn=False)
+    res = vojax.identify(u, 1.001 * y, dt, warn=False, settings=settings)
     res.alpha.block_until_ready()
     second = time.perf_counter() - begun
     print(json.dumps(dict(first=first, warm=second, alpha=np.asarray(res.alpha).tolist())))

@@ -24,24 +24,31 @@ PAD, DT, BOUNDS = 256, 0.1, (0.01, 0.99)
 def tracker_args(records, memory):
     import jax.numpy as jnp
 
-    from vojax._tracker import _track as T
+    from vojax import TrackerSettings
+    from vojax._tracker._problem import Problem, data_scales, prior
+    from vojax._tracker._start import constant_fit, starting_trajectories
+    from vojax._tracker._threads import stack_hypers
 
+    s = TrackerSettings()
+    m0, p0 = prior(1, jnp.float64, s)
     out = []
     for r in records:
         n = r.time.size
         u, y, mask = np.zeros((PAD, 1)), np.full(PAD, r.output[-1]), np.zeros(PAD)
         u[:n], y[:n], mask[:n] = r.inputs, r.output, 1.0
         u, y, mask = jnp.asarray(u), jnp.asarray(y), jnp.asarray(mask)
-        sc = T.data_scales(u, y, mask)
+        sc = data_scales(u, y, mask)
         un, yn = u / jnp.asarray(sc.u_scale), (y - sc.y_ref) / sc.y_scale
-        alpha_c, _, rss, rms_phi = T.constant_fit(memory, un, yn, mask, BOUNDS)
+        alpha_c, _, rss, rms_phi = constant_fit(memory, un, yn, mask, BOUNDS, s)
         un = un / jnp.asarray(rms_phi)
-        starts = T.starting_trajectories(memory, un, yn, mask, BOUNDS, alpha_c)
-        misfit = max(rss / (n - 3), T.NOISE_MIN)
-        rows = [(qo, T.PARAM_DRIFT0, misfit) for _ in starts for qo in T.GRID_ORDER]
-        first = jnp.asarray(np.repeat(starts, len(T.GRID_ORDER), axis=0))
-        out.append((un, yn, mask, jnp.full((PAD,), DT), jnp.asarray(DT * (n - 1)),
-                    T._stack_hypers(rows), first))
+        steps, horizon = jnp.full((PAD,), DT), jnp.asarray(DT * (n - 1))
+        problem = Problem(memory, un, yn, mask, steps, horizon, m0, p0, BOUNDS,
+                          DT * np.arange(PAD), n - 1, s)
+        starts = starting_trajectories(problem, alpha_c)
+        misfit = max(rss / (n - 3), s.noise_min)
+        rows = [(qo, s.constant_drift, misfit) for _ in starts for qo in s.grid_order]
+        first = jnp.asarray(np.repeat(starts, len(s.grid_order), axis=0))
+        out.append((un, yn, mask, steps, horizon, stack_hypers(rows), first))
     return out
 
 
@@ -78,11 +85,11 @@ def main():
     import vojax
 
     vojax.use_fast_cpu_loops()
-    from vojax import _refit
+    from vojax import TrackerSettings, _refit
     from vojax._data import load_records
     from vojax._data._pipeline import identify_record
     from vojax._integral import make_memory
-    from vojax._tracker import _track
+    from vojax._tracker._problem import prior
     from vojax._tracker._smoother import smoother_batch
 
     with warnings.catch_warnings():
@@ -90,13 +97,15 @@ def main():
         records = load_records(path, time="time_s", inputs=["force_N"], output="displacement_mm",
                                group_by="specimen", trim_column="force_N", trim_below=0.02)
     memory = make_memory("exponential", DT, PAD, order_range=BOUNDS)
-    m0, p0 = _track.prior(1, jax.numpy.float64)
+    settings = TrackerSettings()
+    m0, p0 = prior(1, jax.numpy.float64, settings)
     print("| program | records | one at a time (ms a record) | vmapped (ms a record) | "
           "vmapped / one | vmapped first call (s) |")
     print("|---|---|---|---|---|---|")
     for count in args.records:
         def first_pass(a):
-            return smoother_batch(memory, *a[:5], a[5], m0, p0, a[6], BOUNDS, _track.GRID_MAX_ITER)
+            return smoother_batch(memory, *a[:5], a[5], m0, p0, a[6], BOUNDS,
+                                  settings.grid_max_iter)
 
         compare("tracker's first pass", first_pass, jax.jit(jax.vmap(first_pass)),
                 tracker_args(records[:count], memory))

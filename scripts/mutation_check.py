@@ -53,7 +53,7 @@ MUTATIONS = {
         [LAW],
     ),
     "identify(r0=...) ignored": (
-        "vojax/_identify.py",
+        "vojax/_adaptive/_build.py",
         [("LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, r0)",
           "LSFF(jnp.asarray(lam, dt_arr.dtype), dt_arr, None)")],
         [LAW],
@@ -85,11 +85,15 @@ MUTATIONS = {
          ("jnp.array([1.0 / eta, -k / eta])", "jnp.array([1.0 / eta, k / eta])")],
         ["tests/test_models.py"],
     ),
-    "--area and --length swapped": (
-        "vojax/_data/_pipeline.py",
-        [("stress = record.inputs[:, 0] / (area or 1.0)", "stress = record.inputs[:, 0] / (length or 1.0)"),
-         ("strain = record.output / (length or 1.0)", "strain = record.output / (area or 1.0)")],
-        ["tests/test_data_cli.py"],
+    '--area and --length swapped': (
+        'vojax/_data/_pipeline.py',
+        [
+            ('stress = record.inputs[:, 0] / (area or 1.0)',
+             'stress = record.inputs[:, 0] / (length or 1.0)'),
+            ('strain = record.output / output_scale(model, length)',
+             'strain = record.output / (area or 1.0)'),
+        ],
+        ['tests/test_data_cli.py'],
     ),
     "tuner's lag dropped": (
         "vojax/_tune.py",
@@ -115,13 +119,16 @@ MUTATIONS = {
         [("lags = jnp.arange(1, num + 1, dtype=b.dtype)", "lags = jnp.arange(2, num + 2, dtype=b.dtype)")],
         ["tests/test_kernels.py"],
     ),
-    "RTS smoother gain transposed": (
-        "vojax/_tracker/_kalman.py",
-        [("g = cholesky_solve(p_pred, p).T", "g = cholesky_solve(p_pred, p)")],
-        ["tests/test_tracker.py"],
+    'RTS smoother gain transposed': (
+        'vojax/_tracker/_kalman.py',
+        [
+            ('g = cholesky_solve(p_pred, p if not f_k else p * f_k[0][:, None]).T',
+             'g = cholesky_solve(p_pred, p if not f_k else p * f_k[0][:, None])'),
+        ],
+        ['tests/test_tracker.py'],
     ),
     "diagnostics trust an unconverged estimate": (
-        "vojax/_identify.py",
+        "vojax/_diagnostics.py",
         [('and bool(converged)\n', '\n')],
         ["tests/test_tracker.py"],
     ),
@@ -141,10 +148,12 @@ MUTATIONS = {
         ["tests/test_refit.py"],
     ),
     "refit's tolerance passed as a Python number (a retrace per value)": (
-        "vojax/_refit.py",
-        [("jnp.asarray(rtol, big_y.dtype),\n            jnp.asarray(atol, big_y.dtype), max_steps, throw,",
-          "float(rtol),\n            float(atol), max_steps, throw,")],
-        ["tests/test_retracing.py::test_refit_traces_once"],
+        'vojax/_refit.py',
+        [
+            ('jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,',
+             'float(rtol), float(atol), max_steps, throw,'),
+        ],
+        ['tests/test_retracing.py::test_refit_traces_once'],
     ),
     "order-free history read one sample late": (
         "vojax/_kernels/_exponential.py",
@@ -261,39 +270,49 @@ MUTATIONS = {
         [("            best, i_best, s_best = sm, b, s\n", "            best, s_best = sm, s\n")],
         ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
     ),
-    "first pass never retried with the full budget": (
-        "vojax/_tracker/_track.py",
-        [("    passes = [*((noise, GRID_MAX_ITER) for noise in noises), (noises[0], MAX_ITER)]",
-          "    passes = [(noise, GRID_MAX_ITER) for noise in noises]")],
-        ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
+    'first pass never retried with the full budget': (
+        'vojax/_tracker/_tuning.py',
+        [
+            ('    passes = [*((noise, s.grid_max_iter) for noise in noises), (noises[0], s.max_iter)]',
+             '    passes = [(noise, s.grid_max_iter) for noise in noises]'),
+        ],
+        ['tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget'],
     ),
     "golden section keeps the wrong side": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_start.py",
         [("        if fa < fb:\n            hi, b, fb = b, a, fa", "        if fa > fb:\n            hi, b, fb = b, a, fa")],
         ["tests/test_tracker.py::test_constant_fit_finds_the_least_squares_order_of_a_dense_scan"],
     ),
     "diagnostics ignore the order's trade-off with the parameters' drift": (
-        "vojax/_identify.py",
+        "vojax/_diagnostics.py",
         [("    traded = held_shift is not None and held_shift > width\n", "    traded = False\n")],
         ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused"],
     ),
-    "held smoothing keeps the tuned parameter drift": (
-        "vojax/_tracker/_track.py",
-        [("    held = Hyper(hyper.log_q_order, jnp.log(jnp.asarray(PARAM_DRIFT0, u.dtype)),",
-          "    held = Hyper(hyper.log_q_order, hyper.log_q_params,")],
-        ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused"],
+    'held smoothing keeps the tuned parameter drift': (
+        'vojax/_tracker/_mixture.py',
+        [
+            ('    held = Hyper(hyper.log_q_order,\n                 jnp.log(to_device(np.asarray(problem.settings.constant_drift, dtype))),',
+             '    held = Hyper(hyper.log_q_order,\n                 hyper.log_q_params,'),
+        ],
+        ['tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused'],
     ),
     "first pass never tried at the constant fit's misfit": (
-        "vojax/_tracker/_track.py",
-        [("    if misfit >= MISFIT_RATIO * noise0:\n", "    if False:\n")],
-        ["tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves"],
+        'vojax/_tracker/_fit.py',
+        [
+            ('    if misfit >= s.misfit_ratio * noise0:\n',
+             '    if False:\n'),
+        ],
+        ['tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves'],
     ),
     "first pass noise taken from the constant fit's misfit always": (
-        "vojax/_tracker/_track.py",
-        [("    noises = (noise0,)\n", "    noises = (misfit,)\n"),
-         ("        noises = (misfit, noise0) if noise_data < NOISE_MIN else (noise0, misfit)",
-          "        noises = (misfit,)")],
-        ["tests/test_tracker.py::test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch"],
+        'vojax/_tracker/_fit.py',
+        [
+            ('    noises = (noise0,)\n',
+             '    noises = (misfit,)\n'),
+            ('        noises = (misfit, noise0) if noise_data < s.noise_min else (noise0, misfit)',
+             '        noises = (misfit,)'),
+        ],
+        ['tests/test_tracker.py::test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch'],
     ),
     "refit keeps coefficients that are rounding": (
         "vojax/_refit.py",
@@ -330,7 +349,7 @@ MUTATIONS = {
         ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
     ),
     "an unstable law not named in the diagnostics": (
-        "vojax/_identify.py",
+        "vojax/_adaptive/_build.py",
         [("unstable_from=int(wild[0]) if wild.size else None,", "unstable_from=None,")],
         ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
     ),
@@ -439,18 +458,20 @@ MUTATIONS = {
         ["tests/test_tracker.py::test_mixture_of_modes_is_the_evidence_weighted_spread"],
     ),
     "tracker's band not mixed": (
-        "vojax/_tracker/_track.py",
-        [("        if tuning.tuned:\n            beta_var, weights, envelope, drifting = mixture(",
-          "        if False:\n            beta_var, weights, envelope, drifting = mixture(")],
-        ["tests/test_tracker.py::test_band_covers_the_other_modes_in_proportion_to_their_evidence"],
+        'vojax/_tracker/_fit.py',
+        [
+            ('    if not tuning.tuned:\n        return np.asarray(sm.cov)[:, 0, 0], None, None, False',
+             '    if True:\n        return np.asarray(sm.cov)[:, 0, 0], None, None, False'),
+        ],
+        ['tests/test_tracker.py::test_band_covers_the_other_modes_in_proportion_to_their_evidence'],
     ),
     "correlated prediction errors not refused": (
-        "vojax/_identify.py",
+        "vojax/_diagnostics.py",
         [("and calibrated and not coloured", "and calibrated")],
         ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
     "the law claims identified": (
-        "vojax/_identify.py",
+        "vojax/_diagnostics.py",
         [("and not traded and calibrated and not coloured", "and not traded and not coloured")],
         ["tests/test_adaptive.py::test_the_law_never_claims_a_confidence_band"],
     ),
@@ -466,7 +487,7 @@ MUTATIONS = {
         ["tests/test_outputs.py::test_tables_do_not_carry_spreadsheet_formulas"],
     ),
     "Φ at a constant order takes the columns out of order": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_start.py",
         [("    padded[:, :m] = x\n", "    padded[:, :m] = x[:, ::-1]\n")],
         ["tests/test_tracker.py::test_phi_of_each_column_equals_the_memory_run_on_all_columns"],
     ),
@@ -476,25 +497,25 @@ MUTATIONS = {
         ["tests/test_compare.py::test_the_comparison_finds_each_law_with_the_noise_below_its_feature"],
     ),
     "trade interval without its χ² test": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_trade.py",
         [("        if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):",
           "        if not np.all(np.isfinite(c)):")],
         ["tests/test_tracker.py::test_trade_interval_against_an_independent_profile"],
     ),
     "trade interval ends on grid orders": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_trade.py",
         [("        found.append(lo if i == 0 else crossing(i, i - 1))",
           "        found.append(lo if i == 0 else alphas[i - 1])")],
         ["tests/test_tracker.py::test_trade_interval_against_an_independent_profile"],
     ),
     "trade interval not widening the band": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_fit.py",
         [("        lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])",
           "        pass")],
         ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
     ),
     "parameters='constant' still lets them drift": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_fit.py",
         [('    hold = parameters == "constant"', "    hold = False")],
         ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
     ),
@@ -517,7 +538,7 @@ MUTATIONS = {
         ["tests/test_batch.py::test_time_left_is_paced_after_the_first_record"],
     ),
     "block size from the padded length": (
-        "vojax/_identify.py",
+        "vojax/_tracker/_estimator.py",
         [("    length = u2.shape[0] if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1",
           "    length = u2.shape[0]")],
         ["tests/test_blocks.py::test_blocks_on_a_non_uniform_clock_and_with_padding"],
@@ -536,14 +557,16 @@ MUTATIONS = {
         ["tests/test_blocks.py::test_block_means_by_hand",
          "tests/test_blocks.py::test_the_blocked_order_agrees_with_the_fit_of_every_sample"],
     ),
-    "noise edge measured on the full box": (
-        "vojax/_tracker/_track.py",
-        [("        if hi > lo and min(v - lo, hi - v) < EDGE * (hi - lo):",
-          "        if hi > lo and min(v - lo, hi - v) < EDGE * (BOX[name][1] - BOX[name][0]):")],
-        ["tests/test_tracker.py::test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box"],
+    'noise edge measured on the full box': (
+        'vojax/_tracker/_tuning.py',
+        [
+            ('        if hi > lo and min(v - lo, hi - v) < edge * (hi - lo):',
+             '        if hi > lo and min(v - lo, hi - v) < edge * (\n                np.log(2.0) - np.log(1e-10) if name == "noise" else hi - lo):'),
+        ],
+        ['tests/test_tracker.py::test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box'],
     ),
     "block noise from the coarse clock": (
-        "vojax/_identify.py",
+        "vojax/_tracker/_blocks.py",
         [("    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)",
           "    block_noise = max(noise_variance(y_b[mask_b > 0]), 1e-300)")],
         ["tests/test_blocks.py::test_blocks_that_misrepresent_the_record_are_reported"],
@@ -567,54 +590,65 @@ MUTATIONS = {
         ["tests/test_tracker.py::test_smoother_mode_and_bands_against_a_dense_numpy_posterior"],
     ),
     "whitener skips the gain": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_coloured.py",
         [("            pred = a[k] * (pred + gain[k] * e)", "            pred = a[k] * pred")],
         ["tests/test_coloured.py::test_whitener_gives_the_dense_quadratic_form_and_gls"],
     ),
     "coloured noise kept at the longest correlation time": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_coloured.py",
         [('    if "noise_time" in tuned.at_edge or not (', "    if not (")],
         ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused",
          "tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves"],
     ),
     "coloured noise never tried": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_coloured.py",
         [("    if not r1 > correlation_limit(count):", "    if True:")],
         ["tests/test_tracker.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
     ),
     "coloured climb's stop at the correlation time's edge never counts": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_tuning.py",
         [("edged = edged + 1 if fatal in at_edges", "edged = edged + 0 if fatal in at_edges")],
         ["tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top"],
     ),
-    "coloured climb stops at any edge of the correlation time": (
-        "vojax/_tracker/_track.py",
-        [("if fatal in at_edges(_host_hyper(hyper), limits)",
-          "if any(k.startswith(fatal) for k in at_edges(_host_hyper(hyper), limits))")],
-        ["tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top"],
+    'coloured climb stops at any edge of the correlation time': (
+        'vojax/_tracker/_tuning.py',
+        [
+            ('if fatal in at_edges(host_hyper(hyper), limits, s.edge)',
+             'if any(k.startswith(fatal) for k in at_edges(host_hyper(hyper), limits, s.edge))'),
+        ],
+        ['tests/test_climb.py::test_a_climb_stops_once_its_correlation_time_stays_at_the_top'],
     ),
     "level profile's runs not pinned (the parameters' prior left wide)": (
-        "vojax/_tracker/_track.py",
-        [("p[1 : 1 + n, 1 : 1 + n] = np.diag(LEVEL_PIN", "p[1 : 1 + n, 1 : 1 + n] = np.diag(1e4")],
-        ["tests/test_envelope.py"],
+        'vojax/_tracker/_level.py',
+        [
+            ('p[1 : 1 + n, 1 : 1 + n] = np.diag(s.level_pin',
+             'p[1 : 1 + n, 1 : 1 + n] = np.diag(1e4'),
+        ],
+        ['tests/test_envelope.py'],
     ),
     "mixture's envelope without its χ² test (every alternative widens the band)": (
-        "vojax/_tracker/_track.py",
-        [("passing = _fitting(residuals, mask, u.shape[1], fit_noise, whiten) & plausible",
-          "passing = plausible")],
-        ["tests/test_envelope.py::test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit"],
+        'vojax/_tracker/_mixture.py',
+        [
+            ('passing = fitting(residuals, problem.mask, problem.n, fit_noise, whiten) & plausible',
+             'passing = plausible'),
+        ],
+        ['tests/test_envelope.py::test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit'],
     ),
     "level profile never run (the constant setting's band as before it)": (
-        "vojax/_tracker/_track.py",
-        [("if hold:  # the order's level against the parameters' scale",
-          "if False:  # the order's level against the parameters' scale")],
-        ["tests/test_calibration.py::test_constant_parameters_band_covers_the_level_another_scale_allows"],
+        'vojax/_tracker/_fit.py',
+        [
+            ('    if hold or tuning.parameter_drift <= s.held_ratio * s.constant_drift:\n        envelope = level_profile(',
+             '    if False:\n        envelope = level_profile('),
+        ],
+        ['tests/test_calibration.py::test_constant_parameters_band_covers_the_level_another_scale_allows'],
     ),
-    "level profile keeps a run that did not converge": (
-        "vojax/_tracker/_track.py",
-        [("_fitting(residuals, mask, n, fit_noise, whiten) & np.isfinite(scores)",
-          "_fitting(residuals, mask, n, fit_noise, whiten)")],
-        ["tests/test_envelope.py"],
+    'level profile keeps a run that did not converge': (
+        'vojax/_tracker/_level.py',
+        [
+            ('fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)',
+             'fitting(residuals, problem.mask, n, fit_noise, whiten)'),
+        ],
+        ['tests/test_envelope.py'],
     ),
     "smoother's damping falls by ρ, not by Nielsen's cubic": (
         "vojax/_tracker/_smoother.py",
@@ -634,20 +668,28 @@ MUTATIONS = {
         ["tests/test_tracker.py::test_damped_step_minimises_the_linearised_posterior_it_predicts"],
     ),
     "mixture's envelope ignores the evidence floor": (
-        "vojax/_tracker/_track.py",
-        [("return tuned - ENVELOPE_EVIDENCE if", "return -np.inf if")],
-        ["tests/test_envelope.py"],
+        'vojax/_tracker/_mixture.py',
+        [
+            ('return tuned - below if',
+             'return -np.inf if'),
+        ],
+        ['tests/test_envelope.py'],
     ),
     "mixture's evidence floor measured from the best alternative, not the tuned run": (
-        "vojax/_tracker/_track.py",
-        [("floor = _evidence_floor(scores[0])", "floor = _evidence_floor(np.max(scores[1:]))")],
-        ["tests/test_envelope.py"],
+        'vojax/_tracker/_mixture.py',
+        [
+            ('floor = evidence_floor(scores[0], problem.settings.envelope_evidence)',
+             'floor = evidence_floor(np.max(scores[1:]), problem.settings.envelope_evidence)'),
+        ],
+        ['tests/test_envelope.py'],
     ),
     "level profile's band replaces the envelope instead of widening it": (
-        "vojax/_tracker/_track.py",
-        [("envelope = _widened(envelope, betas[c], variances[c])\n    return envelope",
-          "envelope = _widened(None, betas[c], variances[c])\n    return envelope")],
-        ["tests/test_envelope.py"],
+        'vojax/_tracker/_level.py',
+        [
+            ('            envelope = widened(envelope, betas[c], variances[c])',
+             '            envelope = widened(None, betas[c], variances[c])'),
+        ],
+        ['tests/test_envelope.py'],
     ),
     "design's drift prior per step, not per record": (
         "vojax/_design.py",
@@ -672,17 +714,20 @@ MUTATIONS = {
         ["tests/test_refit.py::test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit"],
     ),
     "a known offset's prior left wide": (
-        "vojax/_tracker/_track.py",
-        [("    offset = OFFSET_PIN if offset_known else PRIOR_VAR", "    offset = PRIOR_VAR")],
-        ["tests/test_offset.py"],
+        'vojax/_tracker/_problem.py',
+        [
+            ('    offset = s.offset_pin if offset_known else s.prior_var',
+             '    offset = s.prior_var'),
+        ],
+        ['tests/test_offset.py'],
     ),
     "a known offset not made the output's reference": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_fit.py",
         [("        scales = dataclasses.replace(scales, y_ref=float(x0))", "        pass")],
         ["tests/test_offset.py"],
     ),
     "a known offset's least squares keep their offset column": (
-        "vojax/_tracker/_track.py",
+        "vojax/_tracker/_start.py",
         [("    if offset:\n        x = np.concatenate", "    if True:\n        x = np.concatenate")],
         ["tests/test_offset.py"],
     ),
@@ -691,10 +736,13 @@ MUTATIONS = {
         [('extra["x0"] = float(x0) / output_scale(model, length)', 'extra["x0"] = float(x0)')],
         ["tests/test_offset.py::test_the_command_line_offset_is_in_the_files_unit"],
     ),
-    "a known offset reported as estimated": (
-        "vojax/_tracker/_track.py",
-        [("x0=as_jax(scales.y_ref if known else", "x0=as_jax(scales.y_ref + 0.0 if False else")],
-        ["tests/test_offset.py"],
+    'a known offset reported as estimated': (
+        'vojax/_tracker/_fit.py',
+        [
+            ('x0=to_device(scales.y_ref if known else',
+             'x0=to_device(scales.y_ref + 0.0 if False else'),
+        ],
+        ['tests/test_offset.py'],
     ),
 }
 

@@ -22,7 +22,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from _bench import publish
 
 
@@ -32,21 +31,23 @@ def _record(job):
 
     jax.config.update("jax_enable_x64", True)
     import bench_calibration as bc
-    import vojax._tracker as tracker
-    from vojax._tracker import _track
+
+    from vojax._tracker import _estimator, _fit
+    from vojax._tracker._start import least_squares, phi_columns
+    from vojax._tracker._trade import hat_basis, refinement
 
     seen = {}
-    trade_interval, track = _track.trade_interval, tracker.track
+    trade_interval, fit_points = _fit.trade_interval, _estimator.fit_points
 
     def watched_trade_interval(*args, **kwargs):  # its arguments, to fit the profile again
         seen["args"], seen["kwargs"] = args, kwargs
         return trade_interval(*args, **kwargs)
 
-    def watched_track(*args, **kwargs):  # the tracker's own result (its `trade`)
-        seen["result"] = track(*args, **kwargs)
+    def watched_fit(*args, **kwargs):  # the tracker's own result (its `trade`)
+        seen["result"] = fit_points(*args, **kwargs)
         return seen["result"]
 
-    _track.trade_interval, tracker.track = watched_trade_interval, watched_track
+    _fit.trade_interval, _estimator.fit_points = watched_trade_interval, watched_fit
     try:
         signals = bc._SIGNALS.get(data)
         if signals is None:
@@ -54,7 +55,7 @@ def _record(job):
         case = bc.draw_case(family, index, signals)
         scored = bc.score(case, bc.run_method("tracker", case))
     finally:
-        _track.trade_interval, tracker.track = trade_interval, track
+        _fit.trade_interval, _estimator.fit_points = trade_interval, fit_points
     res = seen["result"]
     row = dict(family=family, index=index, samples=case["samples"],
                identified=scored["identified"], rms=scored["rms"],
@@ -62,18 +63,19 @@ def _record(job):
                least_drift=None)
     if res.trade is None:
         return row
-    memory, u, y, mask, times, last, bounds, _, whiten = seen["args"]
+    problem, _, whiten = seen["args"]
     offset = seen["kwargs"].get("offset", True)
-    u, y, mask = (np.asarray(a) for a in (u, y, mask))
-    fine = _track.hat_basis(times, last, _track.TRADE_KNOTS_FINE)
-    coarse = fine @ _track.refinement(_track.TRADE_KNOTS)
-    alphas = np.linspace(*bounds, _track.TRADE_ORDERS + 2)[1:-1]
+    s, last, bounds = problem.settings, problem.last, problem.bounds
+    u, y, mask = (np.asarray(a) for a in (problem.u, problem.y, problem.mask))
+    fine = hat_basis(problem.times, last, s.trade_knots_fine)
+    coarse = fine @ refinement(s.trade_knots)
+    alphas = np.linspace(*bounds, s.trade_orders + 2)[1:-1]
     drifts = []
     for alpha in alphas[(alphas >= res.trade[0] - 1e-9) & (alphas <= res.trade[1] + 1e-9)]:
-        phi = _track.phi_columns(memory, u, alpha)
+        phi = phi_columns(problem.memory, u, alpha, s.phi_block)
         for basis in (coarse, fine):
             columns = (phi[:, :, None] * basis[:, None, :]).reshape(phi.shape[0], -1)
-            coef = _track._least_squares(columns, y, mask, whiten, offset)[1]
+            coef = least_squares(columns, y, mask, whiten, offset)[1]
             p = basis[: last + 1] @ coef[: basis.shape[1]]  # the first input's parameter
             drifts.append(float(np.ptp(p) / max(abs(np.mean(p)), 1e-300)))
     row["least_drift"] = min(drifts) if drifts else None

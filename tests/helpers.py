@@ -47,3 +47,26 @@ def load_script(name):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def make_problem(memory, u, y, *, dt=None, times=None, mask=None, bounds=(0.01, 0.99),
+                 settings=None, offset_known=False, batched=False):
+    """A tracker `Problem` on arrays given as they are (no normalisation): `u` (N, n), `y`
+    (N,), on the step `dt` or at the sample `times`, every sample fitted unless `mask`."""
+    import jax.numpy as jnp
+
+    from vojax import TrackerSettings
+    from vojax._tracker._problem import Problem, prior
+
+    settings = TrackerSettings() if settings is None else settings
+    u, y = jnp.asarray(u), jnp.asarray(y)
+    num = y.shape[0]
+    mask = jnp.ones(num) if mask is None else jnp.asarray(mask, float)
+    times = dt * np.arange(num) if times is None else np.asarray(times, float)
+    steps = np.diff(times)
+    steps = jnp.asarray(np.concatenate([steps, steps[-1:]]))
+    last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
+    horizon = jnp.asarray(times[last] - times[0])
+    m0, p0 = prior(u.shape[1], u.dtype, settings, offset_known=offset_known)
+    return Problem(memory, u, y, mask, steps, horizon, m0, p0, bounds, times, last, settings,
+                   batched=batched)

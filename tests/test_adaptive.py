@@ -7,7 +7,7 @@ import pytest
 
 import vojax
 from vojax import reference
-from vojax._identify import TRACES, build_law
+from vojax._adaptive._build import TRACES, build_law
 
 from .helpers import rel_max
 

@@ -11,9 +11,11 @@ import numpy as np
 import optimistix as optx
 import pytest
 
-from vojax._tracker import Hyper, _track
+from vojax._tracker import Hyper
 from vojax._tracker._bfgs import minimise
 from vojax._tracker._smoother import linearised_log_likelihood
+from vojax._tracker._threads import host_hyper
+from vojax._tracker._tuning import _refine, box
 
 from .test_tracker import _normalised, _ramp_case
 
@@ -116,7 +118,7 @@ def test_bfgs_keeps_its_inverse_hessian_where_the_gradient_does_not_change():
 
 
 def _refine_with_optimistix(hyper, sm, mask, steps, horizon, m0, p0, limits, max_steps=60):
-    """The tracker's refinement (`_track._refine`) computed with `optimistix.BFGS`."""
+    """The tracker's refinement (`_tuning._refine`) computed with `optimistix.BFGS`."""
     lo = jnp.asarray([v[0] for v in limits.values()])
     hi = jnp.asarray([v[1] for v in limits.values()])
     count = jnp.sum(mask)
@@ -126,7 +128,7 @@ def _refine_with_optimistix(hyper, sm, mask, steps, horizon, m0, p0, limits, max
         return -linearised_log_likelihood(Hyper.from_array(x), sm.jacobian, sm.pseudo, mask,
                                           steps, horizon, m0, p0) / count
 
-    x0 = jnp.asarray(_track._host_hyper(hyper))
+    x0 = jnp.asarray(host_hyper(hyper))
     margin = jnp.minimum(1e-3, (hi - lo) / 2)
     x0 = jnp.clip(x0, lo + margin, hi - margin)
     zeta0 = jnp.where(hi > lo, jnp.log((x0 - lo) / jnp.where(hi > lo, hi - x0, 1.0)), 0.0)
@@ -141,14 +143,12 @@ def test_refinement_of_the_intensities_is_optimistix_bfgs(hold):
     linearised at its mode, the parameters' drift free or held (a box of zero width): the
     intensities optimistix's BFGS reaches from the same start (both converge within their 60
     evaluations), to 1e-6."""
-    memory, un, yn, mask, steps, horizon, m0, p0, bounds, starts = _normalised(
-        _ramp_case(n=200), 200, columns=1)
+    problem, starts = _normalised(_ramp_case(n=200), 200, columns=1)
     hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.05, 1e-5, 1e-2)))
-    sm = _track.smooth_from(memory, un, yn, mask, steps, horizon, hyper, m0, p0, starts[0],
-                            bounds)
-    limits = _track.box(1e-4, hold)
-    got = np.asarray(jax.tree_util.tree_leaves(
-        _track._refine(hyper, sm, mask, steps, horizon, m0, p0, limits)))
-    want = _refine_with_optimistix(hyper, sm, mask, steps, horizon, m0, p0, limits)
+    sm = problem.smooth_from(hyper, starts[0])
+    limits = box(problem.settings, 1e-4, hold)
+    got = np.asarray(jax.tree_util.tree_leaves(_refine(problem, hyper, sm, limits)))
+    want = _refine_with_optimistix(hyper, sm, problem.mask, problem.steps, problem.horizon,
+                                   problem.m0, problem.p0, limits)
     assert np.max(np.abs(got - want)) <= 1e-6 * np.max(np.abs(want))
-    assert np.max(np.abs(got - _track._host_hyper(hyper))) > 0.1  # it moved
+    assert np.max(np.abs(got - host_hyper(hyper))) > 0.1  # it moved

@@ -8,7 +8,10 @@ import types
 import jax.numpy as jnp
 import numpy as np
 
-from vojax._tracker import Hyper, _track
+from vojax import TrackerSettings
+from vojax._tracker import Hyper, _tuning
+
+SETTINGS = TrackerSettings()
 
 
 def _smoothing(ll, log_noise=None, converged=True):
@@ -30,35 +33,35 @@ def _fake_coloured_climb(monkeypatch, time_at):
     """`climb` with stand-ins: every refinement puts the correlation time at `time_at` (log)
     and every re-smoothing raises the evidence by 1, so that each round is accepted. Returns
     a function running the climb, with the refinements' count."""
-    limits = _track.box(1e-4, hold=False, time_min=1e-3)
+    limits = _tuning.box(SETTINGS, 1e-4, hold=False, time_min=1e-3)
     mid = {k: (lo + hi) / 2 for k, (lo, hi) in limits.items()}
     calls = []
 
-    def refine(hyper, sm, *args):
+    def refine(problem, hyper, sm, *args):
         calls.append(1)
         return _hyper(dict(mid, noise_time=time_at), limits)
 
-    monkeypatch.setattr(_track, "_refine", refine)
-    monkeypatch.setattr(_track, "iterated_smoother", lambda *a: _smoothing(float(len(calls))))
-    monkeypatch.setattr(_track, "host_score", _score)
+    monkeypatch.setattr(_tuning, "_refine", refine)
+    monkeypatch.setattr(_tuning, "host_score", _score)
+    problem = types.SimpleNamespace(settings=SETTINGS,
+                                    smooth=lambda *a: _smoothing(float(len(calls))))
 
     def run(fatal):
         calls.clear()
-        out = _track.climb(None, None, None, None, None, None, None, None, None, limits,
-                           _hyper(mid, limits), _smoothing(0.0), rounds=6,
-                           radius=float(np.log(3.0)), fatal=fatal)
+        out = _tuning.climb(problem, limits, _hyper(mid, limits), _smoothing(0.0), rounds=6,
+                            radius=float(np.log(3.0)), fatal=fatal)
         return out, len(calls)
 
     return run, limits
 
 
 def test_a_climb_stops_once_its_correlation_time_stays_at_the_top(monkeypatch):
-    top = _track.box(1e-4, hold=False, time_min=1e-3)["noise_time"][1]
+    top = _tuning.box(SETTINGS, 1e-4, hold=False, time_min=1e-3)["noise_time"][1]
     run, limits = _fake_coloured_climb(monkeypatch, time_at=top)
     (_, _, tuned), rounds = run(fatal="noise_time")
-    assert rounds == _track.FATAL_EDGE_ROUNDS == 2
+    assert rounds == SETTINGS.fatal_edge_rounds == 2
     assert "noise_time" in tuned.at_edge
-    assert tuned.log_likelihood == float(_track.FATAL_EDGE_ROUNDS)  # the last accepted round's
+    assert tuned.log_likelihood == float(SETTINGS.fatal_edge_rounds)  # the last accepted round's
     # without `fatal`, or with the correlation time inside its range or at its lower end
     # (white-like noise, which the coloured model may keep), every round runs
     assert run(fatal=None)[1] == 6

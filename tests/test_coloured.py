@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from vojax._tracker import Hyper
-from vojax._tracker._track import Tuning, _least_squares, ar_whitener
+from vojax._tracker._coloured import ar_whitener
+from vojax._tracker._start import least_squares as _least_squares
+from vojax._tracker._tuning import Tuning
 
 
 def _ar_covariance(times, s, tau, r):

@@ -117,7 +117,7 @@ def _ramp_hold(n=300, dt=0.05):
 def test_without_information_the_order_spreads_as_the_trackers_random_walk(drift):
     """With noise so large that the data say nothing, the order's band is the prior's own:
     ``Var β_k = PRIOR_BETA_VAR + q (t_k − t_0)/T``, carried to the order by ``dα/dβ``."""
-    from vojax._tracker._track import PRIOR_BETA_VAR
+    PRIOR_BETA_VAR = vojax.TrackerSettings().prior_beta_var
     t, u, order, _ = _ramp_hold(120)
     d = vojax.fisher_information(u, order, [2.0], t[1], noise_std=1e8, order_drift=drift)
     z = (order - 0.01) / 0.98

@@ -76,19 +76,27 @@ def test_no_page_points_outside_the_repository():
 
 
 def test_every_diagnostic_message_has_a_troubleshooting_section():
-    """Each kind of message that `identify` can give opens a section of the troubleshooting
-    page (its first words, after any number it starts with, in a heading)."""
-    source = (ROOT / "vojax" / "_identify.py").read_text()
-    openings = re.findall(r'problems\.append\(\s*f?"(?:\{[^}]*\})?([^"{]*)', source)
-    openings.append(re.search(r'LAW_BAND = \(\s*"([^"]*)', source).group(1))
-    headings = " ".join(
-        line for line in (ROOT / "docs" / "troubleshooting.md").read_text().splitlines()
-        if line.startswith("## ")
-    )
-    assert len(openings) >= 10
-    for text in openings:
-        words = " ".join(text.split()[:4]).rstrip(":,(±")
-        assert words and words in headings, f"no section for {text!r}"
+    """Each reason that `identify` can give (`vojax.Reason`) opens exactly one section of the
+    troubleshooting page: a heading whose quoted text (… standing for any words) begins its
+    message, and which names the reason."""
+    import vojax
+
+    context = dict(width=0.2, trade=(0.1, 0.3), bounds=(0.01, 0.99), at_bound=0.1,
+                   held_shift=0.3, drifts=["order_drift"], others=["gamma"], correlation=0.5,
+                   limit=0.1, block=10, block_error=1.0, unstable_from=5)
+    headings = {}
+    for line in (ROOT / "docs" / "troubleshooting.md").read_text().splitlines():
+        quoted = re.match(r'## "(.*)"', line)
+        if quoted:
+            # (re.escape escapes the spaces too: a space before … goes with it)
+            pattern = re.escape(quoted.group(1)).replace("\\ …", "…").replace("…", ".*?")
+            headings[line] = re.compile(pattern)
+    assert len(vojax.Reason) >= 12
+    for reason in vojax.Reason:
+        text = reason.render(**context)
+        found = [h for h, pattern in headings.items() if pattern.match(text)]
+        assert len(found) == 1, f"{len(found)} sections for {reason.value}: {text!r}"
+        assert f"`{reason.value}`" in found[0], f"the section {found[0]!r} names no reason"
 
 
 def _markdown_tables(text):

@@ -8,9 +8,21 @@ import types
 import jax.numpy as jnp
 import numpy as np
 
-from vojax._tracker import _track
+from vojax import TrackerSettings
+from vojax._tracker import _level, _threads
+from vojax._tracker import _mixture as mixture_module
+from vojax._tracker._problem import Problem, prior
 
 N = 40
+
+
+def _problem(settings=None):
+    """A stand-in record of N samples, one input: only the mask, the prior and the settings
+    are read where the smoothings are stood in for."""
+    settings = TrackerSettings() if settings is None else settings
+    m0, p0 = prior(1, np.float64, settings)
+    return Problem(None, jnp.ones((N, 1)), None, np.ones(N), None, None, m0, p0, (0.0, 1.0),
+                   None, N - 1, settings)
 
 
 def _fake_modes(monkeypatch, fits_at, diverges_at=()):
@@ -20,7 +32,7 @@ def _fake_modes(monkeypatch, fits_at, diverges_at=()):
     score where r is in `diverges_at`. Records what each run was given."""
     calls = []
 
-    def modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, budget):
+    def modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, budget, *rest):
         m0, p0, start = np.asarray(m0), np.asarray(p0), np.asarray(start)
         ratio = round(float(m0[1] / 2.0), 2)  # the tuned mode's mean parameter is 2
         calls.append(dict(ratio=ratio, m0=m0, p0=p0, start=start, hyper=hyper))
@@ -28,35 +40,35 @@ def _fake_modes(monkeypatch, fits_at, diverges_at=()):
         score = -np.inf if ratio in diverges_at else 0.0
         return (np.full((1, N), ratio), np.full((1, N), 0.01), np.array([score]), res)
 
-    monkeypatch.setattr(_track, "smoother_modes", modes)
+    monkeypatch.setattr(_level, "smoother_modes", modes)
     return calls
 
 
-def _profile(envelope=None):
-    u = jnp.ones((N, 1))
+# the first round's ratios only: no bisections
+FIRST_ROUND = TrackerSettings(level_splits=0)
+
+
+def _profile(envelope=None, settings=FIRST_ROUND):
     theta = np.zeros((N, 3))
     theta[:, 0], theta[:, 1], theta[:, 2] = 0.3, 2.0, -1.0  # β, p, offset
     cov = np.zeros((N, 3, 3))
     cov[:, 0, 0] = 0.01  # the tuned run's β ± 0.1
     sm = types.SimpleNamespace(theta=theta, cov=cov)
     tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
-    m0, p0 = _track.prior(1, np.float64)
-    return _track.level_profile(None, u, None, np.ones(N), None, None, tuning, m0, p0, sm,
-                                (0.0, 1.0), N, 0.01, None, envelope)
+    return _level.level_profile(_problem(settings), tuning, sm, 0.01, None, envelope)
 
 
 def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypatch):
-    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)  # the first round's ratios only
     calls = _fake_modes(monkeypatch, fits_at=())
     _profile()
-    assert sorted(c["ratio"] for c in calls) == sorted(_track.LEVEL_RATIOS)
-    m0, p0 = _track.prior(1, np.float64)
+    assert sorted(c["ratio"] for c in calls) == sorted(FIRST_ROUND.level_ratios)
+    m0, p0 = prior(1, np.float64, FIRST_ROUND)
     for c in calls:
         r = c["ratio"]
         held = 2.0 * r
         # pinned: the prior of θ_0's parameter at the held value with a tiny variance; the
         # order's and the offset's priors as the tracker's
-        assert c["m0"][1] == held and c["p0"][1, 1] == _track.LEVEL_PIN * max(held**2, 1.0)
+        assert c["m0"][1] == held and c["p0"][1, 1] == FIRST_ROUND.level_pin * max(held**2, 1.0)
         np.testing.assert_array_equal(np.delete(c["m0"], 1), np.delete(np.asarray(m0), 1))
         np.testing.assert_array_equal(c["p0"][0], np.asarray(p0)[0])
         assert c["p0"][2, 2] == np.asarray(p0)[2, 2]
@@ -66,7 +78,7 @@ def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypat
 
 
 def test_the_band_covers_exactly_the_runs_that_fit(monkeypatch):
-    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)  # no bisections (the next test)
+    # no bisections (the next test)
     # none fits: the envelope is left as it was
     _fake_modes(monkeypatch, fits_at=())
     assert _profile() is None
@@ -91,9 +103,9 @@ def test_the_profile_bisects_to_a_fitting_scale_between_its_ratios(monkeypatch):
     the bisection between 1 and 1.41 finds it, and the band is that run's ±2σ alone. Above it
     the profile stops once the failing run's β (1.29) is within 2σ of the fitting one's; below
     1 it halves the gap until √2's third halving (0.84, 0.92, 0.96: none fits)."""
-    monkeypatch.setattr(_track.os, "cpu_count", lambda: 1)  # each round's runs in order
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 1)  # each round's runs in order
     calls = _fake_modes(monkeypatch, fits_at=(1.19,))
-    lo, hi = _profile()
+    lo, hi = _profile(settings=TrackerSettings())
     # log-midpoints: √1.41 = 1.19, √0.71 = 0.84, √(1.19·1.41) = 1.29, √0.84 = 0.92, …
     assert [c["ratio"] for c in calls] == [0.5, 0.71, 1.41, 2.0, 1.19, 0.84, 1.29, 0.92, 0.96]
     np.testing.assert_allclose(lo, 1.19 - 0.2)
@@ -114,20 +126,18 @@ def _mixture(monkeypatch, residual, scores, tuned=0.0):
     of intensities it asked for."""
     rows_seen = []
 
-    def modes(memory, u, y, mask, steps, horizon, rows, m0, p0, firsts, bounds, budget):
+    def modes(problem, rows, firsts, budget):
         rows_seen[:] = rows
         c = len(rows)
         return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
                 scores(c), np.array([residual(k) for k in range(c)]))
 
-    monkeypatch.setattr(_track, "run_mode_shares", modes)
+    monkeypatch.setattr(mixture_module, "run_mode_shares", modes)
     cov = np.tile(np.eye(3) * 0.01, (N, 1, 1))
     sm = types.SimpleNamespace(theta=np.zeros((N, 3)), cov=cov, log_likelihood=tuned,
                                objective=0.0, converged=np.isfinite(tuned))
     tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
-    m0, p0 = _track.prior(1, np.float64)
-    out = _track.mixture(None, jnp.ones((N, 1)), None, np.ones(N), None, None, tuning, m0, p0,
-                         STARTS, sm, (0.0, 1.0), N, False, 0.01, None)
+    out = mixture_module.mixture(_problem(), tuning, STARTS, sm, False, 0.01, None)
     return out, rows_seen
 
 
@@ -150,20 +160,21 @@ def test_the_mixtures_envelope_covers_exactly_the_alternatives_that_fit(monkeypa
     assert not drifting
     (_, _, (lo, hi), drifting), rows = run(fits=(first_drift,))  # a drifting-parameter run
     np.testing.assert_allclose(lo, first_drift + 1 - 0.2)
-    assert drifting and rows[first_drift][1] == _track.ALT_PARAM_DRIFT[0]
+    assert drifting and rows[first_drift][1] == TrackerSettings().alt_param_drift[0]
 
 
 def test_a_drifting_parameter_run_far_less_probable_than_the_tuned_run_does_not_widen_the_band(
     monkeypatch,
 ):
     """Every alternative fitting (residuals 0.1 at the noise variance 0.01), the tuned run's
-    evidence at 0: a run with the parameters drifting more than `ENVELOPE_EVIDENCE` nats
+    evidence at 0: a run with the parameters drifting more than `envelope_evidence` nats
     below it stays out of the envelope, one just inside the limit counts; a run at another
     order drift counts whatever its evidence; a run that did not converge (−∞) never does.
     With the tuned run not converged, every converged run counts."""
-    limit = _track.ENVELOPE_EVIDENCE
+    settings = TrackerSettings()
+    limit = settings.envelope_evidence
     first = len(STARTS) + 1  # alternatives 1…6 are the starts, 7… the drifting parameters
-    count = 2 * len(_track.ALT_PARAM_DRIFT)
+    count = 2 * len(settings.alt_param_drift)
 
     def run(drift_scores, order_score, tuned=0.0):
         def scores(c):
@@ -174,7 +185,7 @@ def test_a_drifting_parameter_run_far_less_probable_than_the_tuned_run_does_not_
 
         return _mixture(monkeypatch, lambda k: np.full(N, 0.1), scores, tuned)[0][2:]
 
-    last = first + count + len(_track.ALT_ORDER_DRIFT) - 1  # β of the last order-drift run
+    last = first + count + len(settings.alt_order_drift) - 1  # β of the last order-drift run
     # drifting parameters 4 nats below, just inside the limit, just beyond it, far beyond; the
     # order's other drifts not converged
     (lo, hi), drifting = run([-4.0, -(limit - 0.5), -(limit + 0.5), -5.0 * limit], -np.inf)

@@ -72,7 +72,7 @@ if sys.argv[1] == "fast":
 import jax
 jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp
-from vojax._identify import build_law, run_law
+from vojax._adaptive._build import build_law, run_law
 
 s = vojax.simulate_study(0.1, seed=3)
 u, y = jnp.asarray(s["u"]), jnp.asarray(s["y"] - s["y"][0])

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax._tracker import _track
+from vojax._tracker._start import least_squares
 
 DT, N = 0.1, 300
 
@@ -39,14 +39,14 @@ def test_least_squares_without_an_offset_is_lstsq_without_its_column():
     rng = np.random.default_rng(0)
     x, y, mask = rng.standard_normal((40, 3)), rng.standard_normal(40), np.ones(40)
     mask[[3, 17]] = 0.0
-    rss, coef = _track._least_squares(x, y, mask, offset=False)
+    rss, coef = least_squares(x, y, mask, offset=False)
     keep = mask > 0
     ref, res, *_ = np.linalg.lstsq(x[keep], y[keep], rcond=None)
     np.testing.assert_allclose(coef[:3], ref, rtol=1e-12)
     assert coef[3] == 0.0 and coef.shape == (4,)  # the offset's place, held at 0
     assert rss == pytest.approx(float(res[0]), rel=1e-12)
     # with the column, the fit can only be better, and its offset is the lstsq one
-    rss1, coef1 = _track._least_squares(x, y, mask)
+    rss1, coef1 = least_squares(x, y, mask)
     ref1 = np.linalg.lstsq(np.c_[x, np.ones(40)][keep], y[keep], rcond=None)[0]
     np.testing.assert_allclose(coef1, ref1, rtol=1e-12)
     assert rss1 < rss

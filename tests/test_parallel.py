@@ -10,7 +10,6 @@ import pytest
 
 import vojax
 from vojax._tracker import _smoother, kalman_filter, rts_smoother
-from vojax._tracker._blocks import BATCHED_BLOCK
 from vojax._tracker._parallel import chunked_scan, parallel_filter, parallel_smoother
 
 from .test_tracker import _batch_posterior
@@ -103,13 +102,13 @@ def test_chunked_scan_equals_cumulative_sums_and_products(n, reverse):
 
 
 def test_schedule_is_sequential_on_a_cpu_and_parallel_elsewhere(monkeypatch):
-    monkeypatch.setattr(_smoother, "SCHEDULE", None)
     monkeypatch.setattr(jax, "default_backend", lambda: "cpu")
-    assert _smoother.schedule() == "sequential"
+    assert _smoother.resolve_schedule(None) == "sequential"
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
-    assert _smoother.schedule() == _smoother.ACCELERATOR_SCHEDULE == "chunked"
-    monkeypatch.setattr(_smoother, "SCHEDULE", "associative")
-    assert _smoother.schedule() == "associative"
+    assert _smoother.resolve_schedule(None) == _smoother.ACCELERATOR_SCHEDULE == "chunked"
+    assert _smoother.resolve_schedule("associative") == "associative"
+    with pytest.raises(ValueError, match="`schedule` must be None, 'sequential'"):
+        vojax.TrackerSettings(schedule="fast")
 
 
 @pytest.mark.slow
@@ -129,25 +128,24 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
                                   memory="exponential"))
     y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
     kwargs = dict(warn=False) if max_points is None else dict(warn=False, max_points=max_points)
-    monkeypatch.setattr(_smoother, "SCHEDULE", "sequential")
-    jax.clear_caches()
-    ref = vojax.identify(u, y, dt, **kwargs)
+    ref = vojax.identify(u, y, dt, **kwargs,
+                         settings=vojax.TrackerSettings(schedule="sequential"))
     calls, batched = [], []
-    monkeypatch.setattr(_smoother, "SCHEDULE", schedule)
     monkeypatch.setattr(_smoother, "parallel_filter",
                         lambda *a, **k: calls.append(1) or parallel_filter(*a, **k))
     run_batched = _smoother.smooth_batched
     monkeypatch.setattr(_smoother, "smooth_batched",
                         lambda *a, **k: batched.append(1) or run_batched(*a, **k))
-    jax.clear_caches()  # the programs compiled with the sequential scans
+    jax.clear_caches()  # the spies are seen where a program is traced
     try:
-        got = vojax.identify(u, y, dt, **kwargs)
+        got = vojax.identify(u, y, dt, **kwargs, settings=vojax.TrackerSettings(schedule=schedule))
     finally:
-        jax.clear_caches()  # later tests trace the sequential scans again
+        jax.clear_caches()  # later tests trace without the spies
     assert calls, "the parallel filter was not traced"
     assert bool(batched) == (max_points is not None)  # the vmapped runs on the blocked record
     assert got.diagnostics.block == ref.diagnostics.block
-    assert (got.diagnostics.block >= BATCHED_BLOCK) == (max_points is not None)
+    batched_block = vojax.TrackerSettings().batched_block
+    assert (got.diagnostics.block >= batched_block) == (max_points is not None)
     np.testing.assert_allclose(got.alpha, ref.alpha, atol=1e-7)
     np.testing.assert_allclose(got.alpha_std, ref.alpha_std, rtol=1e-5)
     assert got.diagnostics.identified == ref.diagnostics.identified
@@ -156,14 +154,17 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
 def test_tracker_runs_one_thread_with_a_parallel_schedule_on_a_cpu(monkeypatch):
     """XLA:CPU deadlocked running the prefix sums' programs from two threads at once: with a
     parallel schedule on a CPU the tracker's runs go one after another, in one share."""
-    from vojax._tracker import _track
+    import types
 
-    monkeypatch.setattr(_track.os, "cpu_count", lambda: 4)
+    from vojax._tracker import _threads
+
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 4)
     shares = {}
     for how in ("sequential", "chunked"):
-        monkeypatch.setattr(_smoother, "SCHEDULE", how)
+        problem = types.SimpleNamespace(settings=vojax.TrackerSettings(), schedule=how)
         for _ in range(2):  # the second time warm: the shares run side by side
-            out = _track._in_threads(_problem, 8, lambda lo, hi: hi - lo, ("test", how))
+            out = _threads.in_threads(problem, _problem, 8, lambda lo, hi: hi - lo,
+                                      ("test", how))
         shares[how] = [share for share, _ in out]
     assert len(shares["sequential"]) == 4
     assert shares["chunked"] == [(0, 8)]

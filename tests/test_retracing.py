@@ -13,8 +13,8 @@ import pytest
 
 import vojax
 from vojax import _identify, _integral, _refit, _tune
-from vojax._adaptive import _bands
-from vojax._tracker import _track
+from vojax._adaptive import _bands, _build
+from vojax._tracker import _start, _tuning
 
 from .helpers import paper_inputs
 
@@ -57,7 +57,7 @@ def test_tune_gains_traces_once(monkeypatch):
 def test_identify_with_given_gains_traces_once(monkeypatch):
     law = _once(monkeypatch, _identify, "run_law")
     band = _once(monkeypatch, _bands, "law_covariance")
-    scan = _once(monkeypatch, _identify, "scan_memory")  # the automatic R₀
+    scan = _once(monkeypatch, _build, "scan_memory")  # the automatic R₀
     u, y = _record(130, 0.4, 4)
     vojax.identify(u, y, 0.1, gamma=0.5, warn=False, method="gradient")
     u2, y2 = _record(130, 0.6, 5)
@@ -79,7 +79,8 @@ def test_tracker_traces_once(monkeypatch):
 
     # every smoothing (first pass, refinement, mixture, held order) runs one program
     limited = [_once(monkeypatch, _smoother, "smooth_compiled")]
-    limited += [_once(monkeypatch, _track, name) for name in ("_refine_compiled", "_phi_constant")]
+    limited += [_once(monkeypatch, _tuning, "_refine_compiled"),
+                _once(monkeypatch, _start, "_phi_constant")]
     u, y = _record(120, 0.4, 6)
     vojax.identify(u, y, 0.1, method="kalman", warn=False)
     u2, y2 = _record(120, 0.6, 7)

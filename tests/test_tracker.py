@@ -11,7 +11,9 @@ import pytest
 
 import vojax
 from vojax._tracker import Hyper, KalmanTracker, kalman_filter, rts_smoother
-from vojax._tracker._track import _scan_filter
+from vojax._tracker._fit import _scan_filter
+
+from .helpers import make_problem
 
 
 def _batch_posterior(h, z, r, q, m0, p0):
@@ -241,26 +243,22 @@ def _ramp_case(n=1500, dt=0.1, noise=0.02, seed=0):
     return t, u, y, alpha, p, dt
 
 
-def _normalised(case, num, columns=None):
-    """The tracker's inputs for the first `num` samples of a `_ramp_case` (its first `columns`
-    inputs, or all), normalised as `track` does: ``(memory, ũ, ỹ, mask, steps, horizon, m0,
-    p0, bounds, constant starts)``."""
+def _normalised(case, num, columns=None, settings=None):
+    """The tracker's problem for the first `num` samples of a `_ramp_case` (its first
+    `columns` inputs, or all), its input and output normalised (the constant fit's rescaling
+    left out) and the constant starts: ``(Problem, starts)``."""
     from vojax._integral import make_memory
-    from vojax._tracker import _track
+    from vojax._tracker._problem import data_scales
+    from vojax._tracker._start import starting_trajectories
 
     t, u, y, *_, dt = case
     u, y = jnp.asarray(u[:num, :columns]), jnp.asarray(y[:num])
-    bounds = (0.01, 0.99)
-    memory = make_memory("exponential", dt, num, order_range=bounds)
-    mask = jnp.ones(num)
-    steps = jnp.full(num, dt)
-    horizon = jnp.asarray(dt * (num - 1))
-    scales = _track.data_scales(u, y, mask)
+    memory = make_memory("exponential", dt, num, order_range=(0.01, 0.99))
+    scales = data_scales(u, y, jnp.ones(num))
     un = u / jnp.asarray(scales.u_scale)
     yn = (y - scales.y_ref) / scales.y_scale
-    m0, p0 = _track.prior(u.shape[1], u.dtype)
-    starts = np.asarray(_track.starting_trajectories(memory, un, yn, mask, bounds, 0.5))
-    return memory, un, yn, mask, steps, horizon, m0, p0, bounds, starts
+    problem = make_problem(memory, un, yn, dt=dt, settings=settings)
+    return problem, np.asarray(starting_trajectories(problem, 0.5))
 
 
 @pytest.fixture(scope="module")
@@ -450,17 +448,18 @@ def test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box():
     floor, so a noise 1.5x the floor is at the edge and one 2x the floor is not (5 % of the full
     box, 1e-10 to 2, would be a factor 3.3 and flag both); a drift at its lower end is named
     as such, a held coordinate (a box of zero width) never."""
-    from vojax._tracker._track import BOX, at_edges, box
+    from vojax._tracker._tuning import at_edges, box
 
+    settings = vojax.TrackerSettings()
     floor = 1e-4
-    limits = box(floor, hold=True)
+    limits = box(settings, floor, hold=True)
     x = lambda noise, order=0.0: (order, np.log(1e-6), np.log(noise))  # noqa: E731
-    assert at_edges(x(1.5 * floor), limits) == ("noise",)
-    assert at_edges(x(2.0 * floor), limits) == ()
-    assert at_edges(x(1.9), limits) == ("noise",)
-    low = BOX["order_drift"][0] + 0.01
-    assert at_edges(x(1e-2, low), limits) == ("order_drift (lower edge)",)
-    assert at_edges(x(1e-2, BOX["order_drift"][1] - 0.01), limits) == ("order_drift",)
+    assert at_edges(x(1.5 * floor), limits, settings.edge) == ("noise",)
+    assert at_edges(x(2.0 * floor), limits, settings.edge) == ()
+    assert at_edges(x(1.9), limits, settings.edge) == ("noise",)
+    low, high = np.log(settings.order_drift_range)
+    assert at_edges(x(1e-2, low + 0.01), limits, settings.edge) == ("order_drift (lower edge)",)
+    assert at_edges(x(1e-2, high - 0.01), limits, settings.edge) == ("order_drift",)
 
 
 def test_constant_output_is_refused(ramp):
@@ -470,7 +469,7 @@ def test_constant_output_is_refused(ramp):
 
 
 def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
-    from vojax._identify import diagnose
+    from vojax._diagnostics import diagnose
 
     alpha = np.full(100, 0.4)
     lo, hi = alpha - 0.01, alpha + 0.01
@@ -504,7 +503,9 @@ def test_order_traded_against_drifting_parameters_is_refused():
     mode lets η drift, and its order then sits 0.06 below the order with η held. The
     diagnostics must refuse the band, and the shift they report must be the one a separate
     smoothing with the parameters held (through `noise=`) gives."""
-    from vojax._tracker._track import PARAM_DRIFT0, data_scales
+    from vojax._tracker._problem import data_scales
+
+    PARAM_DRIFT0 = vojax.TrackerSettings().constant_drift
 
     (rec,) = vojax.load_records(vojax.io.example_file("adhesive"), time="time_s",
                                 inputs=["nominal_shear_stress_kPa"], output="shear_strain")
@@ -515,14 +516,15 @@ def test_order_traded_against_drifting_parameters_is_refused():
     # the same held smoothing, asked for by hand: tuned order drift, parameters held, the
     # noise at the constant fit's misfit (the tracker's normalised units, back in strain)
     from vojax._integral import make_memory
-    from vojax._tracker import _track
+    from vojax._tracker._start import constant_fit
 
     scales = data_scales(rec.inputs, rec.output, np.ones(rec.time.size))
     memory = make_memory("exponential", None, rec.time.size, order_range=(0.01, 0.99),
                          times=rec.time)
     yn = (rec.output - scales.y_ref) / scales.y_scale
     un = rec.inputs / np.asarray(scales.u_scale)
-    _, _, rss, _ = _track.constant_fit(memory, un, yn, np.ones(rec.time.size), (0.01, 0.99))
+    _, _, rss, _ = constant_fit(memory, un, yn, np.ones(rec.time.size), (0.01, 0.99),
+                                vojax.TrackerSettings())
     noise = {"order_drift": res.tuning.order_drift, "parameter_drift": PARAM_DRIFT0,
              "noise_std": float(np.sqrt(rss / (rec.time.size - 3)) * scales.y_scale)}
     held = vojax.identify(rec.inputs, rec.output, **rec.grid, method="kalman", noise=noise,
@@ -735,14 +737,16 @@ def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, s
     evidence: its trajectory, index and scores equal those of the three runs made one by one.
     With a first-pass budget of one iteration (no run converges) the tracker runs the pass
     again with the full budget and returns what the default budget gives."""
-    from vojax._tracker import _track
     from vojax._tracker._smoother import iterated_smoother, score, smoother_batch
+    from vojax._tracker._threads import run_batch_shares, run_mode_shares, stack_hypers
 
     num = 120
-    memory, un, yn, mask, steps, horizon, m0, p0, bounds, starts = _normalised(ramp, num)
+    problem, starts = _normalised(ramp, num)
+    memory, un, yn, mask, steps, horizon = problem.record
+    m0, p0, bounds = problem.m0, problem.p0, problem.bounds
     starts = starts[[0, 1, 5]]
     rows = [(0.1, 1e-6, 1e-3), (10.0, 1e-6, 1e-2), (1.0, 1e-4, 1e-3)]
-    hyper = _track._stack_hypers(rows)
+    hyper = stack_hypers(rows)
     nominal = jnp.broadcast_to(jnp.asarray(starts)[:, None, :], (3, num, starts.shape[1]))
     best, i, i_alt, scores, iterations, alts = smoother_batch(
         memory, un, yn, mask, steps, horizon, hyper, m0, p0, jnp.asarray(starts), bounds, 400
@@ -759,26 +763,23 @@ def test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget(ramp, s
     assert [int(k) for k in iterations] == [int(sm.iterations) for sm in alone]
     # the same runs in shares of two (one padded with a copy of its last run), in threads
     # once compiled: the same best run, indices and scores, and the same modes
-    monkeypatch.setattr(_track.os, "cpu_count", lambda: 2)
+    from vojax._tracker import _threads
     from vojax._tracker._smoother import smoother_modes
 
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 2)
     modes = smoother_modes(memory, un, yn, mask, steps, horizon, hyper, m0, p0,
                            jnp.asarray(starts), bounds, 400)
     for _ in range(2):  # the first time share after share, then side by side
-        b2, i2, alt2, s2 = _track.run_batch_shares(
-            memory, un, yn, mask, steps, horizon, rows, m0, p0, jnp.asarray(starts), bounds, 400
-        )
+        b2, i2, alt2, s2 = run_batch_shares(problem, rows, jnp.asarray(starts), 400)
         assert (i2, alt2) == (int(i), int(i_alt)) and np.array_equal(s2, np.asarray(scores))
         np.testing.assert_array_equal(b2.theta, best.theta)
-        shared = _track.run_mode_shares(
-            memory, un, yn, mask, steps, horizon, rows, m0, p0, jnp.asarray(starts), bounds, 400
-        )
+        shared = run_mode_shares(problem, rows, jnp.asarray(starts), 400)
         for a, b in zip(shared, modes):
             np.testing.assert_array_equal(a, np.asarray(b))
     # the fallback: nothing converges in one iteration, so the pass runs again in full
     t, u, y, *_, dt = ramp
-    monkeypatch.setattr(_track, "GRID_MAX_ITER", 1)
-    again = vojax.identify(u, y, dt, method="kalman")
+    again = vojax.identify(u, y, dt, method="kalman",
+                           settings=vojax.TrackerSettings(grid_max_iter=1))
     assert again.tuning == smoothed.tuning
     np.testing.assert_allclose(again.alpha, smoothed.alpha, rtol=1e-12)
 
@@ -843,23 +844,24 @@ def test_constant_fit_finds_the_least_squares_order_of_a_dense_scan():
     """The grid-and-golden-section search of the constant order against a dense scan of the
     same profile (2,001 orders): the same minimum, to the dense scan's spacing."""
     from vojax._integral import make_memory
-    from vojax._tracker import _track
     from vojax._tracker._model import order_of
+    from vojax._tracker._start import constant_fit, constant_profile
 
     t, u, y, *_, dt = _ramp_case(n=300, noise=0.05, seed=8)
     bounds = (0.01, 0.99)
     memory = make_memory("exponential", dt, 300, order_range=bounds)
     u, y, mask = jnp.asarray(u), jnp.asarray((y - y.mean()) / y.std()), jnp.ones(300)
-    alpha, coef, rss, _ = _track.constant_fit(memory, u, y, mask, bounds)
+    alpha, coef, rss, _ = constant_fit(memory, u, y, mask, bounds, vojax.TrackerSettings())
     betas = np.linspace(-5.0, 5.0, 2001)
     alphas = np.asarray(order_of(jnp.asarray(betas), bounds)[0])
     host = [np.asarray(a) for a in (u, y, mask)]
-    dense = np.array([float(_track._constant_profile(memory, *host, a)[0]) for a in alphas])
+    block = vojax.TrackerSettings().phi_block
+    dense = np.array([float(constant_profile(memory, *host, a, block)[0]) for a in alphas])
     k = int(np.argmin(dense))
     assert 0 < k < 2000  # an interior minimum
     assert rss <= dense[k] * (1 + 1e-12)
     assert abs(alpha - alphas[k]) <= abs(alphas[k + 1] - alphas[k - 1])
-    refit = _track._constant_profile(memory, *host, alpha)
+    refit = constant_profile(memory, *host, alpha, block)
     np.testing.assert_allclose(coef, refit[1], rtol=1e-10)
 
 
@@ -887,20 +889,21 @@ def test_band_covers_the_other_modes_in_proportion_to_their_evidence():
     """The tracker's reported band is the mixture's: at least as wide as the tuned run's own
     Laplace band at every sample, and its weights sum to one with the tuned run first."""
     from vojax._integral import make_memory
-    from vojax._tracker import track
+    from vojax._tracker._fit import fit_points
 
     t = np.arange(300) * 0.1
     u = np.where(t < 5.0, t / 5.0, 1.0)
     y = np.asarray(vojax.simulate(u, 0.3 + 0.3 * t / t[-1], np.array([1.0]), 0.1))
     y = y + 0.01 * np.ptp(y) * np.random.default_rng(7).standard_normal(t.size)
     mem = make_memory("exponential", 0.1, t.size, rule="trapezoid", order_range=(0.01, 0.99))
-    res = track(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99))
+    settings = vojax.TrackerSettings()
+    res = fit_points(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99), settings)
     w = np.asarray(res.mixture_weights)
     assert w.sum() == pytest.approx(1.0, rel=1e-12) and w[0] > 0
-    own = track(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99),
-                hyper=dict(order_drift=res.tuning.order_drift,
-                           parameter_drift=res.tuning.parameter_drift,
-                           noise_std=np.sqrt(res.tuning.noise) * np.std(y)))
+    own = fit_points(mem, jnp.asarray(u[:, None]), jnp.asarray(y), 0.1, (0.01, 0.99), settings,
+                     noise=dict(order_drift=res.tuning.order_drift,
+                                parameter_drift=res.tuning.parameter_drift,
+                                noise_std=np.sqrt(res.tuning.noise) * np.std(y)))
     assert np.all(np.asarray(res.alpha_std) >= np.asarray(own.alpha_std) * (1 - 1e-6))
 
 
@@ -909,7 +912,7 @@ def test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled
     parameters stated constant): the innovations' lag-1 autocorrelation exceeds 0.25 and the
     band is refused, with what to do;
     with white noise of the same level it stays below the limit."""
-    from vojax._identify import diagnose
+    from vojax._diagnostics import diagnose
     from vojax._stats import MAX_CORRELATION, correlation_limit, lag1_correlation
 
     alpha = np.full(100, 0.4)
@@ -1027,13 +1030,13 @@ def test_coarse_hats_are_sums_of_the_fine_ones():
     """The trade-off's profile runs the memory once for both of its drifts: the hat functions
     on 8 knots are `refinement`'s sums of those on 15 (the 8 and their midpoints), at
     irregular times with the fitted span ending before the record does."""
-    from vojax._tracker import _track
+    from vojax._tracker._trade import hat_basis, refinement
 
     t = np.concatenate([[0.0], np.sort(np.random.default_rng(0).uniform(0, 3, 499))])
     for knots in (2, 3, 8):
-        fine = _track.hat_basis(t, 450, 2 * knots - 1)
-        coarse = _track.hat_basis(t, 450, knots)
-        np.testing.assert_allclose(fine @ _track.refinement(knots), coarse, rtol=0, atol=1e-15)
+        fine = hat_basis(t, 450, 2 * knots - 1)
+        coarse = hat_basis(t, 450, knots)
+        np.testing.assert_allclose(fine @ refinement(knots), coarse, rtol=0, atol=1e-15)
         assert np.all(coarse[451:] == coarse[450])  # held after the fitted span
 
 
@@ -1054,14 +1057,13 @@ def test_trade_interval_against_an_independent_profile(width, noise, fine):
     drifting parameter explains them and there is no interval."""
     from vojax import reference
     from vojax._integral import make_memory
-    from vojax._tracker import _track
+    from vojax._tracker._trade import trade_interval
 
     t, u, y, dt, sd = _gain_drift_case(width=width, noise=noise)
     n, bounds = t.size, (0.01, 0.99)
     memory = make_memory("exponential", dt, n, order_range=bounds)
-    mask = np.ones(n)
-    got = _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
-                                jnp.asarray(mask), t, n - 1, bounds, sd**2)
+    problem = make_problem(memory, u[:, None], y, times=t, bounds=bounds)
+    got = trade_interval(problem, sd**2)
     s = t / t[-1]
     hats = [np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j]) for j in range(k)],
                      axis=1) for k in (8, 15)]
@@ -1107,15 +1109,14 @@ def test_trade_interval_against_an_independent_profile(width, noise, fine):
         assert all(not min(interval(f)) <= 0.45 <= max(interval(f)) for f in range(2))
     within = np.array([a for f in fits for a in interval(f)])
     assert got is not None
-    step = (bounds[1] - bounds[0]) / (_track.TRADE_ORDERS + 1)  # the library's grid of orders
+    step = (bounds[1] - bounds[0]) / (problem.settings.trade_orders + 1)  # the library's grid
     for end, want, bound in ((got[0], within.min(), bounds[0]), (got[1], within.max(), bounds[1])):
         if end == bound:  # its outermost grid order is inside: the interval reaches the bound
             assert abs(want - bound) <= step + 0.0025
         else:
             assert end == pytest.approx(want, abs=0.01)
     assert got[0] <= 0.45 <= got[1]
-    assert _track.trade_interval(memory, jnp.asarray(u[:, None]), jnp.asarray(y),
-                                 jnp.asarray(mask), t, n - 1, bounds, 1e-4 * sd**2) is None
+    assert trade_interval(problem, 1e-4 * sd**2) is None
 
 
 @pytest.mark.slow
@@ -1125,20 +1126,21 @@ def test_parameters_constant_holds_their_drift_and_skips_the_trade(monkeypatch):
     run, one run per start, the order-drift levels), and no trade interval widens it. The
     default mixes in the six drifting-parameter alternatives too, and its band, widened by
     the trade, holds the true constant order of the drifting gain."""
-    from vojax._tracker import _track
+    from vojax._tracker import _fit, _mixture
 
     runs, trades = [], []
-    mix, trade = _track.mix_modes, _track.trade_interval
-    monkeypatch.setattr(_track, "mix_modes", lambda b, *a, **k: runs.append(len(b)) or mix(b, *a, **k))
-    monkeypatch.setattr(_track, "trade_interval", lambda *a, **k: trades.append(trade(*a, **k)) or trades[-1])
+    mix, trade = _mixture.mix_modes, _fit.trade_interval
+    monkeypatch.setattr(_mixture, "mix_modes", lambda b, *a, **k: runs.append(len(b)) or mix(b, *a, **k))
+    monkeypatch.setattr(_fit, "trade_interval", lambda *a, **k: trades.append(trade(*a, **k)) or trades[-1])
+    settings = vojax.TrackerSettings()
     t, u, y, dt, _ = _gain_drift_case()
     held = vojax.identify(u, y, dt, parameters="constant", warn=False)
-    assert held.tuning.parameter_drift == pytest.approx(_track.PARAM_DRIFT0, rel=1e-12)
+    assert held.tuning.parameter_drift == pytest.approx(settings.constant_drift, rel=1e-12)
     assert "parameter_drift" not in held.tuning.at_edge
-    starts = len(_track.START_ORDERS) + 1
-    assert runs == [1 + starts + len(_track.ALT_ORDER_DRIFT)] and trades == []
+    starts = len(settings.start_orders) + 1
+    assert runs == [1 + starts + len(settings.alt_order_drift)] and trades == []
     free = vojax.identify(u, y, dt, warn=False)
-    assert runs[1] == runs[0] + 2 * len(_track.ALT_PARAM_DRIFT)
+    assert runs[1] == runs[0] + 2 * len(settings.alt_param_drift)
     assert len(trades) == 1 and trades[0] is not None
     lower, upper = (np.asarray(a)[t.size // 2 :] for a in (free.alpha_lower, free.alpha_upper))
     assert np.all(lower <= trades[0][0] + 1e-12) and np.all(upper >= trades[0][1] - 1e-12)
@@ -1205,13 +1207,13 @@ def test_phi_of_each_column_equals_the_memory_run_on_all_columns():
     a time through one compiled program) equals one run of the memory over all the columns
     at once, and the direct sum of `vojax.reference` to the memory's accuracy."""
     from vojax._integral import make_memory
-    from vojax._tracker import _track
+    from vojax._tracker._start import phi_columns
 
     n, dt = 240, 0.05
     t = dt * np.arange(n)
     x = np.stack([np.sin(t) + 1.0, np.minimum(t, 4.0), np.cos(0.3 * t)], axis=1)
     memory = make_memory("exponential", dt, n, order_range=(0.01, 0.99))
-    got = _track.phi_columns(memory, x, 0.37)
+    got = phi_columns(memory, x, 0.37, vojax.TrackerSettings().phi_block)
     whole = np.asarray(memory.run(jnp.asarray(x), jnp.full((n,), 0.37), False))
     np.testing.assert_allclose(got, whole, rtol=1e-13, atol=1e-13)
     direct = np.stack([np.asarray(vojax.reference.fractional_integral(x[:, j], 0.37, dt))
@@ -1224,26 +1226,26 @@ def test_coloured_starts_side_by_side_equal_one_after_another(monkeypatch):
     after another the first time a record shape is seen, then in threads: the two calls give
     the same estimates and band, to the last digit (the same compiled program, the runs in
     the same order)."""
-    from vojax._tracker import _track
+    from vojax._tracker import _coloured, _problem, _threads
 
-    monkeypatch.setattr(_track.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 2)
     seen = []
-    original = _track._in_threads
+    original = _threads.in_threads
 
-    def spy(fn, count, call, key):
+    def spy(problem, fn, count, call, key):
         seen.append((fn.__name__, count))
-        return original(fn, count, call, key)
+        return original(problem, fn, count, call, key)
 
-    monkeypatch.setattr(_track, "_in_threads", spy)
+    monkeypatch.setattr(_coloured, "in_threads", spy)
     times = []  # the AR(1) part's correlation time of each coloured smoothing, in call order
-    smoother = _track.iterated_smoother
+    smoother = _problem.iterated_smoother
 
     def spy_smoother(memory, u, y, mask, steps, horizon, hyper, *rest):
         if hyper.coloured:
             times.append(float(hyper.log_ar_time))
         return smoother(memory, u, y, mask, steps, horizon, hyper, *rest)
 
-    monkeypatch.setattr(_track, "iterated_smoother", spy_smoother)
+    monkeypatch.setattr(_problem, "iterated_smoother", spy_smoother)
     dt = 0.05
     t = np.arange(211) * dt  # a length no other test uses: the first call runs them in turn
     u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
@@ -1255,9 +1257,10 @@ def test_coloured_starts_side_by_side_equal_one_after_another(monkeypatch):
     y = x + 0.01 * np.ptp(x) * ar
     first, second = (vojax.identify(u, y, dt, parameters="constant", warn=False)
                      for _ in range(2))
-    assert seen.count(("_coloured", len(_track.RHO_STARTS))) == 2
+    rho_starts = vojax.TrackerSettings().rho_starts
+    assert seen.count(("coloured", len(rho_starts))) == 2
     # each call starts once from every starting correlation (the shares cover them all)
-    starts = len(_track.RHO_STARTS)
+    starts = len(rho_starts)
     assert len(times) >= 2 * starts and len(set(times[:starts])) == starts
     assert first.tuning == second.tuning
     for name in ("alpha", "alpha_lower", "alpha_upper", "p", "y_hat"):
@@ -1270,16 +1273,16 @@ def test_batched_runs_equal_the_runs_one_by_one(ramp):
     11 runs (a full chunk and a padded one) give the same best run, index, iteration counts,
     scores and modes as the runs one after another, to the smoother's convergence test (a
     relative decrease of 1e-9: the two programs round differently)."""
-    from vojax._tracker import _track
     from vojax._tracker._smoother import RUN_BATCH, smoother_batch, smoother_modes
+    from vojax._tracker._threads import stack_hypers
 
-    memory, un, yn, mask, steps, horizon, m0, p0, bounds, starts = _normalised(ramp, 150)
+    problem, starts = _normalised(ramp, 150)
     rows = [(q, d, r) for q in (0.1, 1.0, 10.0) for d, r in ((1e-6, 1e-3), (1e-4, 1e-2))]
     rows = (rows + rows[:5])[:11]
     assert RUN_BATCH < len(rows) < 2 * RUN_BATCH
     firsts = jnp.asarray(np.resize(starts, (len(rows), starts.shape[1])))
-    hyper = _track._stack_hypers(rows)
-    args = (memory, un, yn, mask, steps, horizon, hyper, m0, p0, firsts, bounds, 400)
+    hyper = stack_hypers(rows)
+    args = (*problem.record, hyper, problem.m0, problem.p0, firsts, problem.bounds, 400)
     one = smoother_batch(*args)
     many = smoother_batch(*args, batched=True)
     assert many[1] == one[1] and many[2] == one[2]
@@ -1296,11 +1299,11 @@ def test_batched_runs_equal_the_runs_one_by_one(ramp):
 
 
 def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
-    """Block means of ≥ `BATCHED_BLOCK` samples run the first pass's and the mixture's
+    """Block means of ≥ `batched_block` samples run the first pass's and the mixture's
     smoothings batched under XLA's default loops, with the estimates of the runs one by one
     to rounding; under `use_fast_cpu_loops` (its flag in XLA_FLAGS) and for shorter blocks
     they run one by one."""
-    from vojax._tracker import _blocks, _smoother
+    from vojax._tracker import _smoother
 
     calls = []
     original = _smoother.smooth_batched
@@ -1321,14 +1324,13 @@ def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
     batched = vojax.identify(u, y, dt, **kwargs)
     assert calls and all(shape[0] == 100 for shape in calls)
     del calls[:]
-    monkeypatch.setattr(_blocks, "BATCHED_BLOCK", 12)
-    alone = vojax.identify(u, y, dt, **kwargs)
+    alone = vojax.identify(u, y, dt, **kwargs,
+                           settings=vojax.TrackerSettings(batched_block=12))
     assert not calls
     assert batched.tuning.values == pytest.approx(alone.tuning.values, rel=1e-5)
     for name in ("alpha", "alpha_lower", "alpha_upper", "y_hat"):
         np.testing.assert_allclose(getattr(batched, name), getattr(alone, name), rtol=0,
                                    atol=1e-6)
-    monkeypatch.setattr(_blocks, "BATCHED_BLOCK", 10)
     monkeypatch.setenv("XLA_FLAGS", "--xla_backend_extra_options="
                        "xla_cpu_small_while_loop_byte_threshold=1048576")
     vojax.identify(u, y, dt, **kwargs)
@@ -1342,44 +1344,43 @@ def test_blocked_records_batch_their_passes_where_it_pays(monkeypatch):
     (lambda r: r >= 2.0, [(0.5, 0.71, 1.41, 2.0), (2.828,), (4.0,)]),
 ])
 def test_level_profile_follows_the_ridge_while_it_fits(monkeypatch, fits, visited):
-    """The level profile holds the parameters at `LEVEL_RATIOS` × the tuned ones; where the
+    """The level profile holds the parameters at `level_ratios` × the tuned ones; where the
     outermost ratio on a side still explains the data it goes on by √2 on that side, up to
     4× (down to ¼), and every run that fits widens the envelope (its bisections, which
     depend on the runs' orders, are held off here: `test_level_profile_bisects_...`)."""
-    from vojax._tracker import _track
+    from vojax._tracker import _level, _threads
+    from vojax._tracker._tuning import Tuning
 
     seen, widened, ratios = [], [], []
-    monkeypatch.setattr(_track, "LEVEL_SPLITS", 0)
-    monkeypatch.setattr(_track.os, "cpu_count", lambda: 1)  # the runs in order
-    monkeypatch.setattr(_track, "_fitting", lambda residuals, *a: np.array(
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 1)  # the runs in order
+    monkeypatch.setattr(_level, "fitting", lambda residuals, *a: np.array(
         [fits(r) for r in ratios[len(ratios) - residuals.shape[0]:]]))
-    monkeypatch.setattr(_track, "_widened",
+    monkeypatch.setattr(_level, "widened",
                         lambda env, beta, var: widened.append(beta) or (beta, beta))
-    original = _track._in_threads
+    original = _threads.in_threads
 
-    def spy(fn, count, call, key):
-        out = original(fn, count, call, key)
+    def spy(problem, fn, count, call, key):
+        out = original(problem, fn, count, call, key)
         seen.append(count)
         return out
 
-    monkeypatch.setattr(_track, "_in_threads", spy)
-    original_modes = _track.smoother_modes
+    monkeypatch.setattr(_level, "in_threads", spy)
+    original_modes = _level.smoother_modes
 
     def modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, *rest):
         ratios.append(round(float(np.asarray(start)[0, 1] / mean_p), 3))
         return original_modes(memory, u, y, mask, steps, horizon, hyper, m, p, start, *rest)
 
-    monkeypatch.setattr(_track, "smoother_modes", modes)
-    memory, un, yn, mask, steps, horizon, m0, p0, bounds, _ = _normalised(
-        _ramp_case(n=120), 120, columns=1)
+    monkeypatch.setattr(_level, "smoother_modes", modes)
+    # the first round's ratios and their extensions only (no bisections)
+    problem, _ = _normalised(_ramp_case(n=120), 120, columns=1,
+                             settings=vojax.TrackerSettings(level_splits=0))
     hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.1, 1e-6, 1e-2)))
     start = jnp.asarray(np.broadcast_to([0.0, 1.0, 0.0], (120, 3)))
-    sm = _track.iterated_smoother(memory, un, yn, mask, steps, horizon, hyper, m0, p0, start,
-                                  bounds, 400)
+    sm = problem.smooth(hyper, start)
     mean_p = float(np.mean(np.asarray(sm.theta)[:, 1]))
-    tuning = _track.Tuning.of(np.log([0.1, 1e-6, 1e-2]), (), sm.log_likelihood, True)
-    _track.level_profile(memory, un, yn, mask, steps, horizon, tuning, m0, p0, sm, bounds, 120,
-                         1e-2)
+    tuning = Tuning.of(np.log([0.1, 1e-6, 1e-2]), (), sm.log_likelihood, True)
+    _level.level_profile(problem, tuning, sm, 1e-2)
     groups, k = [], 0
     for count in seen:
         groups.append(tuple(ratios[k : k + count]))
@@ -1389,11 +1390,17 @@ def test_level_profile_follows_the_ridge_while_it_fits(monkeypatch, fits, visite
 
 
 def test_level_profile_bisects_between_a_fitting_and_a_failing_scale():
-    """`_level_next`: between the nearest held ratio that does not fit and its fitting inner
+    """`level_next`: between the nearest held ratio that does not fit and its fitting inner
     neighbour (the tuned scale, ratio 1, at the least) the profile bisects on the log scale
     while the failing run's order is more than 2σ of the neighbour's from it, down to √2's
-    `LEVEL_SPLITS`-th halving; past an outermost ratio that fits it goes on by √2."""
-    from vojax._tracker._track import LEVEL_SPLITS, _level_next
+    `level_splits`-th halving; past an outermost ratio that fits it goes on by √2."""
+    from vojax._tracker._level import level_next
+
+    settings = vojax.TrackerSettings()
+    LEVEL_SPLITS = settings.level_splits
+
+    def _level_next(tried, side, n):
+        return level_next(tried, side, n, settings)
 
     n = 50
     sd = np.full(n, 0.01)

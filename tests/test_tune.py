@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax._identify import auto_r0, build_law, run_law
+from vojax._adaptive._build import auto_r0, build_law, run_law
 
 
 def _scenario(name):

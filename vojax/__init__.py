@@ -19,9 +19,10 @@ from ._compare import compare as compare
 from ._design import Design as Design
 from ._design import fisher_information as fisher_information
 from ._design import optimal_protocol as optimal_protocol
-from ._identify import Diagnostics as Diagnostics
-from ._identify import IdentifiabilityWarning as IdentifiabilityWarning
-from ._identify import Identification as Identification
+from ._diagnostics import Diagnostics as Diagnostics
+from ._diagnostics import IdentifiabilityWarning as IdentifiabilityWarning
+from ._diagnostics import Reason as Reason
+from ._identification import Identification as Identification
 from ._identify import identify as identify
 from ._integral import (
     fractional_integral as fractional_integral,
@@ -60,12 +61,14 @@ from ._models import (
     stress_strain as stress_strain,
 )
 from ._refit import Refit as Refit
-from ._results import Summary as Summary
 from ._refit import refit as refit
 from ._refit import refit_lbfgsb as refit_lbfgsb
+from ._results import Summary as Summary
 from ._simulate import simulate as simulate
 from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals
+from ._tracker import Tracker as Tracker
+from ._tracker import TrackerSettings as TrackerSettings
 from ._tune import Gains as Gains
 from ._tune import tune_gains as tune_gains
 from ._xla import use_compilation_cache as use_compilation_cache

@@ -7,7 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-from ._identify import MAX_POINTS, MIN_POINTS, TRACKER_MAX_POINTS
+from ._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
+from ._settings import TrackerSettings
 
 
 class CLIError(Exception):
@@ -461,7 +462,7 @@ def _data_options(p, *, many: bool):
         type=int,
         default=None,
         metavar="N",
-        help=f"the most points the tracker fits (default {MAX_POINTS:,}, as vojax.identify): "
+        help=f"the most points the tracker fits (default {TrackerSettings().max_points:,}, as vojax.identify): "
         "a longer record is fitted as the means of blocks of consecutive samples, and the "
         "estimates are given at every sample",
     )

@@ -27,7 +27,10 @@ import jax.numpy as jnp
 
 from . import _validate as check
 from ._integral import DEFAULT_TOL, _prepare
-from ._tracker._track import PRIOR_BETA_VAR  # the tracker's spread of β at the first sample
+from ._settings import TrackerSettings
+
+# the tracker's spread of β at the first sample
+PRIOR_BETA_VAR = TrackerSettings().prior_beta_var
 
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000

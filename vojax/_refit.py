@@ -9,7 +9,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _validate as check
-from ._identify import check_options
+from ._validate import check_options
 from ._integral import make_memory, order_map, scan_memory
 
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
@@ -201,7 +201,7 @@ def _order_curve(raw, num, bounds, span=None):
 def _weights(num, mask, weights, window, relative, times, y):
     """The weight of each sample's squared residual (NumPy): the product of the mask, the
     user's weights, the fit window and, for relative residuals, ``1/y²``."""
-    from ._identify import check_mask
+    from ._validate import check_mask
 
     w = np.ones(num)
     if mask is not None:

@@ -6,7 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from ._identify import DEFAULT_BOUNDS, assemble_law, check_options
+from ._adaptive._build import DEFAULT_BOUNDS, assemble_law
+from ._validate import check_options
 from ._integral import make_memory
 
 TRACES = {"tune": 0}
@@ -280,7 +281,7 @@ def _prepare(
     num_gamma=13, num_lam=8, pad_to=None,
 ) -> _Search:
     """Validates a record and lays out its search (host side, in NumPy)."""
-    from ._identify import nominal_step
+    from ._adaptive._build import nominal_step
 
     u2, y, bounds, x0, r0 = check_options(
         u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, t=t
@@ -312,7 +313,7 @@ def _prepare(
     mem = make_memory(memory, dt, size, rule=rule, tol=tol, order_range=bounds, times=t)
     u_padded = np.concatenate([u2, np.zeros((size - n, u2.shape[1]))])
     if isinstance(r0, str):
-        from ._identify import auto_r0
+        from ._adaptive._build import auto_r0
 
         r0 = auto_r0(u_padded, step, alpha0, memory, rule, tol, bounds, num=n, mem=mem)
     data = _TuneData(

@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._kernels import RULES
 from ._xla import to_device
 
 MEMORIES = ("direct", "exponential")
@@ -179,3 +180,91 @@ def grid(dt, t, num_samples: int):
     else:
         times(t, num_samples)
     return dt, t
+
+
+def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, t=None):
+    """Validates the arguments shared by `identify`, `tune_gains` and `refit` (the grid: the
+    step `dt`, or the sample times `t` where given); returns prepared arrays."""
+    u = samples(u, "u")
+    u2 = columns(u)
+    y = samples(y, "y")
+    if y.ndim != 1:
+        raise ValueError(f"`y` must have shape (N,), got shape {y.shape}.")
+    if y.shape[0] != u2.shape[0]:
+        raise ValueError(
+            f"`u` and `y` must have the same number of samples, got {u2.shape[0]} and {y.shape[0]}."
+        )
+    if u2.shape[0] < 3:
+        raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
+    grid(dt, t, u2.shape[0])
+    if lam is not None and not isinstance(lam, str):
+        positive(lam, "lam")
+    bounds = interval(alpha_bounds, "alpha_bounds")
+    a0 = (
+        float(np.asarray(step(alpha0, "alpha0")))
+        if not isinstance(alpha0, jax.core.Tracer)
+        else None
+    )
+    if a0 is not None and not bounds[0] <= a0 <= bounds[1]:
+        raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
+    choice(memory, MEMORIES, "memory")
+    choice(rule, RULES, "rule")
+    if x0 is None:  # (NumPy on concrete data: an eager slice would compile per length)
+        x0 = y[0] if isinstance(y, jax.core.Tracer) else to_device(np.asarray(y)[0])
+    else:
+        x0 = scalar(x0, "x0")
+    if isinstance(r0, str):
+        if r0 != "auto":
+            raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
+    elif r0 is not None:
+        r0 = jnp.asarray(r0, jnp.result_type(float))
+        n = u2.shape[1]
+        if r0.shape != (n, n):
+            raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
+        if not isinstance(r0, jax.core.Tracer) and (
+            not np.all(np.isfinite(np.asarray(r0)))
+            or np.any(np.linalg.eigvalsh(np.asarray(r0)) <= 0)
+        ):
+            raise ValueError("`r0` must be symmetric positive definite.")
+    return u2, y, bounds, x0, r0
+
+
+def check_mask(mask, num, num_inputs):
+    """A 0/1 mask of shape (N,) with enough fitted samples; returns it as a NumPy array."""
+    arr = np.asarray(mask, dtype=float)
+    if arr.shape != (num,):
+        raise ValueError(f"`mask` must have shape ({num},), got {arr.shape}.")
+    if not np.all((arr == 0) | (arr == 1)):
+        raise ValueError("`mask` must hold only 0 (not fitted) and 1 (fitted).")
+    if arr.sum() < num_inputs + 3:
+        raise ValueError(
+            f"`mask` leaves {int(arr.sum())} fitted samples; at least {num_inputs + 3} are needed."
+        )
+    return arr
+
+
+def known_offset(x0) -> float:
+    """`x0` as a finite Python float (the tracker's known output offset), checked as the
+    law's is (`_scalar`)."""
+    return float(scalar(x0, "x0"))
+
+
+def scalar(x, name):
+    try:
+        arr = jnp.asarray(x, jnp.result_type(float))
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a number, got {x!r}.") from None
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a scalar, got shape {arr.shape}.")
+    if not isinstance(arr, jax.core.Tracer) and not np.isfinite(float(arr)):
+        raise ValueError(f"`{name}` must be finite, got {float(arr)}.")
+    return arr
+
+
+def first_bad(*arrays):
+    """Index of the first sample at which any of the arrays is not finite, or None."""
+    bad = np.zeros(np.shape(arrays[0])[0], bool)
+    for a in arrays:
+        a = np.asarray(a)
+        bad |= ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+    return int(np.argmax(bad)) if bad.any() else None

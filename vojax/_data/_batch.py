@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._adaptive._bands import law_covariance
-from .._identify import (
+from .._adaptive._build import (
     DEFAULT_BOUNDS,
     PAPER_LAM,
     assemble_law,
@@ -519,12 +519,11 @@ def _x64():
 def _compute_chunk(chunk, num, dt, config):
     """`_compute_group` as a Dask task: ``[(index in chunk, state, result)]``, a failure as a
     `RuntimeError` holding its one-line reason (an exception of any class travels back)."""
-    from .._tracker._track import run_threads
-
     out = []
     index = {id(r): k for k, (r, _) in enumerate(chunk)}
     # one record per worker thread: the tracker's smoothings run one after another there
-    with _x64(), run_threads(1):
+    config = dict(config, fit=dict(config["fit"], threads=1))
+    with _x64():
         for r, state, result in _compute_group(chunk, num, dt, config):
             i = index[id(r)]
             if isinstance(result, Exception):

@@ -46,7 +46,7 @@ def check_parameters(method, parameters, max_points=None, x0=None) -> None:
     """`parameters`, `max_points` and `x0` (the tracker's) are refused with a method that does
     not run the tracker; `x0` must be a finite number."""
     if x0 is not None:
-        from .._identify import known_offset
+        from .._validate import known_offset
 
         known_offset(x0)
     if estimator(canonical_method(method)) == "kalman":
@@ -412,7 +412,7 @@ def compare_part(record, area=None, length=None):
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
-    max_points=None, x0=None,
+    max_points=None, x0=None, threads=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -422,7 +422,8 @@ def identify_record(
     `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
     the model's coefficients physical (`p_signs`). `parameters`, `max_points`: the
     tracker's, as in `vojax.identify` (its defaults when None); `x0`: the tracker's known
-    offset of the output, in the unit of the file's output column (None: estimated)."""
+    offset of the output, in the unit of the file's output column (None: estimated);
+    `threads`: the most threads the tracker's smoothings run in (None: its settings')."""
     from .._identify import identify
     from .._refit import refit
 
@@ -448,6 +449,10 @@ def identify_record(
         extra = {} if max_points is None else {"max_points": max_points}
         if x0 is not None:  # in the model's output, as the output column is
             extra["x0"] = float(x0) / output_scale(model, length)
+        if threads is not None:
+            from .._settings import TrackerSettings
+
+            extra["settings"] = TrackerSettings(run_threads=threads)
         res = _padded(
             identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False,
             **extra,

@@ -13,18 +13,11 @@ the output at its mean time) is measured on the record at the constant-order fit
 against the noise of a block mean (`model_error`).
 """
 
+import dataclasses
 import math
 
 import numpy as np
 
-# block means of at least this many samples are this many times less noisy than the samples:
-# the smoothings' posterior is sharper, they take about 3× the iterations of a record of as
-# many samples, and the first pass's runs go to their cap together; there the tracker batches
-# each pass's runs (`track(batched=True)`): warm 1.6 → 0.95 s at 1e4 samples, 2.3 → 1.7 s at
-# 1e5 and 4.7 → 3.2 s at 1e6 with XLA's default loops, one more program compiled on a first
-# call (+0.8 s). On a record of 1,000 samples the runs converge at their own pace and the
-# batch saves 0.1 s of 0.8 s for +1.5 s on a first call, so shorter blocks run one by one
-BATCHED_BLOCK = 10
 # the memory's run over every sample of a blocked record, at the tracked and the constant
 # order, steps this many samples per iteration of its compiled loop where XLA launches its
 # kernels per step (`batch_pays`): at 1e6 samples with XLA's default loops 0.70 → 0.38 s warm
@@ -75,3 +68,71 @@ def to_samples(t_blocks, values, times):
     if values.ndim == 1:
         return np.interp(times, t_blocks, values)
     return np.stack([np.interp(times, t_blocks, v) for v in values.T], axis=1)
+
+
+def fit_blocks(tracker, u2, y, dt, t, mask, size, span):
+    """The `tracker` on the means of blocks of `size` samples of the record's first `span`
+    samples (padding after them is not the record's), its estimates brought back to every
+    sample: the order, its band and the parameters linear between block times, the output
+    ``y_hat`` from one memory run over the whole record at that order. Returns
+    ``(TrackResult, fit)``, `fit` what the tracker fitted, for the diagnostics, with the
+    coarse clock's model error (`block_error`)."""
+    from .._integral import make_memory, scan_memory, scan_memory_orders
+    from .._stats import noise_variance
+    from .._xla import to_device
+    from ._fit import fit_points
+    from ._smoother import batch_pays
+    from ._start import least_squares
+
+    s, bounds, x0, noise = tracker.settings, tracker.alpha_bounds, tracker.x0, tracker.noise
+    num = u2.shape[0]
+    dtype = np.dtype(u2.dtype)
+    times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
+    u_np, y_np = np.asarray(u2), np.asarray(y)
+    mask_np = None if mask is None else np.asarray(mask)[:span]
+    t_b, u_b, y_b, mask_b = block_means(times[:span], u_np[:span], y_np[:span], mask_np, size)
+    if noise is not None:  # the noise of a block mean
+        noise = dict(noise, noise_std=float(noise["noise_std"]) / np.sqrt(size))
+    mem_b = make_memory(tracker.memory, None, t_b.shape[0], rule=tracker.rule, tol=tracker.tol,
+                        order_range=bounds, times=t_b)
+    res = fit_points(
+        mem_b, to_device(u_b), to_device(y_b), None, bounds, s, smooth=tracker.smooth,
+        noise=noise, mask=None if mask is None else to_device(mask_b), times=t_b,
+        parameters=tracker.parameters, x0=x0, batched=size >= s.batched_block,
+    )
+    mem = make_memory(tracker.memory, dt, num, rule=tracker.rule, tol=tracker.tol,
+                      order_range=bounds, times=t)
+    # everything at every sample: linear between block times
+    at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
+    alpha, p = at_samples(res.alpha), at_samples(res.p)
+    # the two runs over every sample, at the constant-order fit and at the tracked order, as
+    # one batched scan
+    constant = np.full((num,), res.constant_order, dtype)
+    phi_c, phi = np.asarray(scan_memory_orders(mem, u2, to_device(
+        np.stack([constant, alpha.astype(dtype)])), SCAN_UNROLL if batch_pays() else 1))
+    # the coarse clock's model error at the constant-order fit, against a block mean's noise
+    # (from the samples' own second differences: on the coarse clock those see more of the
+    # signal)
+    phi_b = np.asarray(scan_memory(mem_b, to_device(u_b), to_device(constant[: t_b.shape[0]]),
+                                   False))
+    coef = least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
+    error = (block_average(phi_c[:span], size) - phi_b) @ coef[:-1]
+    fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
+    block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
+    block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
+    full = dataclasses.replace(
+        res,
+        alpha=to_device(alpha),
+        alpha_std=to_device(at_samples(res.alpha_std)),
+        alpha_lower=to_device(at_samples(res.alpha_lower)),
+        alpha_upper=to_device(at_samples(res.alpha_upper)),
+        p=to_device(p),
+        p_std=to_device(at_samples(res.p_std)),
+        y_hat=to_device(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
+        y_pred=to_device(at_samples(res.y_pred)),
+        alpha_held=None if res.alpha_held is None else to_device(at_samples(res.alpha_held)),
+    )
+    fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+               held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],
+               mask=None if mask is None else mask_b, block_error=block_error)
+    return full, fit

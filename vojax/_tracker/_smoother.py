@@ -20,44 +20,41 @@ from jaxtyping import Array, Bool, Float, Int
 from .._integral import order_map
 from .._xla import to_device
 from ._kalman import kalman_filter, rts_smoother
-from ._parallel import parallel_filter, parallel_smoother
 from ._model import Hyper, linearise, model_output, objective, order_of, posterior_cost
+from ._parallel import parallel_filter, parallel_smoother
 
 TRACES = {"smoother": 0}  # incremented only while tracing: tests count compilations
 REL_TOL = 1e-9  # relative decrease of the objective below which the iteration stops
 MU_START, MU_MIN, MU_MAX = 1e-2, 1e-9, 1e12  # Levenberg–Marquardt damping (normalised units)
 MU_DOWN = 1.0 / 3.0  # the largest fall of the damping after a step the linearised model predicted
 # how the linear filter and smoother run over the samples: "sequential" (two scans, N steps
-# each) or parallel in time (`_parallel`: "associative", "chunked"). None: sequential on a CPU,
-# ACCELERATOR_SCHEDULE on a GPU or TPU, where each step of a scan is a kernel launch. On an
-# H200, identify on 1,000 samples, first call and second call: sequential 26.9 s and 22.2 s,
-# associative 23.8 s and 1.25 s, chunked 10.6 s and 2.5 s (the best first call, and within 2×
-# of the best second). Read when a program is traced: a compiled program keeps its schedule.
-SCHEDULE = None
+# each) or parallel in time (`_parallel`: "associative", "chunked"); `resolve_schedule(None)`
+# is sequential on a CPU and ACCELERATOR_SCHEDULE on a GPU or TPU, where each step of a scan
+# is a kernel launch (docs/benchmarks.md has the H200's figures). A compiled program keeps
+# the schedule it was traced with: it is a static argument of each.
 ACCELERATOR_SCHEDULE = "chunked"
 
 
-def schedule() -> str:
-    """The filter and smoother's schedule here (see `SCHEDULE`)."""
-    if SCHEDULE is not None:
-        return SCHEDULE
+def resolve_schedule(schedule=None) -> str:
+    """`schedule`, or where None the default of this backend (see `ACCELERATOR_SCHEDULE`)."""
+    if schedule is not None:
+        return schedule
     return "sequential" if jax.default_backend() == "cpu" else ACCELERATOR_SCHEDULE
 
 
-def _filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=None):
-    """`kalman_filter`, or `parallel_filter` by `schedule()`."""
-    how = schedule()
-    if how == "sequential":
+def _filter(h, z, r, q, m0, p0, mask=None, anchor=None, damping=None, f=None,
+            schedule="sequential"):
+    """`kalman_filter`, or `parallel_filter` on a parallel `schedule`."""
+    if schedule == "sequential":
         return kalman_filter(h, z, r, q, m0, p0, mask, anchor, damping, f)
-    return parallel_filter(h, z, r, q, m0, p0, mask, anchor, damping, f, schedule=how)
+    return parallel_filter(h, z, r, q, m0, p0, mask, anchor, damping, f, schedule=schedule)
 
 
-def _smooth(filtered, q, f=None):
-    """`rts_smoother`, or `parallel_smoother` by `schedule()`."""
-    how = schedule()
-    if how == "sequential":
+def _smooth(filtered, q, f=None, schedule="sequential"):
+    """`rts_smoother`, or `parallel_smoother` on a parallel `schedule`."""
+    if schedule == "sequential":
         return rts_smoother(filtered, q, f)
-    return parallel_smoother(filtered, q, f, schedule=how)
+    return parallel_smoother(filtered, q, f, schedule=schedule)
 
 
 class Smoothed(eqx.Module):
@@ -80,29 +77,35 @@ def _regressors(evaluate, theta, bounds):
     return evaluate(alpha, True)
 
 
-def _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, damping=None):
+def _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, damping=None,
+                 schedule="sequential"):
     h0, jac = linearise(theta, phi, dphi, bounds)
     z = y - h0 + jnp.sum(jac * theta, axis=-1)
     anchor = None if damping is None else theta
-    filtered = _filter(jac, z, r, q, m0, p0, mask, anchor, damping, f)
-    return filtered, _smooth(filtered, q, f), jac, z
+    filtered = _filter(jac, z, r, q, m0, p0, mask, anchor, damping, f, schedule)
+    return filtered, _smooth(filtered, q, f, schedule), jac, z
 
 
 def iterated_smoother(
-    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int,
+    schedule=None,
 ) -> Smoothed:
     """See `_iterate`; one run. Every smoothing of the tracker runs this one compiled program
     (`smooth_compiled`, the iteration budget an argument, not a constant of the program):
-    the first call in a process compiles the smoother once, not once per way of running it."""
+    the first call in a process compiles the smoother once, not once per way of running it.
+    `schedule`: see `resolve_schedule`."""
     return smooth_compiled(
         memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds,
         to_device(np.int32(max_iter)),  # a host value: no conversion program
+        resolve_schedule(schedule),
     )
 
 
 @eqx.filter_jit
-def smooth_compiled(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter):
-    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter)
+def smooth_compiled(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter,
+                    schedule="sequential"):
+    return _iterate(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter,
+                    schedule)
 
 
 # a pass's runs can go through one vmapped program of `RUN_BATCH` runs (the last chunk padded
@@ -122,26 +125,28 @@ def batch_pays() -> bool:
 
 
 @eqx.filter_jit
-def smooth_batched(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter):
+def smooth_batched(memory, u, y, mask, steps, horizon, hyper, m0, p0, nominal, bounds, max_iter,
+                   schedule="sequential"):
     """`_iterate` for the runs along the leading axis of `hyper` and `nominal` (B, N, d), as
     one vmapped program: the while loop steps every run until the last one stops (a stopped
     run is held where it stopped). Equal to one run at a time to rounding."""
     return jax.vmap(
         lambda h, start: _iterate(memory, u, y, mask, steps, horizon, h, m0, p0, start, bounds,
-                                  max_iter)
+                                  max_iter, schedule)
     )(hyper, nominal)
 
 
 def _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max_iter,
-          batched=False):
+          batched=False, schedule=None):
     """Each run of a batch (leading axis B of `hyper` and of the constant starts `starts`
     (B, d)) in order: one `iterated_smoother` after another, or with `batched` in chunks of
     `RUN_BATCH` through `smooth_batched` (then each run's fields are NumPy arrays)."""
     num = u.shape[0]
+    schedule = resolve_schedule(schedule)
     if not batched:
         for h, nominal in _rows(hyper, starts, num):
             yield iterated_smoother(memory, u, y, mask, steps, horizon, h, m0, p0, nominal,
-                                    bounds, max_iter)
+                                    bounds, max_iter, schedule)
         return
     values = [np.asarray(a) for a in jax.tree_util.tree_leaves(hyper)]
     starts = np.asarray(starts)
@@ -153,7 +158,7 @@ def _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max
         nominal = to_device(np.broadcast_to(starts[index][:, None, :],
                                               (RUN_BATCH, num, starts.shape[1])))
         out = jax.tree_util.tree_map(np.asarray, smooth_batched(
-            memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, budget))
+            memory, u, y, mask, steps, horizon, h, m0, p0, nominal, bounds, budget, schedule))
         for k in range(min(RUN_BATCH, count - lo)):
             yield jax.tree_util.tree_map(lambda a: a[k], out)  # noqa: B023
 
@@ -177,7 +182,7 @@ def host_score(sm):
 
 def smoother_batch(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int,
-    batched: bool = False,
+    batched: bool = False, schedule=None,
 ):
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis B), each
     from the constant trajectory of its row of `starts` (B, d), in order (`_runs`). Keeps
@@ -189,7 +194,7 @@ def smoother_batch(
     best, i_best, s_best, i_alt, a_best = None, -1, -np.inf, -1, -np.inf
     scores, alts, iterations = [], [], []
     runs = _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max_iter,
-                 batched)
+                 batched, schedule)
     for b, sm in enumerate(runs):
         s, value = host_score(sm), float(sm.objective)
         a = -value if np.isfinite(value) else -np.inf
@@ -208,7 +213,7 @@ def smoother_batch(
 
 def smoother_modes(
     memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, starts, bounds, max_iter: int,
-    batched: bool = False,
+    batched: bool = False, schedule=None,
 ):
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
     the constant trajectory of its row of `starts` (C, d), in order (`_runs`). Returns, per
@@ -218,7 +223,7 @@ def smoother_modes(
     n, yy = u.shape[1], np.asarray(y)
     out = []
     for sm in _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max_iter,
-                    batched):
+                    batched, schedule):
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
         res = yy - model_output(theta, phi, n)
         out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res))
@@ -248,7 +253,8 @@ def damping(mu, nu, accepted, value, new_value, predicted):
 
 
 def _iterate(
-    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int
+    memory, u, y, mask, steps, horizon, hyper: Hyper, m0, p0, nominal, bounds, max_iter: int,
+    schedule="sequential",
 ) -> Smoothed:
     """Runs the damped Gauss–Newton (Levenberg–Marquardt) iteration from the trajectory
     `nominal` (N, d): each step is the smoothed mean of the model linearised at the current
@@ -282,7 +288,8 @@ def _iterate(
 
     def body(carry):
         theta, phi, dphi, value, mu, nu, rel, i = carry
-        _, (ms, _), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu)
+        _, (ms, _), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds, mu,
+                                          schedule)
         phic, dphic = _regressors(evaluate, ms, bounds)
         valc = cost(ms, phic)
         ok = jnp.isfinite(valc) & (valc <= value)
@@ -305,7 +312,8 @@ def _iterate(
         )
 
     theta, phi, dphi, value, mu, _, rel, iters = lax.while_loop(cond, body, start)
-    filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds)
+    filtered, (_, cov), jac, z = _linear_pass(theta, phi, dphi, y, mask, r, q, f, m0, p0, bounds,
+                                              schedule=schedule)
     y_pred = y - filtered.innovation
     return Smoothed(
         theta=theta,
@@ -324,12 +332,14 @@ def _iterate(
     )
 
 
-def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0):
+def linearised_log_likelihood(hyper: Hyper, jac, z, mask, steps, horizon, m0, p0,
+                              schedule="sequential"):
     """Innovation log-likelihood of the model linearised at a fixed trajectory, as a function
     of the noise intensities (differentiable: one filter scan)."""
     n = jac.shape[1] - (3 if hyper.coloured else 2)
     q, f = hyper.process(steps, horizon, n), hyper.transition(steps, horizon, n)
-    return _filter(jac, z, hyper.r, q, m0, hyper.initial(p0), mask, f=f).log_likelihood
+    return _filter(jac, z, hyper.r, q, m0, hyper.initial(p0), mask, f=f,
+                   schedule=schedule).log_likelihood
 
 
 def mix_modes(betas, variances, scores, best, span, same=0.25):

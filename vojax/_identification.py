@@ -1,0 +1,124 @@
+"""`Identification`: what `identify` returns, with its summary, plot and table."""
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import Array, Float
+
+from ._diagnostics import Diagnostics
+
+
+class Identification(eqx.Module):
+    """What `identify` returns: the estimates at every sample, their bands and the settings.
+
+    - `alpha` (N,): the identified order α̂; `alpha_std` (N,): its standard deviation;
+      `alpha_lower`, `alpha_upper` (N,): the ±2σ band (for ``method="kalman"`` taken on the
+      unbounded scale and mapped back, so it stays inside `alpha_bounds`).
+    - `p` (N, n): the identified parameters p̂; `p_std` (N, n): their standard deviations.
+    - `x0`, `x0_std`: the output offset x(0) used (``"gradient"``) or estimated (``"kalman"``).
+    - `y_hat` (N,): the identified output x0 + p̂ᵀφ(α̂, t) (eq. 25).
+    - `y_pred` (N,): the a-priori prediction, made before y_k is used (for a long record
+      fitted as block means, `diagnostics.block` > 1: the blocks' predictions, linear
+      between block times).
+    - `dp` (N, n): ∂p/∂β along a uniform order shift (26), and `Lambda` (N,): Λ of eq. (30);
+      ``None`` for ``method="kalman"``.
+    - `method`, `diagnostics` (`Diagnostics`), and the settings used: `gamma`, `lam`, `alpha0`,
+      `dt` (the median step when the samples came with times `t`), `alpha_bounds`, `memory`
+      (for ``"kalman"``, `gamma` and `lam` are NaN and `diagnostics`/`tuning` say what was
+      chosen, and `parameters` whether the parameters were let drift).
+
+    For ``method="gradient"`` the band is the law's spread over realisations of the
+    measurement noise, by the delta method through its own recursion (see
+    `vojax._adaptive._bands`); it does not include the law's tracking bias. For
+    ``method="kalman"`` it is the posterior of the tracker's random-walk model, mixed over
+    the explanations its evidence leaves open and widened to cover every explanation that
+    fits the data (with ``parameters="drifting"``, those with a drifting parameter too).
+    """
+
+    alpha: Float[Array, " N"]
+    alpha_std: Float[Array, " N"]
+    alpha_lower: Float[Array, " N"]
+    alpha_upper: Float[Array, " N"]
+    p: Float[Array, "N n"]
+    p_std: Float[Array, "N n"]
+    y_hat: Float[Array, " N"]
+    y_pred: Float[Array, " N"]
+    x0: Float[Array, ""]
+    x0_std: Float[Array, ""]
+    dp: Float[Array, "N n"] | None
+    Lambda: Float[Array, " N"] | None
+    gamma: Float[Array, ""]
+    lam: Float[Array, ""]
+    alpha0: Float[Array, ""]
+    dt: Float[Array, ""]
+    alpha_bounds: tuple[float, float] = eqx.field(static=True)
+    memory: str = eqx.field(static=True)
+    method: str = eqx.field(static=True)
+    diagnostics: Diagnostics = eqx.field(static=True)
+    tuning: object = eqx.field(static=True, default=None)
+    # the tracker's `parameters` setting ("drifting" or "constant"); None for the law
+    parameters: str | None = eqx.field(static=True, default=None)
+
+    def summary(self, names=None):
+        """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
+        order with its standard deviation, the order's median over the second half, the band's
+        half-width, each parameter's final value (named by `names`, default ``p1``, ``p2``…),
+        the offset, and the verdict with its reason."""
+        from ._results import Summary, row
+
+        alpha, std = np.asarray(self.alpha), np.asarray(self.alpha_std)
+        half = alpha.shape[0] // 2
+        out = Summary()
+        out["order (final)"] = row(alpha[-1], std[-1])
+        out["order (median, second half)"] = row(np.median(alpha[half:]))
+        out["band half-width (median)"] = row(self.diagnostics.band_halfwidth)
+        p, p_std = np.asarray(self.p), np.asarray(self.p_std)
+        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
+        if len(names) != p.shape[1]:
+            raise ValueError(f"`names` must name the {p.shape[1]} parameters, got {len(names)}.")
+        for j, name in enumerate(names):
+            out[f"{name} (final)"] = row(p[-1, j], p_std[-1, j])
+        out["x0"] = row(self.x0, self.x0_std)
+        still = [
+            name.split()[0].replace("_", " ") for name in self.diagnostics.at_edge
+            if name.endswith("(lower edge)")
+        ]
+        note = self.diagnostics.message or (
+            f"no {' or '.join(still)} found (tuned to its lower edge)" if still else ""
+        )
+        out["identified"] = row("yes" if self.diagnostics.identified else "no", None, note)
+        return out
+
+    def plot(self, ax=None, *, t=None):
+        """The order with its ±2σ band against `t` (the sample times; default ``k·dt``), titled
+        with the verdict. Returns the matplotlib Axes."""
+        from ._results import plot_order
+
+        n = np.asarray(self.alpha).shape[0]
+        times = float(self.dt) * np.arange(n) if t is None else np.asarray(t, dtype=float)
+        if times.shape != (n,):
+            raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
+        name = {"kalman": "tracker", "gradient": "paper's law"}.get(self.method, self.method)
+        verdict = "identified" if self.diagnostics.identified else "not identified"
+        return plot_order(
+            times, self.alpha, self.alpha_lower, self.alpha_upper, ax=ax, label=name,
+            xlabel="time (from the first sample)", title=f"order: {verdict}",
+        )
+
+    def to_dataframe(self, t=None, names=None):
+        """The per-sample columns (``alpha`` with ``alpha_std`` and its band, each parameter
+        and its standard deviation, ``y_hat``, ``y_pred``; ``time`` if `t` is given) as a
+        pandas DataFrame (needs the optional pandas)."""
+        from ._results import to_dataframe
+
+        p, p_std = np.asarray(self.p), np.asarray(self.p_std)
+        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
+        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
+        columns.update(
+            alpha=self.alpha, alpha_std=self.alpha_std, alpha_lower=self.alpha_lower,
+            alpha_upper=self.alpha_upper,
+        )
+        for j, name in enumerate(names):
+            columns[name] = p[:, j]
+            columns[f"{name}_std"] = p_std[:, j]
+        columns.update(y_hat=self.y_hat, y_pred=self.y_pred)
+        return to_dataframe(columns)

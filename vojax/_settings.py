@@ -1,0 +1,117 @@
+"""Every tuned number of the tracker, in one frozen object with a line of meaning each.
+
+Intensities are in the tracker's normalised units (output about its reference level over its
+RMS, each input over its RMS at the constant-order fit, time over the record's span), so the
+same numbers serve every record. The solvers' own tolerances (the smoother's
+Levenberg–Marquardt damping, the small BFGS's line search) live with the solvers.
+"""
+
+import dataclasses
+import math
+
+# the settings that may be empty tuples (no alternatives of that kind, no level profile)
+MAY_BE_EMPTY = frozenset({"alt_order_drift", "alt_param_drift", "level_ratios"})
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackerSettings:
+    """The tracker's settings; pass another to `vojax.Tracker` (or `identify(settings=…)`)
+    to change one, e.g. ``TrackerSettings(max_iter=200)``. Frozen: a setting never changes
+    under a running fit."""
+
+    # ---- the prior of the first state (normalised units)
+    prior_beta_var: float = 4.0  # β = logit of the order's place in its range: ±2 covers 12–88 %
+    prior_var: float = 100.0  # parameters and offset: ±10 × the data's scale
+    offset_pin: float = 1e-10  # a known offset's prior variance (±2e-5 of the output's RMS)
+
+    # ---- the likelihood search over the noise intensities (variances over the record)
+    noise_min: float = 1e-10  # the smallest measurement variance searched
+    noise_max: float = 2.0  # the largest measurement variance searched
+    order_drift_range: tuple[float, float] = (1e-6, 1e4)  # variance of β's change
+    parameter_drift_range: tuple[float, float] = (1e-10, 1e2)  # a parameter's change
+    constant_drift: float = 1e-6  # a parameter drift this small holds the parameters constant
+    grid_order: tuple[float, ...] = (1e-1, 1.0, 1e1)  # order drifts of the first pass
+    start_orders: tuple[float, ...] = (0.15, 0.35, 0.5, 0.65, 0.85)  # starts, fractions of range
+    noise_floor: float = 0.25  # the noise variance stays ≥ this × the second-difference estimate
+    max_iter: int = 400  # Levenberg–Marquardt iterations of one smoothing
+    # iterations of each run of the first pass: enough for the run that reaches the best mode
+    grid_max_iter: int = 60
+    # the first pass is also made at the constant fit's misfit when that is at least this many
+    # times the data's noise (an output smoother than the model can follow stalls otherwise)
+    misfit_ratio: float = 10.0
+    edge: float = 0.05  # an intensity this close to an end of its range (logs) is at the edge
+    refine_rtol: float = 1e-7  # the BFGS refinement's relative tolerance (step and loss)
+    refine_atol: float = 1e-9  # … and its absolute one
+    refine_steps: int = 60  # the most loss evaluations of one refinement
+    climb_rounds: int = 2  # refinement and re-smoothing rounds of the white-noise climb
+    constant_grid: int = 13  # orders of the constant fit's grid in β (−4.5 … 4.5)
+    golden_steps: int = 24  # golden-section steps of the constant fit
+
+    # ---- coloured measurement noise (white plus AR(1), chosen by evidence)
+    coloured_evidence: float = 2.0  # nats the coloured model must gain (two more intensities)
+    noise_time_min: float = 0.3  # shortest correlation time searched, × the median step
+    noise_time_max: float = 0.1  # longest, × the span: beyond it a drift, not noise
+    rho_starts: tuple[float, ...] = (0.5, 0.7, 0.85, 0.95)  # starting correlations per sample
+    coloured_radius: float = math.log(3.0)  # trust region of each coloured refinement (log)
+    coloured_rounds: int = 6  # refinement rounds of the coloured climb
+    fatal_edge_rounds: int = 2  # rounds at the top of the correlation time that end the climb
+
+    # ---- the alternatives the band integrates over
+    held_ratio: float = 2.0  # a tuned parameter drift above this × `constant_drift` is drift
+    alt_order_drift: tuple[float, ...] = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift …
+    order_drift_base: float = 1e-3  # … or × this, where the tuned drift is smaller
+    alt_param_drift: tuple[float, ...] = (1e-3, 1e-2, 1e-1)  # parameter drifts tried
+    envelope_evidence: float = 200.0  # nats below the tuned run beyond which drift can't widen
+    # the trade-off profile: constant orders with the parameters drifting on hat functions
+    trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
+    trade_orders: int = 25  # constant orders profiled, evenly across the bounds
+    trade_chi2: float = 4.0  # Δχ² from the best drifting fit within which an order fits as well
+    # the level profile: the parameters held at other scales (parameters constant)
+    level_ratios: tuple[float, ...] = (0.5, 0.71, 1.41, 2.0)  # first held scales
+    level_step: float = math.sqrt(2.0)  # the profile's step past an outer scale that fits …
+    level_max: float = 4.0  # … up to this ratio (and down to its inverse)
+    level_splits: int = 3  # bisections a side between a fitting and a failing scale
+    level_pin: float = 1e-8  # prior variance of a held parameter, × its square (at least 1)
+
+    # ---- the verdict
+    identified_halfwidth: float = 0.1  # the widest ±2σ half-width (median) called identified
+    bound_tol: float = 1e-3  # an order within this fraction of the range of a bound is at it
+    bound_fraction: float = 0.05  # the most samples at a bound an identified order may have
+    block_error_limit: float = 0.5  # the coarse clock's model error (× block noise) allowed
+
+    # ---- long records and execution (no effect on the numbers)
+    max_points: int = 1_000  # a longer record is fitted as the means of blocks of samples
+    batched_block: int = 10  # blocks of at least this many samples batch each pass's runs
+    run_threads: int = 8  # a pass's independent smoothings run in up to this many threads
+    # the linear filter and smoother's schedule: None (sequential on a CPU, chunked on a GPU
+    # or TPU), "sequential", "associative" or "chunked"
+    schedule: str | None = None
+
+    @property
+    def trade_knots_fine(self) -> int:
+        """The trade-off's fine knots: the coarse ones and their midpoints."""
+        return 2 * self.trade_knots - 1
+
+    @property
+    def phi_block(self) -> int:
+        """The columns of one run of the memory at a constant order: an input and its fine
+        drifting copies."""
+        return self.trade_knots_fine + 1
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "schedule":
+                if value not in (None, "sequential", "associative", "chunked"):
+                    raise ValueError(
+                        "`schedule` must be None, 'sequential', 'associative' or 'chunked', "
+                        f"got {value!r}."
+                    )
+                continue
+            values = value if isinstance(value, tuple) else (value,)
+            if (not values and f.name not in MAY_BE_EMPTY) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                and v >= 0 for v in values
+            ):
+                raise ValueError(f"TrackerSettings.{f.name} must hold finite numbers ≥ 0, "
+                                 f"got {value!r}.")

@@ -1,0 +1,261 @@
+"""The tracker on one record's points, as its passes: start (normalise, constant-order fit,
+starting trajectories), tune (the noise intensities by the likelihood), coloured noise, the
+order with the parameters held, the band (mixture, level profile, trade-off), the result."""
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._stats import noise_variance
+from .._xla import to_device
+from ._coloured import ar_whitener, coloured
+from ._filter import KalmanTracker
+from ._level import level_profile
+from ._mixture import held_order, mixture
+from ._model import Hyper, model_output, order_of_np
+from ._problem import Problem, Scales, data_scales, prior
+from ._smoother import resolve_schedule
+from ._start import constant_fit, starting_trajectories
+from ._threads import host_hyper
+from ._trade import trade_interval
+from ._tuning import Tuning, tune
+
+
+class TrackResult(eqx.Module):
+    """Everything the tracker estimates on its points, in the user's units."""
+
+    alpha: jax.Array
+    alpha_std: jax.Array
+    alpha_lower: jax.Array
+    alpha_upper: jax.Array
+    p: jax.Array
+    p_std: jax.Array
+    x0: jax.Array
+    x0_std: jax.Array
+    y_hat: jax.Array
+    y_pred: jax.Array
+    converged: bool = eqx.field(static=True)
+    tuning: Tuning = eqx.field(static=True)
+    constant_order: float = eqx.field(static=True)
+    # the order smoothed again with the parameters held (see `held_order`), or None
+    alpha_held: jax.Array | None = None
+    # the evidence weights of the band's mixture (see `mixture`), the tuned run first
+    mixture_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    # the constant orders with which a drifting parameter explains the data as well (see
+    # `trade_interval`), which the band covers, or None
+    trade: tuple[float, float] | None = eqx.field(static=True, default=None)
+    # the band covers a drifting-parameter alternative that explains the data (see `mixture`)
+    drift_covered: bool = eqx.field(static=True, default=False)
+
+
+@dataclasses.dataclass(frozen=True)
+class Start:
+    """What the start gives the later passes: the `problem`, the normalisation `scales` and
+    the factor `p_scale` from normalised to physical parameters, the constant-order fit's
+    order `alpha_c` and misfit, the `starts` (S, d), the data's own noise variance and its
+    floor, the first pass's noise levels, whether the offset is `known`."""
+
+    problem: Problem
+    scales: Scales
+    p_scale: np.ndarray
+    alpha_c: float
+    misfit: float
+    starts: np.ndarray
+    noise_data: float
+    noise_floor: float
+    noises: tuple[float, ...]
+    known: bool
+
+
+def start(memory, u, y, dt, bounds, settings, mask, times, x0, batched) -> Start:
+    """Normalises the record, fits a constant order, and sets the first pass's noise levels."""
+    s = settings
+    num, n = u.shape
+    dtype = np.dtype(u.dtype)
+    mask = to_device(np.ones((num,), dtype) if mask is None else np.asarray(mask, dtype))
+    scales = data_scales(u, y, mask)
+    known = x0 is not None  # the offset known: the output normalised about it, held at 0
+    if known:
+        scales = dataclasses.replace(scales, y_ref=float(x0))
+    # host arithmetic before the compiled programs (an eager JAX operation compiles its own)
+    un = np.asarray(u) / np.asarray(scales.u_scale)
+    yn = to_device((np.asarray(y) - scales.y_ref) / scales.y_scale)
+    alpha_c, _, rss, rms_phi = constant_fit(memory, to_device(un), yn, mask, bounds, s,
+                                            offset=not known)
+    if not np.all(rms_phi > 0):
+        raise ValueError("the fractional integral of an input is zero: its parameter is undefined.")
+    # regressors scaled to unit RMS at the constant order: p̃ = O(1) whatever the units
+    un = to_device(un / np.asarray(rms_phi))
+    p_scale = scales.y_scale / (np.asarray(scales.u_scale) * rms_phi)
+    m0, p0 = prior(n, u.dtype, s, offset_known=known)
+    # the step after each sample, t_{k+1} − t_k (the last one repeated); arrays, not Python
+    # numbers: a new record length or step must not recompile
+    if times is None:
+        steps = to_device(np.full((num,), float(dt), dtype))
+        times = float(dt) * np.arange(num)
+    else:
+        gaps = np.diff(np.asarray(times))
+        steps = to_device(np.concatenate([gaps, gaps[-1:]]).astype(dtype))
+    # the record's span up to its last fitted sample (padding after it does not count)
+    last = int(np.flatnonzero(np.asarray(mask) > 0)[-1])
+    span = float(np.asarray(times)[last] - np.asarray(times)[0])
+    horizon = to_device(np.asarray(max(span, float(np.min(np.asarray(steps)))), u.dtype))
+    problem = Problem(memory, un, yn, mask, steps, horizon, m0, p0, bounds, np.asarray(times),
+                      last, s, resolve_schedule(s.schedule), batched)
+    starts = starting_trajectories(problem, alpha_c, offset=not known)
+    dof = max(float(np.sum(np.asarray(mask))) - n - 2, 1.0)
+    # the data's own noise level (second differences), capped by the constant fit's residual
+    noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
+    misfit = max(rss / dof, s.noise_min)
+    noise0 = float(np.clip(noise_data, s.noise_min, misfit))
+    # first-pass noise levels, tried in turn until a run converges: the data's, then the
+    # constant fit's misfit when much larger; the misfit first when the output shows no noise
+    # at all (below the search box: a controlled signal), where the data's level stalls
+    noises = (noise0,)
+    if misfit >= s.misfit_ratio * noise0:
+        noises = (misfit, noise0) if noise_data < s.noise_min else (noise0, misfit)
+    return Start(problem, scales, p_scale, alpha_c, misfit, starts, noise_data,
+                 max(s.noise_floor * noise_data, s.noise_min), noises, known)
+
+
+def given_intensities(st, noise):
+    """The smoothing at the user's intensities `noise` (a dict; see `identify`), untuned."""
+    problem = st.problem
+    hyper = Hyper(
+        jnp.log(to_device(float(noise["order_drift"]))),
+        jnp.log(to_device(float(noise["parameter_drift"]))),
+        jnp.log(to_device((float(noise["noise_std"]) / st.scales.y_scale) ** 2)),
+    )
+    sm = problem.smooth_from(hyper, st.starts[0])
+    return hyper, sm, Tuning.of(host_hyper(hyper), (), sm.log_likelihood, False)
+
+
+def band(problem, tuning, starts, sm, hold, fit_noise, whiten):
+    """The smoothed order's variance on the β scale, the mixture's weights, the envelope of
+    the alternatives that fit (or None) and whether one of them has drifting parameters."""
+    if not tuning.tuned:
+        return np.asarray(sm.cov)[:, 0, 0], None, None, False
+    beta_var, weights, envelope, drifting = mixture(problem, tuning, starts, sm, hold,
+                                                    fit_noise, whiten)
+    # the order's level against the parameters' scale, where the parameters are constant:
+    # stated so, or tuned to no more drift than `held_order` tolerates
+    s = problem.settings
+    if hold or tuning.parameter_drift <= s.held_ratio * s.constant_drift:
+        envelope = level_profile(problem, tuning, sm, fit_noise, whiten, envelope)
+    return beta_var, weights, envelope, drifting
+
+
+def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, mask=None,
+               iterations=3, times=None, parameters="drifting", x0=None, batched=False):
+    """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
+    `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `noise` with a
+    parameter drift at most `constant_drift`): their drift held there, and the band
+    conditional on it (no `trade_interval`). `x0`: the output's offset, known (held there) or
+    None (estimated). `batched`: the first pass's and the mixture's runs through one vmapped
+    program where that is faster (the same results to rounding)."""
+    s = settings
+    hold = parameters == "constant" or (
+        noise is not None and float(noise["parameter_drift"]) <= s.constant_drift
+    )
+    st = start(memory, u, y, dt, bounds, s, mask, times, x0, batched)
+    problem, starts = st.problem, st.starts
+    if noise is None:
+        hyper, sm, tuning = tune(problem, starts, st.noises, st.noise_floor, hold=hold)
+    else:
+        hyper, sm, tuning = given_intensities(st, noise)
+    whiten = None
+    if smooth and tuning.tuned:
+        found = coloured(problem, sm, tuning, starts, st.noise_floor, hold, st.known)
+        if found is not None:
+            problem, hyper, sm, tuning, starts = found
+            whiten = ar_whitener(problem.steps, problem.mask, problem.horizon, tuning)
+    alpha_held = None
+    if smooth and tuning.tuned and tuning.parameter_drift > s.held_ratio * s.constant_drift:
+        alpha_held = held_order(problem, hyper, starts[0],
+                                st.misfit if whiten is None else tuning.noise)
+    # the χ² tests of what fits, at the larger of the tuned noise and the data's own
+    # (drifting states absorb noise)
+    fit_noise = max(tuning.noise, st.noise_data)
+    weights, envelope, drifting = None, None, False
+    if smooth:
+        theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
+        converged = bool(sm.converged)
+        beta_var, weights, envelope, drifting = band(problem, tuning, starts, sm, hold,
+                                                     fit_noise, whiten)
+    else:
+        # the online filter starts from the constant-order fit (a whole-record summary, like
+        # the tuned intensities): from the neutral prior its first samples cannot place p
+        out = run_filter(problem.with_prior(to_device(starts[0]), problem.p0), hyper,
+                         iterations)
+        theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
+        converged = True
+        beta_var = np.asarray(cov)[:, 0, 0]
+    trade = None if hold else trade_interval(problem, fit_noise, whiten, offset=not st.known)
+    return assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred_n,
+                    sm.phi if y_hat_n is None else None, converged, tuning, alpha_held,
+                    weights, drifting)
+
+
+def assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred_n, phi,
+             converged, tuning, alpha_held, weights, drifting) -> TrackResult:
+    """The `TrackResult` in the user's units, on the host (NumPy: no program compiled)."""
+    bounds, n, scales = problem.bounds, problem.n, st.scales
+    theta, cov = np.asarray(theta), np.asarray(cov)
+    if y_hat_n is None:
+        y_hat_n = model_output(theta, np.asarray(phi), n)
+    beta_sd = np.sqrt(np.maximum(np.asarray(beta_var), 0.0))
+    alpha, dalpha = order_of_np(theta[:, 0], bounds)
+    alpha_std = dalpha * beta_sd
+    lower = order_of_np(theta[:, 0] - 2 * beta_sd, bounds)[0]
+    upper = order_of_np(theta[:, 0] + 2 * beta_sd, bounds)[0]
+    if envelope is not None:
+        lower = np.minimum(lower, order_of_np(envelope[0], bounds)[0])
+        upper = np.maximum(upper, order_of_np(envelope[1], bounds)[0])
+    if trade is not None:  # the band covers the constant orders a drifting parameter allows
+        lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])
+    if trade is not None or envelope is not None:
+        alpha_std = np.maximum(alpha_std, (upper - lower) / 4)
+    scale = np.asarray(st.p_scale)
+    var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
+    y_hat_n, y_pred_n = np.asarray(y_hat_n), np.asarray(y_pred_n)
+    known = st.known
+    return TrackResult(
+        alpha=to_device(alpha),
+        alpha_std=to_device(alpha_std),
+        alpha_lower=to_device(lower),
+        alpha_upper=to_device(upper),
+        p=to_device(theta[:, 1 : 1 + n] * scale),
+        p_std=to_device(np.sqrt(var[:, 1 : 1 + n]) * scale),
+        x0=to_device(scales.y_ref if known else scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
+        x0_std=to_device(0.0 if known else scales.y_scale * np.sqrt(var[-1, 1 + n])),
+        y_hat=to_device(scales.y_ref + scales.y_scale * y_hat_n),
+        y_pred=to_device(scales.y_ref + scales.y_scale * y_pred_n),
+        converged=converged,
+        tuning=tuning,
+        constant_order=st.alpha_c,
+        alpha_held=alpha_held,
+        mixture_weights=None if weights is None else tuple(float(w) for w in weights),
+        trade=trade,
+        drift_covered=drifting,
+    )
+
+
+def run_filter(problem, hyper, iterations=3):
+    """The online iterated EKF over the whole record in one scan, from the problem's prior."""
+    tracker = KalmanTracker(problem.memory, hyper, jnp.asarray(problem.horizon), problem.m0,
+                            problem.p0, problem.bounds, iterations)
+    return _scan_filter(tracker, problem.u, problem.y, problem.steps, problem.mask)
+
+
+@eqx.filter_jit
+def _scan_filter(tracker, u, y, steps, mask):
+    @jax.checkpoint
+    def body(state, x):
+        return tracker.step(state, *x)
+
+    _, out = lax.scan(body, tracker.init(u.shape[1]), (u, y, steps, mask))
+    return out

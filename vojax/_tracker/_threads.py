@@ -1,0 +1,92 @@
+"""A pass's independent smoothings side by side: equal shares in threads (one compiled program
+for every share), each share's runs batched where that is faster."""
+
+import concurrent.futures
+import os
+import threading
+
+import jax
+import numpy as np
+
+from .._xla import to_device
+from ._model import Hyper
+from ._smoother import batch_pays, smoother_batch, smoother_modes
+
+_warm: set = set()  # (function, shapes) already run: their shares may run in threads
+_warm_lock = threading.Lock()
+
+
+def in_threads(problem, fn, count, call, key):
+    """``call(lo, hi)`` for equal shares ``[lo, hi)`` of the `count` runs, in threads (at most
+    `settings.run_threads`, one per core) once `fn` has run for these shapes (`key`); the
+    first time one share after another, so that two threads never compile the same
+    program. Returns the shares' outputs in order, with their ``(lo, hi)``."""
+    limit = problem.settings.run_threads
+    if problem.schedule != "sequential" and jax.default_backend() == "cpu":
+        # XLA:CPU's runtime was seen to deadlock running the prefix sums' programs from two
+        # threads at once (1e6 samples, 1,000 block means): one thread on a CPU
+        limit = 1
+    workers = max(1, min(count, os.cpu_count() or 1, limit or 1))
+    size = -(-count // workers)
+    shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
+    key = (id(fn), size, *key)
+    with _warm_lock:
+        warm = key in _warm
+    if not warm or len(shares) == 1:
+        out = [call(lo, hi) for lo, hi in shares]
+        with _warm_lock:
+            _warm.add(key)
+    else:
+        with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
+            out = list(pool.map(lambda share: call(*share), shares))
+    return list(zip(shares, out))
+
+
+def host_hyper(hyper):
+    """``hyper.as_array()`` on the host."""
+    return np.array([float(v) for v in jax.tree_util.tree_leaves(hyper)])
+
+
+def stack_hypers(values):
+    """A batched `Hyper` from rows of intensities in its order (``(q_order, q_params, r)``,
+    and a coloured noise's ``(s, τ)``)."""
+    arr = np.log(np.asarray(values, dtype=float))
+    return Hyper(*(to_device(arr[:, i]) for i in range(arr.shape[1])))
+
+
+def _run_shares(problem, fn, rows, firsts, budget):
+    """`fn` (`smoother_batch` or `smoother_modes`) over the runs ``rows`` × ``firsts``, split
+    into shares run in threads (`in_threads`), each share's runs batched where the problem
+    asks for it and it pays (`batch_pays`); ``[((lo, hi), output)]``."""
+    batched = problem.batched and batch_pays()
+
+    def call(lo, hi):
+        hyper, first = stack_hypers(rows[lo:hi]), np.asarray(firsts)[lo:hi]
+        out = fn(*problem.record, hyper, problem.m0, problem.p0, first, problem.bounds, budget,
+                 batched, problem.schedule)
+        return jax.block_until_ready(out)
+
+    return in_threads(problem, fn, len(rows), call, (problem.u.shape, budget, batched))
+
+
+def _joined(parts, k):
+    """Output `k` of every share, its padding dropped, end to end."""
+    return np.concatenate([np.asarray(o[k])[: hi - lo] for (lo, hi), o in parts])
+
+
+def run_batch_shares(problem, rows, firsts, budget):
+    """`smoother_batch` in shares (`_run_shares`); the same result as one call: the best run
+    by score (the first of equal ones), its index, the index of the best by objective, the
+    scores."""
+    parts = _run_shares(problem, smoother_batch, rows, firsts, budget)
+    scores, alts = _joined(parts, 3), _joined(parts, 5)
+    i = int(np.argmax(scores)) if np.any(np.isfinite(scores)) else -1
+    i_alt = int(np.argmax(alts)) if np.any(np.isfinite(alts)) else -1
+    holder = next(o for (lo, hi), o in parts if lo <= max(i, 0) < hi)
+    return holder[0], i, i_alt, scores
+
+
+def run_mode_shares(problem, rows, firsts, budget):
+    """`smoother_modes` in shares (`_run_shares`): its four outputs, one row per run."""
+    parts = _run_shares(problem, smoother_modes, rows, firsts, budget)
+    return tuple(_joined(parts, k) for k in range(4))

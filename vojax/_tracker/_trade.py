@@ -1,0 +1,102 @@
+"""The trade-off profile: with one input a drifting parameter can stand in for a moving order;
+the constant orders with which a parameter free to drift (piecewise linear on hat functions)
+explains the data as well as the best such fit."""
+
+import numpy as np
+
+from ._mixture import chi2_fits
+from ._start import least_squares, phi_columns
+
+
+def hat_basis(times, last, knots):
+    """Piecewise-linear hat functions (N, knots) on evenly spaced knots over ``times[0]`` …
+    ``times[last]``: a parameter that drifts smoothly over the fitted span."""
+    times = np.asarray(times, float)
+    s = np.clip((times - times[0]) / max(times[last] - times[0], 1e-300), 0.0, 1.0)
+    return np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0.0, None)
+
+
+def refinement(knots):
+    """The matrix R (2k − 1, k) with ``coarse = fine @ R`` for hat functions on `knots`
+    evenly spaced knots (coarse) and on those knots with their midpoints added (fine): a
+    coarse hat is its knot's fine hat plus half of each neighbouring one (exact: it is linear
+    between the fine knots)."""
+    r = np.zeros((2 * knots - 1, knots))
+    for k in range(knots):
+        r[2 * k, k] = 1.0
+        if k > 0:
+            r[2 * k - 1, k] = 0.5
+        if k < knots - 1:
+            r[2 * k + 1, k] = 0.5
+    return r
+
+
+def drift_profile(problem, alphas, fine, whiten=None, offset=True):
+    """Weighted residual sums of squares (A, 2, 2) of least squares at each constant order of
+    `alphas` with an offset (``offset=False``: known to be 0) and the parameters free to
+    drift, ``p_j(t) = Σ_k a_jk B_k(t)``: on `trade_knots` knots, then on the hat functions
+    `fine` (N, `trade_knots_fine`: those knots and their midpoints); each as a gain on the
+    memory term (``y ≈ c + Σ a_jk B_k Φ_j``), then inside the integral
+    (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `least_squares`).
+    The integral is linear: the coarse hats' columns are sums of the fine ones'
+    (`refinement`), so one run of the memory a constant order serves both."""
+    s = problem.settings
+    u, y, mask, fine = (np.asarray(a) for a in (problem.u, problem.y, problem.mask, fine))
+    num, n = u.shape
+    k = fine.shape[1]
+    r = refinement(s.trade_knots)
+    coarse = fine @ r
+    inside_u = (u[:, :, None] * fine[:, None, :]).reshape(num, n * k)
+    # one block of `phi_block` = k + 1 columns an input: its own and its k drifting ones
+    columns = np.concatenate([u, inside_u], axis=1)
+    out = []
+    for alpha in alphas:
+        both = phi_columns(problem.memory, columns, alpha, s.phi_block)
+        phi, inside = both[:, :n], both[:, n:].reshape(num, n, k)
+        row = []
+        for basis, drifting in ((coarse, inside @ r), (fine, inside)):
+            gain = phi[:, :, None] * basis[:, None, :]
+            row.append([least_squares(x.reshape(num, -1), y, mask, whiten, offset)[0]
+                        for x in (gain, drifting)])
+        out.append(row)
+    return np.asarray(out)
+
+
+def trade_interval(problem, noise, whiten=None, offset=True):
+    """The constant orders ``(lo, hi)`` with which a drifting parameter explains the data as
+    well as the best such fit (``Δχ² ≤ trade_chi2`` at the measurement variance `noise`, on
+    the same scale as `y`, or under a coloured noise's `whiten`), over the forms (gain,
+    inside) whose best fit passes a χ² test at 2σ (``χ² ≤ dof + 2√(2 dof)``); None when
+    neither explains the data. Each form's drift is on `trade_knots` knots, or on
+    `trade_knots_fine` where Akaike's criterion prefers them. ``offset=False``: the offset is
+    known to be 0."""
+    s = problem.settings
+    lo, hi = problem.bounds
+    n = problem.n
+    alphas = np.linspace(lo, hi, s.trade_orders + 2)[1:-1]
+    fine = hat_basis(problem.times, problem.last, s.trade_knots_fine)
+    chi2 = drift_profile(problem, alphas, fine, whiten, offset)
+    chi2 = chi2 / noise if whiten is None else chi2
+    fitted = float(np.sum(np.asarray(problem.mask)))
+    found = []
+    for form in range(chi2.shape[2]):
+        c, knots = chi2[:, 0, form], s.trade_knots
+        c_fine = chi2[:, 1, form]
+        # the finer drift where its added coefficients pay for themselves (Akaike)
+        if np.all(np.isfinite(c_fine)) and (
+            c.min() - c_fine.min() > 2 * n * (s.trade_knots_fine - s.trade_knots)
+        ):
+            c, knots = c_fine, s.trade_knots_fine
+        dof = max(fitted - n * knots - 1, 1.0)
+        if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):
+            continue
+        excess = c - c.min() - s.trade_chi2
+        inside = np.flatnonzero(excess <= 0)
+
+        def crossing(a, b):  # where Δχ² crosses the limit between grid orders a (in), b (out)
+            return alphas[a] + (alphas[b] - alphas[a]) * -excess[a] / (excess[b] - excess[a])
+
+        i, j = inside[0], inside[-1]
+        found.append(lo if i == 0 else crossing(i, i - 1))
+        found.append(hi if j == alphas.size - 1 else crossing(j, j + 1))
+    return (float(min(found)), float(max(found))) if found else None
