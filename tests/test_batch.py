@@ -563,3 +563,24 @@ def test_batch_compare_ranks_the_laws_of_each_record_as_compare_does(tmp_path):
     with open(tmp_path / "p" / "failures.csv", newline="") as f:
         (failure,) = list(csv.DictReader(f))
     assert "--compare takes one input column" in failure["reason"]
+
+
+def test_the_bars_time_left_is_paced_on_the_records_after_the_first(monkeypatch):
+    """A batch of 10 whose first record takes 30 s (it compiles) and each later one 10 s: after
+    three records the bar says about 70 s left (the pace after the first, 10 s, times the 7
+    left), however often it is redrawn; the first record's time is stamped once."""
+    import io
+
+    from vojax import _progress
+
+    clock = [0.0]
+    monkeypatch.setattr(_progress.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(_progress.sys, "stderr", io.StringIO())
+    bar = _progress.Bar(10, True)
+    for now in (30.0, 40.0, 50.0):
+        clock[0] = now
+        bar.update()
+    assert bar._counts().endswith("about 70 s left")
+    clock[0] = 55.0
+    bar.update(0, failed=1)  # a redraw halfway through the fourth record
+    assert bar._counts() == "1 failed, 0 up to date; about 88 s left"  # (55 − 30)/2 × 7

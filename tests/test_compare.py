@@ -214,3 +214,44 @@ def test_the_zener_fits_at_least_as_well_as_the_maxwell_law_it_nests():
     rows2 = {r["model"]: r for r in vojax.compare(stress2, y2, dt2, models=("maxwell", "zener")).rows}
     assert "note" not in rows2["zener"]
     assert rows2["zener"]["log_likelihood"] > rows2["maxwell"]["log_likelihood"]
+
+
+@pytest.mark.parametrize("difference, words", [
+    (math.log(2.0), "cannot tell springpot and zener apart (Bayes factor 2)"),
+    (math.log(5.0), "springpot is favoured over zener by a Bayes factor of 5"),
+    (math.log(9.9), "springpot is favoured over zener by a Bayes factor of 9.9"),
+    (math.log(10.0), "springpot is strongly favoured over zener by a Bayes factor of 10"),
+])
+def test_the_verdict_words_follow_the_bayes_factor(difference, words):
+    """Below a Bayes factor of 3 the data cannot tell the first two laws apart; from 3 the
+    first is favoured, from 10 strongly (Jeffreys' scale); correlated residuals of the best
+    law add a warning."""
+    from vojax._compare import verdict_of
+
+    rows = [dict(model="springpot", log_evidence=0.0, lag1=0.0),
+            dict(model="zener", log_evidence=-difference, lag1=0.0)]
+    verdict = verdict_of(rows, 400)
+    assert words in verdict and "correlated" not in verdict
+    rows[0]["lag1"] = 0.5
+    assert "residuals are correlated (lag-1 autocorrelation 0.50 > 0.15)" in verdict_of(rows, 400)
+
+
+def test_the_held_out_error_is_the_prediction_of_a_fit_that_did_not_see_the_end():
+    """`holdout_nrmse`: each law fitted to the first 75 % of the record (the whole loading
+    history driving it) predicts the last 25 %; computed here with `refit` over that window,
+    it equals the comparison's, and differs from the whole-record fit's error there."""
+    stress, dt = _stress()
+    y = np.asarray(vojax.simulate(stress, 0.4, np.array([0.5]), dt))
+    y = y + 0.02 * np.ptp(y) * np.random.default_rng(8).standard_normal(y.size)
+    c = vojax.compare(stress, y, dt, models=("springpot",))
+    t = dt * np.arange(y.size)
+    split = t[int(round(0.75 * (y.size - 1)))]
+    law = vojax.Springpot()
+    early = vojax.refit(law.inputs(stress, y), y, dt, window=(t[0], split),
+                        p_signs=law.p_signs, warn=False)
+    tail = t > split
+    want = np.sqrt(np.mean((y - np.asarray(early.y_hat))[tail] ** 2)) / np.ptp(y)
+    row = c.rows[0]
+    assert row["holdout_nrmse"] == pytest.approx(want, rel=1e-6)
+    whole = np.sqrt(np.mean((y - np.asarray(row["refit"].y_hat))[tail] ** 2)) / np.ptp(y)
+    assert abs(whole - want) > 1e-4 * want

@@ -76,3 +76,22 @@ def test_plot_and_table_carry_the_arrays():
     plt.close(ax.figure)
     with pytest.raises(ValueError, match="`t` must have shape"):
         res.plot(t=T[:-1])
+
+
+def test_the_summary_table_prints_tiny_and_huge_numbers_as_they_are():
+    """The printed table keeps six significant digits whatever the scale: a modulus of 2e9 Pa
+    and a compliance of 1.2e-7 1/Pa with its error print as such, never as 0.000000 or a
+    row of digits; NaN and an infinite error print as words."""
+    from vojax._results import Summary, row
+
+    s = Summary()
+    s["eta"] = row(2.345678e9, 1.2e7)
+    s["compliance"] = row(1.2e-7, 3.4e-9)
+    s["undetermined"] = row(float("nan"), float("inf"))
+    lines = str(s).splitlines()
+    assert "2.34568e+09" in lines[1] and "1.2e+07" in lines[1]
+    assert "1.2e-07" in lines[2] and "3.4e-09" in lines[2]
+    assert "nan" in lines[3] and "inf" in lines[3]
+    for line in lines[1:]:
+        for number in line.split()[1:3]:
+            assert float(number) != 0.0 or number == "0"

@@ -70,6 +70,7 @@ def _fit(model, stress, strain, grid, knots, window=None):
             law.inputs(stress, regressor), strain, **grid,
             order=knots if model == "variable" else "constant",
             direct=law.direct(stress, regressor), p_signs=law.p_signs, window=window,
+            warn=False,
         )
 
     fit = once(strain)
@@ -177,6 +178,14 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
     weights = np.exp([r["log_evidence"] - top for r in rows])
     for r, w in zip(rows, weights / weights.sum()):
         r["weight"] = float(w)
+    return Comparison(rows, verdict_of(rows, num))
+
+
+def verdict_of(rows, num) -> str:
+    """The comparison's verdict from its `rows` (sorted by evidence) on `num` samples: the
+    best law and its Bayes factor over the next, "strongly" from `STRONG_BF` on, "cannot
+    tell apart" below `UNDECIDED_BF`; and a warning where the best law's residuals are
+    correlated beyond `correlation_limit`."""
     if len(rows) == 1:
         verdict = f"only {rows[0]['model']} was fitted."
     else:
@@ -195,4 +204,4 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
             f"{limit:.2g}): the evidence assumes white noise, so these Bayes factors are too "
             "large; no model here describes every feature of the record."
         )
-    return Comparison(rows, verdict)
+    return verdict
