@@ -479,3 +479,21 @@ def test_a_folder_is_current_only_with_the_summary_of_its_own_run(tmp_path):
     write_table(folder, {"time": np.arange(5.0), "y": np.zeros(5)})  # the new run, then killed
     assert not (folder / "summary.json").exists()
     assert _state(folder, provenance, figure=False) == "stale"
+
+
+def test_the_manifest_keeps_what_every_run_wrote(tmp_path):
+    """`claim_outputs` adds this run's names to the folder's manifest and keeps every name an
+    earlier run put there: a file vojax wrote in an earlier run may be rewritten, and one it
+    never wrote may not."""
+    from vojax._data._paths import MANIFEST, claim_outputs
+
+    claim_outputs(tmp_path, ["a/summary.json"])
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "summary.json").write_text("{}")
+    claim_outputs(tmp_path, ["b/summary.json"])
+    written = (tmp_path / MANIFEST).read_text().split()
+    assert written == ["a/summary.json", "b/summary.json"]
+    claim_outputs(tmp_path, ["a/summary.json"])  # written by vojax before: may be redone
+    (tmp_path / "mine.csv").write_text("x")
+    with pytest.raises(ValueError, match="was not written by vojax"):
+        claim_outputs(tmp_path, ["mine.csv"])

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import given, settings  # noqa: E402
+from hypothesis import example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from vojax._data import DataError, load_records  # noqa: E402
@@ -22,6 +22,7 @@ FAST = settings(max_examples=150, deadline=None, derandomize=True)
 
 @FAST
 @given(st.lists(st.text(min_size=1, max_size=200), min_size=2, max_size=8, unique=True))
+@example(["con.1", "aux.txt", "NUL.csv", "lpt9.x", "summary.csv.bak"])  # Windows devices
 def test_record_folders_are_distinct_safe_names(names):
     """Distinct record names give distinct folders, also on a case-insensitive file system;
     a folder name never leaves its parent, hides itself, or takes a name the batch or

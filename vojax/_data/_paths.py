@@ -7,7 +7,9 @@ name over `MAX_LEN` characters, or a name reserved by the batch's own files or b
   ``%`` included, becomes ``%XX`` (UTF-8 bytes in hex), so distinct names stay distinct;
 - a name that had to be shortened, contains an upper-case letter (two names differing only
   in case would share a folder on a case-insensitive file system) or is reserved gets
-  ``~`` and 10 hex digits of its SHA-256 appended (``~`` is otherwise always encoded).
+  ``~`` and 10 hex digits of its SHA-256 inserted before its first ``.`` (at its end where it
+  has none; ``~`` is otherwise always encoded), so that a reserved device name with an
+  extension (``con.1``) is no longer one.
 
 The original name is kept in the record's ``summary.json`` and in ``summary.csv``.
 """
@@ -63,7 +65,9 @@ def record_folder(name: str) -> str:
     if not needs_hash:
         return encoded
     digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:10]
-    return f"{encoded[:MAX_LEN]}~{digest}"
+    # before the first dot: Windows reserves a device's name with any extension (con.1)
+    head, dot, rest = encoded[:MAX_LEN].partition(".")
+    return f"{head}~{digest}{dot}{rest}"
 
 
 def inside(root: Path, component: str) -> Path:
