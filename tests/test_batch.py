@@ -155,7 +155,7 @@ def test_records_of_different_lengths_share_a_bucket_and_equal_identify(tmp_path
     import vojax
     from vojax import _tune
     from vojax._cli import main
-    from vojax._data import _batch
+    from vojax._data import _law_batch as _batch
 
     data = tmp_path / "data"
     data.mkdir()

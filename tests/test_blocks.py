@@ -60,8 +60,11 @@ def _record(num, dt, level, seed=0, alpha=None):
 @pytest.fixture(scope="module")
 def long_record():
     t, u, y, alpha, x = _record(3000, 0.01, 0.01)
-    blocked = vojax.identify(u, y, 0.01, max_points=500, parameters="constant", warn=False)
-    full = vojax.identify(u, y, 0.01, max_points=5000, parameters="constant", warn=False)
+    # p is constant in seconds (the record's clock), so the statement is made in seconds
+    # (the default unit, the span of 30 s, would make it drift as 30^(-α(t)))
+    kw = dict(parameters="constant", time_scale=1.0, warn=False)
+    blocked = vojax.identify(u, y, 0.01, max_points=500, **kw)
+    full = vojax.identify(u, y, 0.01, max_points=5000, **kw)
     return t, u, y, alpha, x, blocked, full
 
 
@@ -177,7 +180,8 @@ def test_a_long_record_on_the_level_ridge_is_not_confidently_wrong(parameters):
     alpha = 0.35 + 0.2 * t / t[-1]
     x = np.asarray(vojax.simulate(u, alpha, np.array([2.0]), dt, memory="exponential"))
     y = x + 0.01 * np.ptp(x) * np.random.default_rng(0).standard_normal(n)
-    res = vojax.identify(u, y, dt, parameters=parameters, warn=False)
+    # p constant in seconds: the statement made in seconds
+    res = vojax.identify(u, y, dt, parameters=parameters, time_scale=1.0, warn=False)
     half = slice(n // 2, None)
     inside = (alpha[half] >= np.asarray(res.alpha_lower)[half]) & (
         alpha[half] <= np.asarray(res.alpha_upper)[half])

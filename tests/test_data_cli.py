@@ -173,6 +173,8 @@ def test_cli_identify_end_to_end(tmp_path, method):
     with open(out / "identification.csv") as f:
         rows = list(csv.reader(f))
     band = ["alpha", "alpha_lower", "alpha_upper", "eta"]
+    if method.startswith("kalman"):  # the tracker's conditional answer too
+        band += ["alpha_conditional", "alpha_conditional_lower", "alpha_conditional_upper"]
     expected = ["time"] + (band if method != "refit" else []) + ["y"]
     expected += ["y_hat"] if method != "refit" else []
     if method.endswith("refit"):
@@ -198,7 +200,11 @@ def test_cli_identify_end_to_end(tmp_path, method):
     if method.startswith("kalman"):
         a = summary["kalman"]
         assert a["method"] == "kalman" and a["converged"]
-        assert a["parameter_model"] == ("constant" if method == "kalman+refit" else "drifting")
+        assert a["parameter_model"] == ("constant" if method == "kalman+refit" else "free")
+        assert a["verdict"] in ("identified", "conditional", "not identified")
+        assert a["identified"] == (a["verdict"] == "identified")
+        assert a["answer"].startswith(f"{a['verdict']}: α ")
+        assert a["answer"] in proc.stdout  # the command's line says it
         assert abs(a["alpha_final"] - 0.35) < max(3 * a["alpha_final_std"], 1e-3)
         assert abs(a["parameters_final"]["eta"] - 4.0) < 0.05
     assert (out / "identification.png").read_bytes()[:4] == b"\x89PNG"
@@ -495,9 +501,25 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
                 cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
-        flags = {r["record"]: r["kalman_identified"] for r in csv.DictReader(f)}
+        rows = {r["record"]: r for r in csv.DictReader(f)}
+    flags = {name: r["kalman_identified"] for name, r in rows.items()}
     assert flags == {"clean": "True", "noise": "False"}
     assert "2 computed" in proc.stdout and "1 of them with the order not identified" in proc.stdout
+    # the verdict, its reach and its reasons lead each row, as each record's summary has them
+    assert rows["clean"]["verdict"] == "identified" and rows["noise"]["verdict"] != "identified"
+    for name, r in rows.items():
+        summary = json.loads((tmp_path / "out" / r["folder"] / "summary.json").read_text())
+        assert r["verdict"] == summary["kalman"]["verdict"]
+        assert r["reasons"] == ";".join(summary["kalman"]["reasons"])
+    # a drift bound on the command line is the tracker's statement, in its summary
+    proc = _cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--out", "bounded", "--parameters", "0.2", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "bounded" / "summary.json").read_text())
+    assert summary["kalman"]["parameter_model"] == 0.2
+    proc = _cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--out", "bad", "--parameters", "-1", cwd=tmp_path)
+    assert proc.returncode != 0 and "--parameters" in proc.stderr
 
 
 def test_units_label_the_figures_and_change_no_number(tmp_path, capsys, monkeypatch):

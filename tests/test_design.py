@@ -179,3 +179,79 @@ def test_the_optimal_ramp_is_the_best_of_a_grid(criterion):
     assert 0 < i < grid.size - 1  # an interior optimum: the search had something to find
     assert abs(float(best[0]) - grid[i]) <= grid[1] - grid[0]
     assert value(design) <= values[i] + 1e-9 * abs(values[i])
+
+
+def test_drifting_parameters_information_against_a_hand_built_jacobian():
+    """With `parameter_knots`, the information is JᵀJ/σ² of the model's Jacobian built here
+    in NumPy (the order's column p ∂Φ/∂b, Φ, the offset, and Φ times each hat function but
+    the first: the constant part is p itself), and the order's band is wider than with the
+    parameters constant, since a drifting gain takes up part of what the order explains."""
+    dt, n = 0.05, 200
+    t = dt * np.arange(n)
+    u = np.minimum(t / 3.0, 1.0)
+    q, p, sd = 0.45, 2.0, 0.01
+    d = vojax.fisher_information(u, q, [p], dt, noise_std=sd, parameter_knots=4, memory="direct")
+    phi = np.asarray(vojax.fractional_integral(u, q, dt))
+    dphi = np.asarray(vojax.order_sensitivity(u, q, dt))
+    places = np.linspace(t[0], t[-1], 4)
+    hats = np.stack([np.interp(t, places, np.eye(4)[k]) for k in range(4)], axis=1)
+    jac = np.column_stack([p * dphi, phi, np.ones(n), phi[:, None] * hats[:, 1:]])
+    np.testing.assert_allclose(d.information, jac.T @ jac / sd**2, rtol=1e-10)
+    assert d.names[-3:] == ("drift_1_2", "drift_1_3", "drift_1_4")
+    constant = vojax.fisher_information(u, q, [p], dt, noise_std=sd, memory="direct")
+    assert d.order_band > 2 * constant.order_band
+
+
+def test_settling_test_picks_the_narrowest_band_its_sampling_allows():
+    """`settling_test` tries each number of cycles from each start: it returns the one whose
+    band (`fisher_information` with drifting parameters, recomputed here) is the narrowest
+    among those with at least 8 samples a cycle, never one with fewer, and its band is
+    narrower than the load's alone."""
+    dt, n = 0.05, 240
+    t = dt * np.arange(n)
+    u = np.minimum(t / 3.0, 1.0)
+    test = vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, cycles=(5, 10, 20, 40))
+    assert test.frequency * dt <= 1 / 8
+    bands = {}
+    for start in (0.0, 0.5 * t[-1]):
+        for cycles in (5, 10, 20, 40):
+            f = cycles / (t[-1] - start)
+            if f * dt > 1 / 8:
+                continue
+            wave = np.where(t >= start, np.sin(2 * np.pi * f * (t - start)), 0.0)
+            planned = u + 0.1 * np.sqrt(np.mean(u**2)) * wave
+            bands[(start, cycles)] = vojax.fisher_information(
+                planned, 0.45, [2.0], dt, noise_std=0.01, parameter_knots=8).order_band
+    best = min(bands, key=bands.get)
+    assert (test.start, test.cycles) == best
+    assert test.band == pytest.approx(bands[best], rel=1e-10)
+    assert test.band < test.band_without
+    assert (0.0, 40) not in bands  # 40 cycles over 240 samples: 6 a cycle, too few
+
+
+def test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half():
+    """With the order free on five knots its predicted variance differs between the halves
+    of the test: `optimal_protocol`'s A-criterion is the mean over the second half (where
+    the tracker's verdict reads the band), so its rise time is the best of a grid by that
+    mean, not by the first half's (whose best is 30 % worse on it), and the design it
+    returns keeps the five knots."""
+    import jax.numpy as jnp
+
+    n, dt, q, p, sd = 300, 0.05, 0.45, [2.0], 0.01
+    t = dt * np.arange(n)
+
+    def ramp_hold(params, times):
+        return jnp.minimum(times / params[0], 1.0)
+
+    best, design = vojax.optimal_protocol(ramp_hold, [3.0], [0.1], [14.0], q, p, dt,
+                                          noise_std=sd, num_samples=n, knots=5)
+    assert design.names[:5] == tuple(f"order_knot_{k}" for k in range(1, 6))
+    grid = np.linspace(0.2, 13.8, 69)
+    designs = [vojax.fisher_information(np.minimum(t / r, 1.0), q, p, dt, noise_std=sd, knots=5)
+               for r in grid]
+    second = [np.mean(d.order_stderr[n // 2 :] ** 2) for d in designs]
+    first = [np.mean(d.order_stderr[: n // 2] ** 2) for d in designs]
+    i, j = int(np.argmin(second)), int(np.argmin(first))
+    assert second[j] > 1.2 * second[i]  # the halves disagree here
+    assert abs(float(best[0]) - grid[i]) <= grid[1] - grid[0]
+    assert np.mean(design.order_stderr[n // 2 :] ** 2) <= second[i] * (1 + 1e-6)

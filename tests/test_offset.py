@@ -29,9 +29,10 @@ def _creep(seed, x0=0.0):
 
 @pytest.fixture(scope="module")
 def creep_fits():
+    # the parameter is constant in seconds (the record's unit): stated so with time_scale=1
     t, u, y, alpha = _creep(seed=1, x0=0.4)
-    known = vojax.identify(u, y, DT, parameters="constant", x0=0.4, warn=False)
-    free = vojax.identify(u, y, DT, parameters="constant", warn=False)
+    known = vojax.identify(u, y, DT, parameters="constant", time_scale=1.0, x0=0.4, warn=False)
+    free = vojax.identify(u, y, DT, parameters="constant", time_scale=1.0, warn=False)
     return t, u, y, alpha, known, free
 
 
@@ -62,9 +63,8 @@ def test_a_known_offset_is_held_and_reported_as_given(creep_fits):
 def test_a_known_offset_narrows_the_band_where_it_traded_off_with_the_order(creep_fits):
     """A creep test: the order's level, the parameter's scale and the offset trade off; the
     offset known (as from rest) removes one of them, and the band holds the truth. The
-    scale still trades off with the order (scales 0.81–1.24 of the tuned one fit within the
-    noise, which the level profile's band covers: ±0.08 known, ±0.26 estimated), so the
-    band narrows by more than 3× and stays within the ±0.1 that `identified` asks."""
+    scale still trades off with the order, which the band covers: the band narrows by more
+    than 3× (±0.013 known, ±0.049 estimated) and both hold the truth."""
     t, u, y, alpha, known, free = creep_fits
     half = t > t[-1] / 2
     width = {k: float(np.median(np.asarray(r.alpha_upper - r.alpha_lower)[half]) / 2)
@@ -72,22 +72,27 @@ def test_a_known_offset_narrows_the_band_where_it_traded_off_with_the_order(cree
     assert width["known"] < 0.1 and width["free"] > 3 * width["known"]
     inside = (alpha >= np.asarray(known.alpha_lower)) & (alpha <= np.asarray(known.alpha_upper))
     assert np.mean(inside[half]) >= 0.9
-    assert known.diagnostics.identified and not free.diagnostics.identified
+    assert known.diagnostics.identified
     err = np.asarray(known.alpha)[half] - alpha[half]
     assert np.sqrt(np.mean(err**2)) < 0.02
+    # with the offset estimated the order is still answered (the band calibrated, ±0.05 here),
+    # and that wider band holds the truth too
+    inside = (alpha >= np.asarray(free.alpha_lower)) & (alpha <= np.asarray(free.alpha_upper))
+    assert np.mean(inside[half]) >= 0.9
 
 
 def test_a_known_offset_is_the_same_as_subtracting_it(creep_fits):
     """The offset is in the output's units: shifting the output and the offset together
     changes nothing (the output is normalised about the offset); a wrong offset does."""
     t, u, y, alpha, known, _ = creep_fits
-    shifted = vojax.identify(u, y - 0.4, DT, parameters="constant", x0=0.0, warn=False)
+    shifted = vojax.identify(u, y - 0.4, DT, parameters="constant", time_scale=1.0, x0=0.0,
+                             warn=False)
     np.testing.assert_allclose(shifted.alpha, known.alpha, rtol=0, atol=1e-8)
     np.testing.assert_allclose(shifted.alpha_std, known.alpha_std, rtol=1e-6, atol=1e-10)
     np.testing.assert_allclose(np.asarray(shifted.y_hat) + 0.4, known.y_hat, rtol=0, atol=1e-8)
     # an offset wrong by 5 % of the output's range moves the order by more than its band
-    wrong = vojax.identify(u, y, DT, parameters="constant", x0=0.4 + 0.05 * np.ptp(y),
-                           warn=False)
+    wrong = vojax.identify(u, y, DT, parameters="constant", time_scale=1.0,
+                           x0=0.4 + 0.05 * np.ptp(y), warn=False)
     half = t > t[-1] / 2
     shift = np.median(np.abs(np.asarray(wrong.alpha) - np.asarray(known.alpha))[half])
     assert shift > 2 * np.median(np.asarray(known.alpha_std)[half])
@@ -134,7 +139,8 @@ def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
     assert summary["provenance"]["settings"]["x0"] == d0
     with open(tmp_path / "o" / "identification.csv") as f:
         alpha = np.array([float(r["alpha"]) for r in csv.DictReader(f)])
-    ref = vojax.identify(force / a, d / ell, DT, parameters="constant", x0=d0 / ell, warn=False)
+    ref = vojax.identify(force / a, d / ell, DT, parameters="constant", x0=d0 / ell,
+                         warn=False)
     np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-9)
     # the offset is the tracker's: refused with the law, and a non-number is refused
     for extra, said in ((("--method", "gradient"), "--x0 sets the tracker"),

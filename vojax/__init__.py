@@ -1,7 +1,5 @@
 """vojax: identification of variable-order fractional systems in JAX."""
 
-import importlib.metadata
-
 from . import io as io
 from . import reference as reference
 from . import testing as testing
@@ -22,6 +20,7 @@ from ._design import optimal_protocol as optimal_protocol
 from ._diagnostics import Diagnostics as Diagnostics
 from ._diagnostics import IdentifiabilityWarning as IdentifiabilityWarning
 from ._diagnostics import Reason as Reason
+from ._identification import Conditional as Conditional
 from ._identification import Identification as Identification
 from ._identify import identify as identify
 from ._integral import (
@@ -61,9 +60,12 @@ from ._models import (
     stress_strain as stress_strain,
 )
 from ._refit import Refit as Refit
+from ._refit import RefitWarning as RefitWarning
 from ._refit import refit as refit
 from ._refit import refit_lbfgsb as refit_lbfgsb
 from ._results import Summary as Summary
+from ._settling import SettlingTest as SettlingTest
+from ._settling import settling_test as settling_test
 from ._simulate import simulate as simulate
 from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals
@@ -71,12 +73,10 @@ from ._tracker import Tracker as Tracker
 from ._tracker import TrackerSettings as TrackerSettings
 from ._tune import Gains as Gains
 from ._tune import tune_gains as tune_gains
+from ._version import version as _version
 from ._xla import use_compilation_cache as use_compilation_cache
 from ._xla import use_fast_cpu_loops as use_fast_cpu_loops
 from .io import load_records as load_records
 from .io import write_results as write_results
 
-try:
-    __version__ = importlib.metadata.version("vojax")
-except importlib.metadata.PackageNotFoundError:  # running from a source tree
-    __version__ = "0.0.0"
+__version__ = _version()

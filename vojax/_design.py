@@ -21,9 +21,8 @@ the tracker (`vojax.identify`) reports at these intensities, for small noise.
 
 import math
 
-import numpy as np
-
 import jax.numpy as jnp
+import numpy as np
 
 from . import _validate as check
 from ._integral import DEFAULT_TOL, _prepare
@@ -31,6 +30,7 @@ from ._settings import TrackerSettings
 
 # the tracker's spread of β at the first sample
 PRIOR_BETA_VAR = TrackerSettings().prior_beta_var
+
 
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000
@@ -98,6 +98,7 @@ def fisher_information(
     memory: str = "direct",
     order_range=(0.01, 0.99),
     order_drift: float | None = None,
+    parameter_knots: int | None = None,
 ) -> Design:
     """The Fisher information of a planned test of ``D^{α(t)} x = pᵀu`` (a `Design`).
 
@@ -113,6 +114,12 @@ def fisher_information(
       over the test, as `vojax.identify`'s ``noise={"order_drift": …}``), the parameters
       constant; `order_stderr` is then the tracker's predicted band at these intensities
       (at most 5,000 samples: the covariance is dense).
+    - `parameter_knots`: the parameters free to drift, as a gain on the memory term (a
+      stiffening tissue: ``p_j(t) = p_j + Σ_k d_jk h_k(t)`` on this many hat functions,
+      K ≥ 2) instead of constant: the band the test gives whatever the parameters do
+      (`names` gain ``drift_j_k``). With one slowly varying input the order is then hardly
+      determined; an oscillation superposed on the load (`settling_test`) determines it,
+      since a springpot's phase lag depends on its order alone.
 
     **Raises:** `ValueError` when the test determines the quantities not at all (the
     information is singular: e.g. an input that is zero, or more knots than the test can
@@ -138,6 +145,11 @@ def fisher_information(
                 f"`order_drift` takes at most {MAX_DRIFT_SAMPLES} samples (a dense covariance "
                 f"of the order at every sample), got {num}: plan on a coarser grid."
             )
+    if parameter_knots is not None and (
+            isinstance(parameter_knots, bool) or not isinstance(parameter_knots, (int, np.integer))
+            or not 2 <= parameter_knots <= num // 2):
+        raise ValueError(f"`parameter_knots` must be an integer from 2 to {num // 2}, got "
+                         f"{parameter_knots!r}.")
     if order_drift is not None:  # the prior is on the order's logistic coordinate
         check.order(order, num, bounds=order_range)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
@@ -151,8 +163,15 @@ def fisher_information(
     else:
         hats, places = np.eye(num), times
         names = [f"order_at_{k + 1}" for k in range(num)]
-    jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), jnp.asarray(hats), x0))
+    drift_hats = None
+    if parameter_knots is not None:  # the constant part is p itself: the other hats' shifts
+        drift_hats = jnp.asarray(_hats(times, int(parameter_knots))[0][:, 1:])
+    jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), jnp.asarray(hats), x0,
+                               drift_hats))
     names += [f"p_{j + 1}" for j in range(n)] + (["x0"] if x0 else [])
+    if drift_hats is not None:
+        names += [f"drift_{j + 1}_{k + 2}" for j in range(n)
+                  for k in range(drift_hats.shape[1])]
     information = jac.T @ jac / noise_std**2
     if order_drift is not None:
         information[:num, :num] += _drift_precision(times, order, order_range, order_drift)
@@ -195,14 +214,17 @@ def _drift_precision(times, order, order_range, order_drift):
     return precision
 
 
-def _jacobian(memory, u2, order, p, hats, x0):
-    """The model's Jacobian (N, P) in JAX: the order's columns, Φ, and the offset's."""
+def _jacobian(memory, u2, order, p, hats, x0, drift_hats=None):
+    """The model's Jacobian (N, P) in JAX: the order's columns, Φ, the offset's, and with
+    `drift_hats` (N, K) each parameter's drifting gain ``Φ_j h_k``."""
     from ._integral import scan_memory
 
     phi, dphi = scan_memory(memory, u2, order, True)
     cols = [(dphi @ p)[:, None] * hats, phi]
     if x0:
         cols.append(jnp.ones((u2.shape[0], 1), u2.dtype))
+    if drift_hats is not None:
+        cols.append((phi[:, :, None] * drift_hats[:, None, :]).reshape(u2.shape[0], -1))
     return jnp.concatenate(cols, axis=1)
 
 

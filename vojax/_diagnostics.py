@@ -53,13 +53,25 @@ def _trade_off(c):
     trade = c["trade"]
     where = (f" with any constant order from {trade[0]:.2f} to {trade[1]:.2f}"
              if trade is not None else "")
+    if c.get("conditional"):
+        return (
+            f"the order band is ±{c['width']:.2g} wide because a drifting parameter explains "
+            f"the data as well{where}; with the parameters drifting less than "
+            f"{100 * c['breakdown']:.0f} % over the record the band is ±{c['cond_width']:.2g} "
+            "(the conditional answer: `conditional` of the result), and beyond that drift an "
+            "order outside it fits as well. Where the parameters are known not to drift, say "
+            "so (parameters='constant', --parameters constant); otherwise a test with an "
+            "oscillation superposed on the load would separate them (vojax.settling_test "
+            "gives its frequency and the band it would give)"
+        )
     return (
         f"the order band is ±{c['width']:.2g} wide because a drifting parameter explains the "
         f"data as well{where}: an order and a drifting parameter can trade off (with one "
         "input they always do), and the band covers both; if the parameters are known not "
         "to drift, say so (parameters='constant', --parameters constant), and the output's "
-        "offset where it is measured (x0=, --x0); otherwise "
-        "another input or a test with another loading would separate them"
+        "offset where it is measured (x0=, --x0); otherwise a test with an oscillation "
+        "superposed on the load would separate them (vojax.settling_test gives its frequency "
+        "and the band it would give)"
     )
 
 
@@ -163,6 +175,10 @@ class Diagnostics:
     block_error: float = float("nan")
     noise_correlation: float = float("nan")
     reasons: tuple[str, ...] = ()
+    verdict: str = "not identified"
+    conditional_halfwidth: float = float("nan")
+    breakdown_drift: float = float("nan")
+    reference_drift: float = float("nan")
 
 
 def _nan_or(value):
@@ -173,6 +189,7 @@ def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
     drift_covered=False, block=1, block_error=None, noise_correlation=None, settings=None,
+    conditional=None, breakdown_drift=float("nan"), reference_drift=float("nan"),
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -186,7 +203,9 @@ def diagnose(
     tracker's drifting-parameter alternatives that explain the data. `samples`: how many
     innovations `correlation` is over (see `correlation_limit`); `noise_correlation`: the
     coloured noise part's correlation between samples, or None for white noise. `settings`:
-    the thresholds (a `TrackerSettings`; its defaults where None)."""
+    the thresholds (a `TrackerSettings`; its defaults where None). `conditional`: the
+    conditional band ``(lower, upper)`` (while the parameters drift less than
+    `breakdown_drift`; the answer's own parameters drift by `reference_drift`), or None."""
     s = TrackerSettings() if settings is None else settings
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
@@ -227,13 +246,25 @@ def diagnose(
                    held_shift=held_shift, drifts=drifts, others=others,
                    correlation=correlation, limit=limit, block=block, block_error=block_error,
                    unstable_from=unstable_from)
-    identified = (
-        width <= s.identified_halfwidth and at_bound < s.bound_fraction and bool(converged)
-        and not noise_edge and not traded and calibrated and not coloured
-        and unstable_from is None and not coarse
+    sound = (
+        at_bound < s.bound_fraction and bool(converged) and not noise_edge and not traded
+        and calibrated and not coloured and unstable_from is None and not coarse
     )
+    identified = width <= s.identified_halfwidth and sound
+    cond_width = float("nan")
+    if conditional is not None:
+        c_lower, c_upper = (np.asarray(a) for a in conditional)
+        cond_width = float(np.median((c_upper - c_lower)[half:]) / 2)
+    reach = breakdown_drift - (reference_drift if np.isfinite(reference_drift) else 0.0)
+    conditional_answer = (not identified and sound and cond_width <= s.identified_halfwidth
+                          and reach > s.drift_floor)
+    verdict = ("identified" if identified else "conditional" if conditional_answer
+               else "not identified")
+    context.update(conditional=conditional_answer, cond_width=cond_width,
+                   breakdown=breakdown_drift)
     return Diagnostics(
         width, at_bound, bool(converged), tuple(at_edge), identified,
         "; ".join(r.render(**context) for r in reasons), correlation, int(block),
         _nan_or(block_error), _nan_or(noise_correlation), tuple(r.value for r in reasons),
+        verdict, cond_width, float(breakdown_drift), float(reference_drift),
     )

@@ -7,6 +7,18 @@ from jaxtyping import Array, Float
 from ._diagnostics import Diagnostics
 
 
+class Conditional(eqx.Module):
+    """The conditional answer of the tracker: the order `alpha` (N,) with its ±2σ band
+    `alpha_lower`, `alpha_upper` and `alpha_std`, which hold while the parameters drift less
+    than `diagnostics.breakdown_drift` over the record (relative: (max − min)/|mean|); beyond
+    that an order outside the band explains the data as well."""
+
+    alpha: Float[Array, " N"]
+    alpha_lower: Float[Array, " N"]
+    alpha_upper: Float[Array, " N"]
+    alpha_std: Float[Array, " N"]
+
+
 class Identification(eqx.Module):
     """What `identify` returns: the estimates at every sample, their bands and the settings.
 
@@ -57,6 +69,8 @@ class Identification(eqx.Module):
     tuning: object = eqx.field(static=True, default=None)
     # the tracker's `parameters` setting ("drifting" or "constant"); None for the law
     parameters: str | None = eqx.field(static=True, default=None)
+    # the tracker's conditional answer (see `Conditional`); None for the law
+    conditional: Conditional | None = None
 
     def summary(self, names=None):
         """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
@@ -85,8 +99,36 @@ class Identification(eqx.Module):
         note = self.diagnostics.message or (
             f"no {' or '.join(still)} found (tuned to its lower edge)" if still else ""
         )
-        out["identified"] = row("yes" if self.diagnostics.identified else "no", None, note)
+        d = self.diagnostics
+        out["identified"] = row("yes" if d.identified else "no", None, note)
+        out["verdict"] = row(d.verdict, None, self.verdict_line())
+        if np.isfinite(d.breakdown_drift) or np.isfinite(d.conditional_halfwidth):
+            out["conditional band half-width"] = row(d.conditional_halfwidth)
+            out["breakdown drift"] = row(d.breakdown_drift)
         return out
+
+    def verdict_line(self) -> str:
+        """The verdict and the answer in one line: the order over the second half (its first
+        and last values there) with the band's half-width, and how far it holds, e.g.
+        "conditional: α 0.31 → 0.42 ± 0.02 if the parameters drift less than 12 % over the
+        test; beyond that a drifting parameter explains the data as well"."""
+        d = self.diagnostics
+        if d.verdict == "conditional" and self.conditional is not None:
+            alpha, width = np.asarray(self.conditional.alpha), d.conditional_halfwidth
+        else:
+            alpha, width = np.asarray(self.alpha), d.band_halfwidth
+        half = alpha.shape[0] // 2
+        head = f"{d.verdict}: α {alpha[half]:.2f} → {alpha[-1]:.2f} ± {width:.2g}"
+        if d.verdict == "identified":
+            held = {"constant": " with the parameters constant, as stated"}.get(
+                self.parameters, "") if isinstance(self.parameters, str) else (
+                f" with the parameters drifting less than {100 * self.parameters:.0f} %, as "
+                "stated")
+            return head + held
+        if d.verdict == "conditional":
+            return (f"{head} if the parameters drift less than {100 * d.breakdown_drift:.0f} % "
+                    "over the test; beyond that a drifting parameter explains the data as well")
+        return head
 
     def plot(self, ax=None, *, t=None):
         """The order with its ±2σ band against `t` (the sample times; default ``k·dt``), titled
@@ -98,11 +140,17 @@ class Identification(eqx.Module):
         if times.shape != (n,):
             raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
         name = {"kalman": "tracker", "gradient": "paper's law"}.get(self.method, self.method)
-        verdict = "identified" if self.diagnostics.identified else "not identified"
-        return plot_order(
+        ax = plot_order(
             times, self.alpha, self.alpha_lower, self.alpha_upper, ax=ax, label=name,
-            xlabel="time (from the first sample)", title=f"order: {verdict}",
+            xlabel="time (from the first sample)", title=f"order: {self.diagnostics.verdict}",
         )
+        if self.conditional is not None and self.diagnostics.verdict == "conditional":
+            c = self.conditional
+            ax.fill_between(times, np.asarray(c.alpha_lower), np.asarray(c.alpha_upper),
+                            color="C0", alpha=0.3, lw=0,
+                            label=f"if drift < {100 * self.diagnostics.breakdown_drift:.0f} %")
+            ax.legend(fontsize=8)
+        return ax
 
     def to_dataframe(self, t=None, names=None):
         """The per-sample columns (``alpha`` with ``alpha_std`` and its band, each parameter
@@ -117,6 +165,10 @@ class Identification(eqx.Module):
             alpha=self.alpha, alpha_std=self.alpha_std, alpha_lower=self.alpha_lower,
             alpha_upper=self.alpha_upper,
         )
+        if self.conditional is not None:
+            c = self.conditional
+            columns.update(alpha_conditional=c.alpha, alpha_conditional_lower=c.alpha_lower,
+                           alpha_conditional_upper=c.alpha_upper)
         for j, name in enumerate(names):
             columns[name] = p[:, j]
             columns[f"{name}_std"] = p_std[:, j]

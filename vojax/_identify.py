@@ -23,7 +23,7 @@ from ._tracker._estimator import KALMAN_BOUNDS, Tracker
 
 def identify(
     u,
-    y,
+    y=None,
     dt=None,
     *,
     t=None,
@@ -43,6 +43,7 @@ def identify(
     max_points: int | None = None,
     tol: float = 1e-10,
     warn: bool = True,
+    time_scale=None,
     settings=None,
 ) -> Identification:
     """Identifies the order α(t) and parameters p of ``D^{α(t)} x = pᵀu`` with a band for each.
@@ -72,7 +73,9 @@ def identify(
 
     **Arguments:**
 
-    - `u`: inputs, ``(N,)`` or ``(N, n)``; `y`: measured output ``(N,)``.
+    - `u`: inputs, ``(N,)`` or ``(N, n)``; `y`: measured output ``(N,)``. Or `u` a
+      `Record` (`vojax.load_records`) and no `y`, `dt` or `t`: its inputs, output and own
+      clock (uniform or not), ``identify(record)``.
     - `dt`: the step; or `t`: the sample times ``(N,)``, strictly increasing (exactly one).
       On a non-uniform grid the memory uses exact weights for every step and the law
       integrates over the local step ``t_k − t_{k−1}`` (LSFF's forgetting ``e^{−λh_k}``, the
@@ -107,16 +110,19 @@ def identify(
       ``parameter_drift`` (variance of each normalised parameter's change over the record;
       1e-6 or less states the parameters constant, as ``parameters="constant"`` does) and
       ``noise_std`` (of the measurement, in the units of `y`).
-    - `parameters`: ``method="kalman"`` only. ``"drifting"`` (the default, None): the
-      parameters may drift, their drift tuned with the order's; since with one input a
-      drifting parameter can stand in for a moving order, the band also covers every
-      constant order with which a parameter free to drift explains the data as well, and the
-      order is reported not identified when that makes the band wide. ``"constant"``: the
-      parameters are known not to drift (a calibrated instrument, a test short against any
-      ageing); their drift is held, and the band holds under that assumption only. It
-      also covers the orders that the parameters held at another scale (0.5–2 × the tuned
-      ones) give where those fit the data: with constant parameters the order's level and
-      the parameters' scale can still trade off.
+    - `parameters`: ``method="kalman"`` only: what you know of the parameters' drift over
+      the record, relative, ``(max − min)/|mean|`` (in units of the record's span).
+      ``"free"`` (the default, None; ``"drifting"`` says the same): they may drift, their
+      drift tuned with the order's. With one input a drifting parameter can stand in for a
+      moving order, so the band covers every order that an explanation with drifting
+      parameters fits as well, and `diagnostics.verdict` says "conditional" where the order
+      is pinned down only while the parameters drift less than
+      `diagnostics.breakdown_drift` (the band that holds then: `conditional`).
+      ``"constant"`` (or 0): known not to drift (a calibrated instrument, a test short
+      against any ageing); their drift is held, and the band holds under that assumption
+      only, the parameters' scale (which trades off with the order's level) integrated
+      over. A number D > 0: they drift by at most D; the band covers the explanations whose
+      parameters drift no more.
     - `mask`: ``method="kalman"`` only: an ``(N,)`` array of 0 and 1; samples with 0 are not
       fitted (the tracker still estimates the states there, from its random-walk model). Used
       to pad records to a common length so that one compiled program serves many lengths;
@@ -133,12 +139,17 @@ def identify(
       (0.4 s with `use_fast_cpu_loops`), and a few µs a sample for the averaging and the two
       memory runs over the record.
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
+    - `time_scale`: ``method="kalman"`` only: the unit of time in which `parameters`
+      states the parameters constant or drift-bounded (None: the record's span). The order
+      then does not depend on the unit the times are given in: with a variable order, a
+      parameter constant in seconds drifts in milliseconds (``p·1000^(−α(t))``).
     - `settings`: the tracker's tuned numbers (a `vojax.TrackerSettings`; its defaults where
       None); ``method="kalman"`` only.
 
     **Returns:** an `Identification`. **Raises:** `ValueError` for bad input, and when the
     estimate is not finite (the law diverged), naming the sample.
     """
+    u, y, dt, t = check.record_arguments(u, y, dt, t)
     check.choice(method, ("kalman", "gradient"), "method")
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
@@ -151,16 +162,17 @@ def identify(
                 "does not use; add method='gradient', or leave them out."
             )
         tracker = Tracker(
-            parameters="drifting" if parameters is None else parameters, x0=x0, smooth=smooth,
+            parameters=parameters, x0=x0, smooth=smooth,
             alpha_bounds=alpha_bounds, memory=memory, rule=rule, noise=noise,
-            max_points=max_points, tol=tol,
+            max_points=max_points, tol=tol, time_scale=time_scale,
             settings=TrackerSettings() if settings is None else settings,
         )
         return tracker._fit(u, y, dt, t, mask, warn, stacklevel=3)
-    if settings is not None:
-        raise ValueError(
-            "`settings` sets the tracker (method='kalman'); the paper's law does not use it."
-        )
+    for name, value in (("settings", settings), ("time_scale", time_scale)):
+        if value is not None:
+            raise ValueError(
+                f"`{name}` sets the tracker (method='kalman'); the paper's law does not use it."
+            )
     if max_points is not None:
         raise ValueError(
             "`max_points` sets the tracker (method='kalman'); the paper's law does not use it."

@@ -2,200 +2,33 @@
 
 from typing import TYPE_CHECKING
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
 
 from . import _validate as check
+from ._integral import make_memory, scan_memory
 from ._validate import check_options
-from ._integral import make_memory, order_map, scan_memory
 
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
-    import optimistix
+    pass
+from ._refit_result import Refit as Refit
+from ._refit_result import RefitWarning as RefitWarning
+from ._refit_solve import ROUNDING as ROUNDING
+from ._refit_solve import TRACES as TRACES
+from ._refit_solve import UNDETERMINED_RCOND as UNDETERMINED_RCOND
+from ._refit_solve import _fit as _fit
+from ._refit_solve import _gauss_newton as _gauss_newton
+from ._refit_solve import _hold_worst as _hold_worst
+from ._refit_solve import _knot_places as _knot_places
+from ._refit_solve import _linear as _linear
+from ._refit_solve import _order_curve as _order_curve
+from ._refit_solve import _raw_curve as _raw_curve
+from ._refit_solve import _zero_rounding as _zero_rounding
 
-
-class Refit(eqx.Module):
-    """What `refit` returns.
-
-    - `order` (N,): the fitted order trajectory; `order_stderr` (N,): its standard error (delta
-      method); `order_lower`, `order_upper` (N,): the ±2σ Wald interval taken on the unbounded
-      (logistic) scale and mapped back, so it stays inside the bounds and keeps its meaning
-      near them; `at_bound`: a knot lies within 0.1 % of the range of a bound (then the interval
-      is one-sided in effect and the standard error small by construction: do not trust it).
-    - `p` (n + m,), `p_stderr`, `p_cov` (n + m, n + m): the fitted coefficients of the
-      integrated inputs and then of the `direct` regressors, their standard errors and
-      covariance; `p_at_bound`: which coefficients were held at 0 by `p_signs` (error 0).
-    - A standard error (and variance) is ``inf`` where the data do not determine the quantity:
-      the Jacobian scaled to unit columns has a singular value below 1e-10 of its largest
-      along it (e.g. a hold phase of constant output with the offset estimated). The order's
-      interval then spans `order_bounds`.
-    - `x0`, `x0_stderr`: the output offset (at `origin` when given), estimated unless given
-      (then its error is 0).
-    - `knots` (K,), `knots_stderr` (K,), `knot_times` (K,): the fitted orders at the knots
-      (K = 1: constant), their standard errors (delta method; ``inf`` where undetermined) and
-      their times.
-    - `y_hat` (N,), `residuals` (N,) = y − y_hat, `sigma`: residual standard deviation.
-    - `result`: optimistix's result code (`optx.RESULTS.successful` when it converged),
-      `steps`: the solver's steps.
-    """
-
-    order: Float[Array, " N"]
-    order_stderr: Float[Array, " N"]
-    order_lower: Float[Array, " N"]
-    order_upper: Float[Array, " N"]
-    p: Float[Array, " n"]
-    p_stderr: Float[Array, " n"]
-    p_cov: Float[Array, "n n"]
-    x0: Float[Array, ""]
-    x0_stderr: Float[Array, ""]
-    knots: Float[Array, " K"]
-    knots_stderr: Float[Array, " K"]
-    knot_times: Float[Array, " K"]
-    y_hat: Float[Array, " N"]
-    residuals: Float[Array, " N"]
-    sigma: Float[Array, ""]
-    result: "optimistix.RESULTS"
-    steps: Array
-    p_at_bound: tuple[bool, ...] = eqx.field(static=True, default=())
-    at_bound: bool = eqx.field(static=True, default=False)
-
-    @property
-    def constant(self) -> bool:
-        """Whether the fitted order is one number (``order="constant"``, or a fixed constant)."""
-        order = np.asarray(self.order)
-        return bool(order.size and np.all(order == order[0]))
-
-    def _constant_or_raise(self):
-        if not self.constant:
-            raise ValueError(
-                f"the order varies along the record ({np.asarray(self.knots).size} knots): read "
-                "`order` (per sample), or `knots` at `knot_times`."
-            )
-
-    @property
-    def order_value(self) -> float:
-        """The order as a number, where it is constant; `ValueError` where it varies."""
-        self._constant_or_raise()
-        return float(np.asarray(self.order)[0])
-
-    @property
-    def order_value_stderr(self) -> float:
-        """The constant order's standard error; `ValueError` where the order varies."""
-        self._constant_or_raise()
-        return float(np.asarray(self.order_stderr)[0])
-
-    def summary(self, names=None):
-        """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the
-        order (or its knots), each coefficient (named by `names`, default ``p1``, ``p2``…)
-        with its standard error, the offset, the residual σ and whether it converged."""
-        from ._results import Summary, row
-
-        out = Summary()
-        if self.constant:
-            note = "at a bound: the interval is not meaningful" if self.at_bound else ""
-            out["order"] = row(self.order_value, self.order_value_stderr, note)
-        else:
-            knots = np.asarray(self.knots)
-            ses = np.asarray(self.knots_stderr)
-            for k, (q, se, tk) in enumerate(zip(knots, ses, np.asarray(self.knot_times))):
-                out[f"order at knot {k + 1} (t = {float(tk):.4g})"] = row(q, se)
-        p, se = np.asarray(self.p), np.asarray(self.p_stderr)
-        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.size)]
-        if len(names) != p.size:
-            raise ValueError(f"`names` must name the {p.size} coefficients, got {len(names)}.")
-        for j, name in enumerate(names):
-            held = bool(self.p_at_bound[j]) if j < len(self.p_at_bound) else False
-            out[name] = row(p[j], se[j], "held at 0 by its sign" if held else "")
-        out["x0"] = row(self.x0, self.x0_stderr)
-        out["residual sigma"] = row(self.sigma)
-        import optimistix as optx
-
-        out["converged"] = row("yes" if self.result == optx.RESULTS.successful else "no")
-        return out
-
-    def plot(self, ax=None, *, t=None):
-        """The fitted order with its ±2σ interval against `t` (the sample times; default the
-        sample index). Returns the matplotlib Axes."""
-        from ._results import plot_order
-
-        n = np.asarray(self.order).size
-        times = np.arange(n) if t is None else np.asarray(t, dtype=float)
-        if times.shape != (n,):
-            raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
-        return plot_order(
-            times, self.order, self.order_lower, self.order_upper, ax=ax, label="refit",
-            xlabel="sample" if t is None else "time", color="C0",
-        )
-
-    def to_dataframe(self, t=None):
-        """The per-sample columns (``order``, its interval, ``y_hat``, ``residuals``; ``time``
-        if `t` is given) as a pandas DataFrame (needs the optional pandas)."""
-        from ._results import to_dataframe
-
-        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
-        columns.update(
-            order=self.order, order_lower=self.order_lower, order_upper=self.order_upper,
-            y_hat=self.y_hat, residuals=self.residuals,
-        )
-        return to_dataframe(columns)
-
-
-TRACES = {"fit": 0}
-# a direction of the column-scaled Jacobian whose singular value is below this fraction of the
-# largest is not determined by the data: the coefficients along it get an infinite variance
-UNDETERMINED_RCOND = 1e-10
-# a fitted coefficient whose contribution to the weighted fit (|p_j|·‖column j‖) is below this
-# fraction of ‖y‖ is reported as exactly 0: it is rounding, not a measurement
-ROUNDING = 1e-12
 # a constant-order fit with fewer direct regressors than this runs padded to it (zero columns,
 # held at 0), so that the laws with and without a spring in series share a compiled program
 PAD_DIRECT = 1
-
-
-def _gauss_newton(jac, free):
-    """``(JᵀJ)⁻¹`` from the SVD of the Jacobian with unit columns (unit-free; the normal
-    matrix, which squares the condition number, is never formed), and which parameters the
-    data do not determine: those with weight on a direction whose singular value is below
-    `UNDETERMINED_RCOND` of the largest, or whose column is 0. Their variance is returned as
-    ``inf`` (and their covariances 0): a pseudo-inverse would report 0 there, the most
-    confident number for the least determined parameter. Parameters with ``free = 0`` are held
-    (variance 0). The residual variance's degrees of freedom count the determined ones
-    only (N − rank J)."""
-    aug = jnp.concatenate([jac, jnp.diag(1.0 - free)], axis=0)  # held: a unit row, no effect
-    norms = jnp.linalg.norm(aug, axis=0)
-    scale = jnp.where(norms > 0, 1.0 / jnp.where(norms > 0, norms, 1.0), 0.0)
-    _, s, vt = jnp.linalg.svd(aug * scale, full_matrices=False)
-    kept = s > UNDETERMINED_RCOND * s[0]
-    inv_s2 = jnp.where(kept, 1.0 / jnp.where(kept, s, 1.0) ** 2, 0.0)
-    cov = scale[:, None] * ((vt.T * inv_s2) @ vt) * scale[None, :]
-    loose = jnp.any((jnp.abs(vt.T) > 1e-6) & ~kept[None, :], axis=1) | (norms == 0)
-    loose = loose & (free > 0)
-    cov = jnp.where(loose[:, None] | loose[None, :], 0.0, cov) * jnp.outer(free, free)
-    return cov + jnp.diag(jnp.where(loose, jnp.inf, 0.0)), loose
-
-
-def _knot_places(num_knots):
-    """Knots at the centres of K equal parts of the record (as fractions of its length): none at
-    t = 0, where Φ = 0 says nothing about the order."""
-    return (jnp.arange(num_knots, dtype=jnp.result_type(float)) + 0.5) / num_knots
-
-
-def _raw_curve(raw, num, span=None):
-    """The unbounded order at every sample: linear between knots, constant beyond the end ones.
-    The knots spread over the first `span` samples (default all; later ones are padding)."""
-    span = num if span is None else span
-    grid = jnp.arange(num, dtype=raw.dtype) / jnp.maximum(jnp.asarray(span, raw.dtype) - 1, 1.0)
-    if raw.shape[0] == 1:
-        return jnp.full((num,), raw[0])
-    return jnp.interp(grid, _knot_places(raw.shape[0]), raw)
-
-
-def _order_curve(raw, num, bounds, span=None):
-    """Order at every sample: ``bounds[0] + (hi−lo)·sigmoid(curve)`` of `_raw_curve`."""
-    lo, hi = bounds
-    return lo + (hi - lo) * jax.nn.sigmoid(_raw_curve(raw, num, span))
 
 
 def _weights(num, mask, weights, window, relative, times, y):
@@ -268,6 +101,7 @@ def refit(
     max_steps: int = 200,
     throw: bool = False,
     mask=None,
+    warn: bool = True,
 ) -> Refit:
     """Fits ``y = x0 + pᵀ φ(β, t) + cᵀ v`` over a record by Levenberg–Marquardt.
 
@@ -306,6 +140,11 @@ def refit(
     physical parameters physical (`vojax.KelvinVoigt().p_signs`: η > 0, k ≥ 0). A coefficient
     whose free fit breaks its sign is fixed at 0, the bound, and the rest refitted (an active
     set, one coefficient at a time); `Refit.p_at_bound` says which, with standard error 0.
+
+    **Errors under correlated residuals:** the Gauss–Newton errors assume independent
+    residuals; where they are correlated (lag-1 ρ above ``2/√n``) every error is inflated by
+    ``√((1 + ρ)/(1 − ρ))`` (`Refit.error_inflation`). With `warn`, a `RefitWarning` says when
+    the fit did not converge, sits at a bound or has residuals correlated above 0.5.
 
     **Returns:** a `Refit`; ``p`` holds the coefficients of `u` then of `direct`.
     """
@@ -400,8 +239,15 @@ def refit(
     all_times = times if grid is None or origin is None else np.asarray(grid)
     out = {k: (a[trim] if k in ("order", "order_stderr", "order_lower", "order_upper",
                                 "residuals") else a) for k, a in out.items()}
+    rho, inflation = _residual_inflation(np.asarray(out["residuals"]), np.asarray(sw)[trim])
+    out = _inflated(out, inflation, bounds)
+    at_bound = bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin)))
+    if warn:
+        _warn(out["result"], at_bound, rho)
     return Refit(
         **out,
+        residual_correlation=rho,
+        error_inflation=inflation,
         x0=x0 + offset if estimate else x0,
         knot_times=(
             jnp.asarray(np.interp(places, np.arange(n_all), all_times))
@@ -409,29 +255,72 @@ def refit(
         ),
         y_hat=(fit + x0)[trim],
         p_at_bound=tuple(bool(a == 0) for a in active),
-        at_bound=bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin))),
+        at_bound=at_bound,
     )
 
 
-def _hold_worst(active, signs, coefficients, scale) -> bool:
-    """One step of the sign constraints' active set: the coefficient furthest on the wrong side
-    of its sign (in units of `scale`) is held at 0, its bound (``active`` is updated in place).
-    Returns False when every sign holds."""
-    count = signs.size
-    broken = (active[:count] > 0) & (signs * coefficients < 0)
-    if not broken.any():
-        return False
-    active[int(np.argmax(np.where(broken, -signs * coefficients / scale, -np.inf)))] = 0.0
-    return True
+# the residuals' lag-1 correlation above which the refit warns that its model misses part of
+# the signal (its intervals are inflated for any positive correlation); and the largest
+# correlation the inflation takes (×14)
+CORRELATED_RESIDUALS = 0.5
 
 
-def _zero_rounding(p, columns, big_y, sw):
-    """``p`` with 0 for each coefficient whose whole contribution to the weighted fit,
-    ``|p_j|·‖column j‖``, is below `ROUNDING` of ``‖y‖``: the sign of a rounding error differs
-    between machines, and 1/p of a model would be ±1e16 on one and a failure on another."""
-    size = jnp.linalg.norm(big_y * sw)
-    noise = jnp.abs(p) * jnp.linalg.norm(columns * sw[:, None], axis=0) <= ROUNDING * size
-    return jnp.where(noise, 0.0, p)
+MAX_RESIDUAL_CORRELATION = 0.99
+
+
+def _residual_inflation(residuals, sw):
+    """ρ, the lag-1 autocorrelation of the fitted residuals (NaN for fewer than 4), and the
+    factor ``√((1 + ρ)/(1 − ρ))`` on the standard errors: 1 where ρ is within two standard
+    errors of a white sequence's, ``2/√n`` (independent residuals, as the errors assume)."""
+    from ._stats import lag1_correlation
+
+    fitted = residuals[np.asarray(sw) > 0]
+    if fitted.size < 4:
+        return float("nan"), 1.0
+    rho = lag1_correlation(fitted)
+    if not np.isfinite(rho) or rho <= 2.0 / np.sqrt(fitted.size):
+        return float(rho), 1.0
+    r = min(rho, MAX_RESIDUAL_CORRELATION)
+    return float(rho), float(np.sqrt((1 + r) / (1 - r)))
+
+
+def _inflated(out, factor, bounds):
+    """The fit's errors × `factor` (covariances × factor²), the order's interval widened on
+    its logistic scale (where the ±2σ Wald interval is taken)."""
+    if factor == 1.0:
+        return out
+    lo, hi = bounds
+    out = dict(out)
+    order, sd = np.asarray(out["order"]), np.asarray(out["order_stderr"])
+    z = np.clip((order - lo) / (hi - lo), 1e-300, 1 - 1e-16)
+    raw, slope = np.log(z) - np.log1p(-z), (hi - lo) * z * (1 - z)
+    raw_sd = factor * sd / np.maximum(slope, 1e-300)
+    sig = lambda x: 0.5 * (1.0 + np.tanh(x / 2))  # noqa: E731  (no overflow at the bounds)
+    out["order_lower"] = jnp.asarray(lo + (hi - lo) * sig(raw - 2 * raw_sd))
+    out["order_upper"] = jnp.asarray(lo + (hi - lo) * sig(raw + 2 * raw_sd))
+    for key in ("order_stderr", "p_stderr", "x0_stderr", "knots_stderr"):
+        out[key] = out[key] * factor
+    out["p_cov"] = out["p_cov"] * factor**2
+    return out
+
+
+def _warn(result, at_bound, rho):
+    import warnings
+
+    import optimistix as optx
+
+    problems = []
+    if not bool(result == optx.RESULTS.successful):
+        problems.append("the fit did not converge (more `max_steps`, another `order0`)")
+    if at_bound:
+        problems.append("the order sits at a bound of `order_bounds`: its interval is "
+                        "one-sided and its standard error is not meaningful")
+    if np.isfinite(rho) and rho > CORRELATED_RESIDUALS:
+        problems.append(f"the residuals are correlated (lag-1 {rho:.2f}): the model misses "
+                        "part of the signal (compare models with vojax.compare, another "
+                        "--model); the errors are inflated for it")
+    if problems:
+        warnings.warn(f"vojax.refit: {'; '.join(problems)}.", RefitWarning, stacklevel=3)
 
 
 def _direct_regressors(direct, num):
@@ -444,159 +333,6 @@ def _direct_regressors(direct, num):
             f"`direct` must have {num} samples like `u`, got shape {v.shape}."
         )
     return v
-
-
-@eqx.filter_jit
-def _fit(
-    mem, u2, v, big_y, sw, active, order0, num_knots, bounds, estimate, rtol, atol, max_steps,
-    throw,
-):
-    """The Levenberg–Marquardt fit and its Gauss–Newton errors, compiled once per shape and
-    static setting (numbers are arrays, the model is built inside: no retracing). ``sw`` is the
-    square root of each sample's weight; coefficients with ``active = 0`` are held at 0."""
-    import optimistix as optx
-
-    TRACES["fit"] += 1  # runs only while tracing
-    num, width = u2.shape
-    count = active.shape[0]  # coefficients: of the integrated inputs, then of `direct`
-    # up to the last fitted sample (as a float: it scales the knots' grid)
-    span = (jnp.max(jnp.where(sw > 0, jnp.arange(num), 0)) + 1).astype(sw.dtype)
-    lo, hi = bounds
-    z0 = (order0 - lo) / (hi - lo)
-    raw0 = jnp.full((num_knots,), jnp.log(z0 / (1 - z0)))
-    keep = jnp.concatenate([active, jnp.ones((1,), sw.dtype)]) if estimate else active
-
-    def design(phi):  # regressors of the linear part: Φ, the direct ones and (estimated) 1
-        parts = [phi, v] + ([jnp.ones((num, 1), phi.dtype)] if estimate else [])
-        return jnp.concatenate(parts, 1) * keep
-
-    phi_of = order_map(mem, u2)  # the order-free history, once, outside the solver's loop
-
-    def model(theta):
-        raw, p = theta[:num_knots], theta[num_knots:]
-        beta = _order_curve(raw, num, bounds, span)
-        return design(phi_of(beta)) @ p
-
-    # a start for p: linear least squares at the initial order (0 for held coefficients)
-    phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
-    p0 = jnp.linalg.lstsq(phi0 * sw[:, None], big_y * sw)[0]
-    # the solver sees the residuals in units of the data's RMS and each coefficient in units
-    # of (that RMS / its regressor's RMS), so that its tolerances mean the same in any units
-    # (in metres and newtons an AFM record's residuals are ~1e-10: below an absolute
-    # tolerance of 1e-10 the solver stopped at its start)
-    fitted = jnp.maximum(jnp.sum(sw > 0), 1).astype(sw.dtype)
-    y_scale = jnp.sqrt(jnp.sum((sw * big_y) ** 2) / fitted)
-    y_scale = jnp.where(y_scale > 0, y_scale, 1.0)
-    col = jnp.sqrt(jnp.sum((phi0 * sw[:, None]) ** 2, axis=0) / fitted)
-    p_unit = y_scale / jnp.where(col > 0, col, y_scale)
-    sol = optx.least_squares(
-        lambda th, _: (model(jnp.concatenate([th[:num_knots], th[num_knots:] * p_unit])) - big_y)
-        * sw / y_scale,
-        optx.LevenbergMarquardt(rtol=rtol, atol=atol),
-        jnp.concatenate([raw0, p0 / p_unit]),
-        max_steps=max_steps,
-        throw=throw,
-    )
-    theta = jnp.concatenate([sol.value[:num_knots], sol.value[num_knots:] * p_unit])
-    fit = model(theta)
-    residuals = big_y - fit
-    # the Jacobian by the chain rule: ∂ŷ/∂p = the design, ∂ŷ_k/∂raw_i = (∂Φ_k/∂b · p) ∂β_k/∂raw_i
-    # (one readout with its order sensitivity, no Jacobian traced through the memory)
-    raw_t, p_t = theta[:num_knots], theta[num_knots:]
-    phi_t, dphi_t = phi_of(_order_curve(raw_t, num, bounds, span), True)
-    dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw_t)
-    jac = jnp.concatenate(
-        [(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1
-    ) * sw[:, None]
-    free = jnp.concatenate([jnp.ones((num_knots,), sw.dtype), keep])
-    inverse, loose = _gauss_newton(jac, free)
-    determined = jnp.sum(free) - jnp.sum(loose, dtype=sw.dtype)
-    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - determined, 1.0)
-    sigma2 = jnp.sum((sw * residuals) ** 2) / dof
-    cov = sigma2 * inverse
-    raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
-    graw = jax.jacfwd(raw_of)(theta)
-    finite = jnp.where(loose[:, None] | loose[None, :], 0.0, cov)
-    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, finite, graw), 0.0))
-    # a sample whose order depends on an undetermined knot: an infinite error, the band the range
-    raw_sd = jnp.where(jnp.any((jnp.abs(graw) > 0) & loose[None, :], axis=1), jnp.inf, raw_sd)
-    raw = raw_of(theta)
-    slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
-    pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
-    theta = theta.at[num_knots:].set(_zero_rounding(theta[num_knots:], design(phi_t), big_y, sw))
-    return dict(
-        order=_order_curve(theta[:num_knots], num, bounds, span),
-        order_stderr=slope * raw_sd,
-        order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
-        order_upper=lo + (hi - lo) * jax.nn.sigmoid(raw + 2 * raw_sd),
-        p=theta[num_knots : num_knots + count] * active,
-        p_stderr=jnp.sqrt(jnp.maximum(jnp.diag(pc), 0.0)),
-        p_cov=pc,
-        offset=theta[-1] if estimate else jnp.zeros((), theta.dtype),
-        x0_stderr=jnp.sqrt(jnp.maximum(cov[-1, -1], 0.0)) if estimate else jnp.zeros(()),
-        knots=lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots]),
-        knots_stderr=jnp.where(
-            loose[:num_knots],
-            jnp.inf,
-            (hi - lo) * jax.nn.sigmoid(theta[:num_knots]) * (1 - jax.nn.sigmoid(theta[:num_knots]))
-            * jnp.sqrt(jnp.maximum(jnp.diag(cov)[:num_knots], 0.0)),
-        ),
-        fit=fit,
-        residuals=residuals,
-        sigma=jnp.sqrt(sigma2),
-        result=sol.result,
-        steps=sol.stats["num_steps"],
-        span=span,
-    )
-
-
-def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):
-    """With the order fixed the model is linear in the coefficients (and the offset): weighted
-    least squares, with the sign constraints by the same active set as `refit`."""
-    import optimistix as optx
-
-    parts = [phi, v] + ([jnp.ones((phi.shape[0], 1), phi.dtype)] if estimate else [])
-    full = jnp.concatenate(parts, 1)
-    count = signs.size
-    active = np.ones(full.shape[1])
-    while True:
-        a = full * jnp.asarray(active)
-        p = jnp.linalg.lstsq(a * sw[:, None], big_y * sw)[0] * jnp.asarray(active)
-        # ranked in standard errors (σ² is common to all and drops out): in magnitudes the
-        # choice would depend on each input's unit
-        inverse, _ = _gauss_newton(a * sw[:, None], jnp.asarray(active))
-        scale = np.sqrt(np.maximum(np.diag(np.asarray(inverse))[:count], np.finfo(float).tiny))
-        if not _hold_worst(active, signs, np.asarray(p[:count]), scale):
-            break
-    p = _zero_rounding(p, full, big_y, sw)
-    fit = full @ p
-    residuals = big_y - fit
-    inverse, loose = _gauss_newton(a * sw[:, None], jnp.asarray(active))
-    determined = float(np.sum(active)) - jnp.sum(loose, dtype=sw.dtype)
-    dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - determined, 1.0)
-    sigma2 = jnp.sum((sw * residuals) ** 2) / dof
-    cov = sigma2 * inverse
-    zero = jnp.zeros_like(fixed)
-    return Refit(
-        order=fixed,
-        order_stderr=zero,
-        order_lower=fixed,
-        order_upper=fixed,
-        p=p[:count],
-        p_stderr=jnp.sqrt(jnp.diag(cov)[:count]),
-        p_cov=cov[:count, :count],
-        x0=x0 + (p[-1] if estimate else 0.0),
-        x0_stderr=jnp.sqrt(cov[-1, -1]) if estimate else jnp.zeros(()),
-        knots=fixed[:0],
-        knots_stderr=fixed[:0],
-        knot_times=fixed[:0],
-        y_hat=fit + x0,
-        residuals=residuals,
-        sigma=jnp.sqrt(sigma2),
-        result=optx.RESULTS.successful,
-        steps=jnp.asarray(0),
-        p_at_bound=tuple(bool(a == 0) for a in active[:count]),
-    )
 
 
 def refit_lbfgsb(

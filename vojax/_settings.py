@@ -61,7 +61,7 @@ class TrackerSettings:
     alt_order_drift: tuple[float, ...] = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift …
     order_drift_base: float = 1e-3  # … or × this, where the tuned drift is smaller
     alt_param_drift: tuple[float, ...] = (1e-3, 1e-2, 1e-1)  # parameter drifts tried
-    envelope_evidence: float = 200.0  # nats below the tuned run beyond which drift can't widen
+    envelope_evidence: float = 200.0  # nats below the tuned run beyond which drift won't count
     # the trade-off profile: constant orders with the parameters drifting on hat functions
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
     trade_orders: int = 25  # constant orders profiled, evenly across the bounds
@@ -72,6 +72,10 @@ class TrackerSettings:
     level_max: float = 4.0  # … up to this ratio (and down to its inverse)
     level_splits: int = 3  # bisections a side between a fitting and a failing scale
     level_pin: float = 1e-8  # prior variance of a held parameter, × its square (at least 1)
+    # the band from the explanations (`vojax._tracker._band`)
+    band_scale: float = 1.0  # the factor on each explanation's σ (1: calibrated on the suite)
+    band_floor: float = 0.0025  # the order's least σ: its model error (quadrature, the input)
+    drift_floor: float = 0.005  # a relative parameter drift below this counts as none
 
     # ---- the verdict
     identified_halfwidth: float = 0.1  # the widest ±2σ half-width (median) called identified

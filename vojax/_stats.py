@@ -5,13 +5,15 @@ import functools
 import numpy as np
 
 
-def noise_variance(y) -> float:
-    """Measurement-noise variance from the data alone: the median absolute second difference,
-    ``σ̂ = 1.4826·median|y_{k+1} − 2y_k + y_{k−1}| / √6`` (white noise: Var Δ²y = 6σ²; the
-    median ignores the few large differences of steps and ramps). Not from the law's residuals,
-    which carry its tracking error as well."""
-    d2 = np.diff(np.asarray(y), 2)
-    return float((1.4826 * np.median(np.abs(d2))) ** 2 / 6.0)
+def noise_variance(y, order: int = 2) -> float:
+    """Measurement-noise variance from the data alone: the median absolute difference of the
+    given `order` (2: ``σ̂ = 1.4826·median|y_{k+1} − 2y_k + y_{k−1}| / √6``; white noise:
+    Var Δ^k y = C(2k, k) σ²; the median ignores the few large differences of steps and
+    ramps). Not from the law's residuals, which carry its tracking error as well."""
+    import math
+
+    dk = np.diff(np.asarray(y), order)
+    return float((1.4826 * np.median(np.abs(dk))) ** 2 / math.comb(2 * order, order))
 
 
 # lag-1 autocorrelation of the tracker's innovations above which its band, which assumes

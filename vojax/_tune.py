@@ -7,8 +7,8 @@ import numpy as np
 from jax import lax
 
 from ._adaptive._build import DEFAULT_BOUNDS, assemble_law
-from ._validate import check_options
 from ._integral import make_memory
+from ._validate import check_options
 
 TRACES = {"tune": 0}
 # the refinement differentiates through the law in blocks of samples, each block checkpointed:

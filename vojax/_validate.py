@@ -268,3 +268,23 @@ def first_bad(*arrays):
         a = np.asarray(a)
         bad |= ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
     return int(np.argmax(bad)) if bad.any() else None
+
+
+def record_arguments(u, y, dt, t):
+    """``(u, y, dt, t)``, a `Record` in `u` unpacked onto its own clock: its inputs, its
+    output, and its step or its times. A `Record` carries its clock: `y`, `dt` or `t` given
+    with it is an error (a step would lose a non-uniform clock without a word)."""
+    from ._data._records import Record
+
+    if not isinstance(u, Record):
+        if y is None:
+            raise TypeError("`y` (the measured output) is missing; or pass a Record alone.")
+        return u, y, dt, t
+    given = [name for name, v in (("y", y), ("dt", dt), ("t", t)) if v is not None]
+    if given:
+        raise ValueError(
+            f"a Record carries its own output and clock: leave out {', '.join(given)} "
+            f"(identify(record)), or pass record.inputs and record.output with its grid."
+        )
+    grid = u.grid
+    return u.inputs, u.output, grid.get("dt"), grid.get("t")

@@ -20,11 +20,11 @@ writes: ``identification.csv``, ``summary.json`` and the figure, each atomically
 import math
 from pathlib import Path
 
-from ._data._pipeline import identify_record as _identify_record
-from ._data._pipeline import canonical_method, make_provenance, write_outputs
-from ._data._records import DataError, Record, load_records
 from ._data._batch import BatchReport, dask_client
 from ._data._batch import run_batch as _run_batch
+from ._data._pipeline import canonical_method, make_provenance, write_outputs
+from ._data._pipeline import identify_record as _identify_record
+from ._data._records import DataError, Record, load_records
 from ._progress import wanted
 
 __all__ = [
@@ -89,7 +89,7 @@ def identify_record(
       / ``"gradient+refit"`` (one of the first two and the refit). The same names as
       `vojax.identify`'s `method` and the keys of the summary.
     - `area`, `length`: eq. (35): σ = F/a and ε = d/l.
-    - `parameters`: the tracker's, as in `vojax.identify` (``"drifting"`` when None).
+    - `parameters`: the tracker's, as in `vojax.identify` (``"free"`` when None).
 
     `columns` holds the per-sample series (``time``, ``alpha`` and its band, the physical
     parameters, ``y``, ``y_hat``, the refit's columns), `summary` the estimates with their

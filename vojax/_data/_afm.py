@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._records import DataError
+from ._errors import DataError
 
 AFM_SUFFIXES = (".jpk-force", ".jpk-force-map", ".jpk-qi-data", ".jpk-qi-series", ".ibw", ".h5")
 BASELINE_FRACTION = 0.2  # F₀ and its spread from the first 20 % of the loading part

@@ -17,10 +17,10 @@ import numpy as np
 from jax import lax
 from jaxtyping import Array, Float, Int
 
+from .._xla import to_device
 from ._base import AbstractMemory
 from ._special import digamma, lgamma
 from ._weights import TRAPEZOID, end_weights, log_norm
-from .._xla import to_device
 
 DEFAULT_TOL = 1e-10
 DEFAULT_ORDER_RANGE = (0.01, 0.99)

@@ -70,13 +70,15 @@ def to_samples(t_blocks, values, times):
     return np.stack([np.interp(times, t_blocks, v) for v in values.T], axis=1)
 
 
-def fit_blocks(tracker, u2, y, dt, t, mask, size, span):
+def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=None):
     """The `tracker` on the means of blocks of `size` samples of the record's first `span`
     samples (padding after them is not the record's), its estimates brought back to every
     sample: the order, its band and the parameters linear between block times, the output
     ``y_hat`` from one memory run over the whole record at that order. Returns
     ``(TrackResult, fit)``, `fit` what the tracker fitted, for the diagnostics, with the
-    coarse clock's model error (`block_error`)."""
+    coarse clock's model error (`block_error`). `dt`, `t` are on the tracker's clock (the
+    user's time over `time_scale`); `times` the sample times on that clock (from `dt` when
+    None)."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
     from .._stats import noise_variance
     from .._xla import to_device
@@ -87,7 +89,8 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span):
     s, bounds, x0, noise = tracker.settings, tracker.alpha_bounds, tracker.x0, tracker.noise
     num = u2.shape[0]
     dtype = np.dtype(u2.dtype)
-    times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
+    if times is None:
+        times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
     u_np, y_np = np.asarray(u2), np.asarray(y)
     mask_np = None if mask is None else np.asarray(mask)[:span]
     t_b, u_b, y_b, mask_b = block_means(times[:span], u_np[:span], y_np[:span], mask_np, size)
@@ -99,12 +102,16 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span):
         mem_b, to_device(u_b), to_device(y_b), None, bounds, s, smooth=tracker.smooth,
         noise=noise, mask=None if mask is None else to_device(mask_b), times=t_b,
         parameters=tracker.parameters, x0=x0, batched=size >= s.batched_block,
+        time_scale=time_scale,
     )
     mem = make_memory(tracker.memory, dt, num, rule=tracker.rule, tol=tracker.tol,
                       order_range=bounds, times=t)
-    # everything at every sample: linear between block times
+    # everything at every sample: linear between block times; the output from the reported
+    # parameters brought to the tracker's clock (× time_scale^α at each sample's order)
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
-    alpha, p = at_samples(res.alpha), at_samples(res.p)
+    alpha = at_samples(res.alpha)
+    p_user = at_samples(res.p)
+    p = p_user * time_scale ** alpha[:, None]
     # the two runs over every sample, at the constant-order fit and at the tracked order, as
     # one batched scan
     constant = np.full((num,), res.constant_order, dtype)
@@ -126,13 +133,16 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span):
         alpha_std=to_device(at_samples(res.alpha_std)),
         alpha_lower=to_device(at_samples(res.alpha_lower)),
         alpha_upper=to_device(at_samples(res.alpha_upper)),
-        p=to_device(p),
+        p=to_device(p_user),
         p_std=to_device(at_samples(res.p_std)),
         y_hat=to_device(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
         y_pred=to_device(at_samples(res.y_pred)),
         alpha_held=None if res.alpha_held is None else to_device(at_samples(res.alpha_held)),
+        conditional=None if res.conditional is None else tuple(
+            to_device(at_samples(a)) for a in res.conditional),
     )
     fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
                held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],
-               mask=None if mask is None else mask_b, block_error=block_error)
+               mask=None if mask is None else mask_b, block_error=block_error,
+               conditional=res.conditional)
     return full, fit

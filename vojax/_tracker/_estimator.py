@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _validate as check
 from .._diagnostics import IdentifiabilityWarning, diagnose
-from .._identification import Identification
+from .._identification import Conditional, Identification
 from .._integral import make_memory
 from .._settings import TrackerSettings
 from .._stats import prediction_error_correlation
@@ -25,6 +25,29 @@ MIN_POINTS = 100  # the fewest points `max_points` may ask for
 NOISE_KEYS = frozenset({"order_drift", "parameter_drift", "noise_std"})
 
 
+def parameters_statement(value):
+    """What `parameters=` states: "free" (also "drifting", and None), "constant" (also 0),
+    or the largest relative drift (max − min)/|mean| vouched for, a number > 0."""
+    if value is None or isinstance(value, str) and value in ("free", "drifting"):
+        return "free"
+    if isinstance(value, str) and value == "constant":
+        return "constant"
+    if isinstance(value, (str, bool)):
+        raise ValueError(
+            "`parameters` must be 'free', 'constant' or the largest relative drift of the "
+            f"parameters over the record (a number ≥ 0), got {value!r}."
+        )
+    try:
+        bound = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"`parameters` must be 'free', 'constant' or a number ≥ 0, got "
+                         f"{value!r}.") from None
+    if not (np.isfinite(bound) and bound >= 0):
+        raise ValueError(f"`parameters` as a drift bound must be a finite number ≥ 0, got "
+                         f"{value!r}.")
+    return "constant" if bound == 0 else bound
+
+
 @dataclasses.dataclass(frozen=True)
 class Tracker:
     """The joint Bayesian tracker of the order α(t), the parameters p(t) and the output
@@ -37,7 +60,7 @@ class Tracker:
     ```
     """
 
-    parameters: str = "drifting"
+    parameters: str | float = "free"
     x0: float | None = None
     smooth: bool = True
     alpha_bounds: tuple[float, float] = KALMAN_BOUNDS
@@ -46,10 +69,11 @@ class Tracker:
     noise: dict | None = None
     max_points: int | None = None
     tol: float = 1e-10
+    time_scale: float | None = None
     settings: TrackerSettings = TrackerSettings()
 
     def __post_init__(self):
-        check.choice(self.parameters, ("drifting", "constant"), "parameters")
+        object.__setattr__(self, "parameters", parameters_statement(self.parameters))
         if self.parameters == "constant" and self.noise is not None:
             raise ValueError(
                 "`noise` sets the parameters' drift itself (its 'parameter_drift'); give it, "
@@ -70,6 +94,8 @@ class Tracker:
         if self.max_points is not None:
             object.__setattr__(self, "max_points", check.count(
                 self.max_points, "max_points", low=MIN_POINTS, high=TRACKER_MAX_POINTS))
+        if self.time_scale is not None:
+            check.positive(self.time_scale, "time_scale")
         if not isinstance(self.settings, TrackerSettings):
             raise TypeError(f"`settings` must be a vojax.TrackerSettings, got {self.settings!r}.")
 
@@ -93,15 +119,27 @@ class Tracker:
         # record's)
         length = u2.shape[0] if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1
         size = block_size(length, max_points)
+        # the tracker's clock: time over the record's span (or `time_scale`), so that
+        # parameters held constant (or drift-bounded) mean the same in any unit of time
+        scale = self._time_scale(dt, t, length)
+        dt_c = None if dt is None else float(np.asarray(dt)) / scale
+        t_c = None if t is None else np.asarray(t, float) / scale
         if size > 1:
-            res, fit = fit_blocks(self, u2, y, dt, t, mask, size, length)
+            # the sample times on the tracker's clock, as the user's over the scale (so that
+            # a uniform `t` and its `dt` give the same block means to the last bit)
+            user_times = np.asarray(t, float) if t is not None else float(
+                np.asarray(dt)) * np.arange(u2.shape[0])
+            res, fit = fit_blocks(self, u2, y, dt_c, t_c, mask, size, length, scale,
+                                  times=user_times / scale)
         else:
-            mem = make_memory(self.memory, dt, u2.shape[0], rule=self.rule, tol=self.tol,
-                              order_range=bounds, times=t)
-            res = fit_points(mem, u2, y, dt, bounds, s, smooth=self.smooth, noise=self.noise,
-                             mask=mask, times=t, parameters=self.parameters, x0=self.x0)
+            mem = make_memory(self.memory, dt_c, u2.shape[0], rule=self.rule, tol=self.tol,
+                              order_range=bounds, times=t_c)
+            res = fit_points(mem, u2, y, dt_c, bounds, s, smooth=self.smooth, noise=self.noise,
+                             mask=mask, times=t_c, parameters=self.parameters, x0=self.x0,
+                             time_scale=scale)
             fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
-                       held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask)
+                       held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask,
+                       conditional=res.conditional)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
@@ -119,15 +157,27 @@ class Tracker:
             lam=nan, alpha0=nan, dt=to_device(nominal_step(dt, t)), alpha_bounds=bounds,
             memory=self.memory, method="kalman", diagnostics=diagnostics, tuning=res.tuning,
             parameters=self.parameters,
+            conditional=None if res.conditional is None else Conditional(*res.conditional),
         )
+
+    def _time_scale(self, dt, t, length):
+        """The unit of the tracker's clock in the user's: `time_scale`, or the span of the
+        record's fitted samples."""
+        if self.time_scale is not None:
+            return float(np.asarray(self.time_scale))
+        if t is not None:
+            return float(np.asarray(t)[length - 1] - np.asarray(t)[0])
+        return float(np.asarray(dt)) * (length - 1)
 
     def _diagnose(self, res, fit, size, bounds):
         """The diagnostics of what the tracker fitted (the block means of a long record); cut
         in NumPy: an eager slice of a JAX array compiles anew for every record length."""
         fit_mask, span = fit["mask"], fit["span"]
         alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
-        shift = None
-        if fit["held"] is not None:
+        shift, conditional = None, fit.get("conditional")
+        if conditional is not None:  # the held smoothing is an explanation the band weighed
+            conditional = tuple(np.asarray(a)[:span] for a in conditional[1:3])
+        elif fit["held"] is not None:
             held = np.asarray(fit["held"])[:span]
             shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
         y_np, pred = np.asarray(fit["y"])[:span], np.asarray(fit["y_pred"])[:span]
@@ -138,4 +188,6 @@ class Tracker:
             correlation=correlation, trade=res.trade, samples=samples,
             drift_covered=res.drift_covered, block=size, block_error=fit.get("block_error"),
             noise_correlation=res.tuning.noise_correlation, settings=self.settings,
+            conditional=conditional, breakdown_drift=res.breakdown_drift,
+            reference_drift=res.reference_drift,
         )

@@ -12,6 +12,7 @@ from jax import lax
 
 from .._stats import noise_variance
 from .._xla import to_device
+from ._band import bands
 from ._coloured import ar_whitener, coloured
 from ._filter import KalmanTracker
 from ._level import level_profile
@@ -50,6 +51,16 @@ class TrackResult(eqx.Module):
     trade: tuple[float, float] | None = eqx.field(static=True, default=None)
     # the band covers a drifting-parameter alternative that explains the data (see `mixture`)
     drift_covered: bool = eqx.field(static=True, default=False)
+    # every explanation the band weighed (see `vojax._tracker._explanations`)
+    explanations: tuple = eqx.field(static=True, default=())
+    # the conditional answer ``(alpha, lower, upper, std)``, its breakdown drift and its own
+    # parameters' drift (see `vojax._tracker._band`); None and NaN where not computed
+    conditional: tuple | None = None
+    # the measurement noise's variance by each estimate (normalised units): the χ² tests'
+    # (`fit`), the tuned one, the data's own from differences of order 2, 4 and 6
+    noise_levels: dict | None = eqx.field(static=True, default=None)
+    breakdown_drift: float = eqx.field(static=True, default=float("nan"))
+    reference_drift: float = eqx.field(static=True, default=float("nan"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,29 +145,31 @@ def given_intensities(st, noise):
     return hyper, sm, Tuning.of(host_hyper(hyper), (), sm.log_likelihood, False)
 
 
-def band(problem, tuning, starts, sm, hold, fit_noise, whiten):
-    """The smoothed order's variance on the β scale, the mixture's weights, the envelope of
-    the alternatives that fit (or None) and whether one of them has drifting parameters."""
+def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten):
+    """The smoothed order's variance on the β scale (the mixture's), the mixture's weights,
+    and every alternative run as an `Explanation`: the mixture's, and where the parameters
+    are constant (stated so, or tuned to no more drift than `held_order` tolerates) the
+    level profile's."""
     if not tuning.tuned:
-        return np.asarray(sm.cov)[:, 0, 0], None, None, False
-    beta_var, weights, envelope, drifting = mixture(problem, tuning, starts, sm, hold,
-                                                    fit_noise, whiten)
-    # the order's level against the parameters' scale, where the parameters are constant:
-    # stated so, or tuned to no more drift than `held_order` tolerates
+        return np.asarray(sm.cov)[:, 0, 0], None, []
+    beta_var, weights, explanations = mixture(problem, tuning, starts, sm, hold, fit_noise,
+                                              whiten)
     s = problem.settings
     if hold or tuning.parameter_drift <= s.held_ratio * s.constant_drift:
-        envelope = level_profile(problem, tuning, sm, fit_noise, whiten, envelope)
-    return beta_var, weights, envelope, drifting
+        explanations += level_profile(problem, tuning, sm, fit_noise, whiten)
+    return beta_var, weights, explanations
 
 
 def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, mask=None,
-               iterations=3, times=None, parameters="drifting", x0=None, batched=False):
+               iterations=3, times=None, parameters="free", x0=None, batched=False,
+               time_scale=1.0):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
     `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `noise` with a
     parameter drift at most `constant_drift`): their drift held there, and the band
     conditional on it (no `trade_interval`). `x0`: the output's offset, known (held there) or
     None (estimated). `batched`: the first pass's and the mixture's runs through one vmapped
-    program where that is faster (the same results to rounding)."""
+    program where that is faster (the same results to rounding). `dt`, `times` and the
+    `memory` are on the tracker's clock, the user's time over `time_scale`."""
     s = settings
     hold = parameters == "constant" or (
         noise is not None and float(noise["parameter_drift"]) <= s.constant_drift
@@ -173,19 +186,19 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         if found is not None:
             problem, hyper, sm, tuning, starts = found
             whiten = ar_whitener(problem.steps, problem.mask, problem.horizon, tuning)
-    alpha_held = None
-    if smooth and tuning.tuned and tuning.parameter_drift > s.held_ratio * s.constant_drift:
-        alpha_held = held_order(problem, hyper, starts[0],
-                                st.misfit if whiten is None else tuning.noise)
     # the χ² tests of what fits, at the larger of the tuned noise and the data's own
     # (drifting states absorb noise)
     fit_noise = max(tuning.noise, st.noise_data)
-    weights, envelope, drifting = None, None, False
+    alpha_held, held = None, None
+    if smooth and tuning.tuned and tuning.parameter_drift > s.held_ratio * s.constant_drift:
+        alpha_held, held = held_order(problem, hyper, starts[0], tuning.noise, fit_noise,
+                                      whiten)
+    weights, explanations = None, []
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
-        beta_var, weights, envelope, drifting = band(problem, tuning, starts, sm, hold,
-                                                     fit_noise, whiten)
+        beta_var, weights, explanations = alternatives(problem, tuning, starts, sm, hold,
+                                                       fit_noise, whiten)
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
@@ -194,15 +207,59 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
         converged = True
         beta_var = np.asarray(cov)[:, 0, 0]
-    trade = None if hold else trade_interval(problem, fit_noise, whiten, offset=not st.known)
-    return assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred_n,
-                    sm.phi if y_hat_n is None else None, converged, tuning, alpha_held,
-                    weights, drifting)
+    trade, traded = None, []
+    if not hold or (smooth and tuning.tuned):  # held: for the breakdown drift only
+        trade, traded = trade_interval(problem, fit_noise, whiten, offset=not st.known)
+    explanations = tuple(explanations + ([] if held is None else [held]) + traded)
+    found = None
+    if smooth and tuning.tuned:
+        found = bands(explanations, problem.bounds, problem.span,
+                      0.0 if hold else stated_drift(parameters), s.band_scale, s.drift_floor,
+                      floor=s.band_floor, evidence_floor=s.envelope_evidence)
+    res = assemble(st, problem, theta, cov, beta_var, None if hold else trade, y_hat_n,
+                   y_pred_n, sm.phi if y_hat_n is None else None, converged, tuning,
+                   alpha_held, weights, found, time_scale)
+    fitted = np.asarray(problem.y)[np.asarray(problem.mask) > 0]
+    levels = dict(fit=fit_noise, tuned=tuning.noise, data2=st.noise_data,
+                  data4=noise_variance(fitted, 4), data6=noise_variance(fitted, 6),
+                  coloured=whiten is not None)
+    return dataclasses.replace(res, explanations=explanations, noise_levels=levels)
 
 
-def assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred_n, phi,
-             converged, tuning, alpha_held, weights, drifting) -> TrackResult:
-    """The `TrackResult` in the user's units, on the host (NumPy: no program compiled)."""
+def stated_drift(parameters) -> float:
+    """The largest relative drift of the parameters that `parameters` states: "constant" 0,
+    "free" (or "drifting") ∞, a number itself."""
+    if parameters == "constant":
+        return 0.0
+    if parameters in ("free", "drifting"):
+        return np.inf
+    return float(parameters)
+
+
+def user_parameters(theta, cov, p_scale, n, bounds, time_scale):
+    """The parameters and their standard deviations (N, n) in the user's units from the
+    states `theta` (N, d) and covariances `cov` (N, d, d) on the tracker's clock (time over
+    `time_scale`): ``p = p̃ · p_scale · time_scale^(−α)``, since ``I^α`` on that clock is
+    ``time_scale^(−α)`` times ``I^α`` on the user's; the standard deviation by the delta
+    method through the order and the parameter together."""
+    alpha, dalpha = order_of_np(theta[:, 0], bounds)
+    log_ts = float(np.log(time_scale))
+    factor = np.exp(-log_ts * alpha)[:, None] * np.asarray(p_scale)[None, :]
+    p_n = theta[:, 1 : 1 + n]
+    # ∂p/∂β = −p · ln(time_scale) · dα/dβ, ∂p/∂p̃ = factor
+    d_beta = -p_n * factor * log_ts * dalpha[:, None]
+    var = (d_beta**2 * cov[:, 0, 0][:, None]
+           + 2 * d_beta * factor * cov[:, 0, 1 : 1 + n]
+           + factor**2 * np.diagonal(cov, axis1=1, axis2=2)[:, 1 : 1 + n])
+    return p_n * factor, np.sqrt(np.maximum(var, 0.0))
+
+
+def assemble(st, problem, theta, cov, beta_var, trade, y_hat_n, y_pred_n, phi, converged,
+             tuning, alpha_held, weights, found=None, time_scale=1.0) -> TrackResult:
+    """The `TrackResult` in the user's units, on the host (NumPy: no program compiled); the
+    band from the explanations' `Bands` where `found`, else from the mixture's variance
+    `beta_var` (an untuned smoothing, the online filter); the parameters from the tracker's
+    clock (time over `time_scale`) to the user's (`user_parameters`)."""
     bounds, n, scales = problem.bounds, problem.n, st.scales
     theta, cov = np.asarray(theta), np.asarray(cov)
     if y_hat_n is None:
@@ -212,14 +269,13 @@ def assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred
     alpha_std = dalpha * beta_sd
     lower = order_of_np(theta[:, 0] - 2 * beta_sd, bounds)[0]
     upper = order_of_np(theta[:, 0] + 2 * beta_sd, bounds)[0]
-    if envelope is not None:
-        lower = np.minimum(lower, order_of_np(envelope[0], bounds)[0])
-        upper = np.maximum(upper, order_of_np(envelope[1], bounds)[0])
-    if trade is not None:  # the band covers the constant orders a drifting parameter allows
-        lower, upper = np.minimum(lower, trade[0]), np.maximum(upper, trade[1])
-    if trade is not None or envelope is not None:
-        alpha_std = np.maximum(alpha_std, (upper - lower) / 4)
-    scale = np.asarray(st.p_scale)
+    conditional, breakdown, reference_drift = None, float("nan"), float("nan")
+    if found is not None:
+        _, lower, upper, std = found.stated
+        alpha_std = np.maximum(std, (upper - lower) / 4)
+        conditional = tuple(to_device(np.asarray(a)) for a in found.conditional)
+        breakdown, reference_drift = found.breakdown_drift, found.reference_drift
+    p, p_std = user_parameters(theta, cov, st.p_scale, n, bounds, time_scale)
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
     y_hat_n, y_pred_n = np.asarray(y_hat_n), np.asarray(y_pred_n)
     known = st.known
@@ -228,8 +284,8 @@ def assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred
         alpha_std=to_device(alpha_std),
         alpha_lower=to_device(lower),
         alpha_upper=to_device(upper),
-        p=to_device(theta[:, 1 : 1 + n] * scale),
-        p_std=to_device(np.sqrt(var[:, 1 : 1 + n]) * scale),
+        p=to_device(p),
+        p_std=to_device(p_std),
         x0=to_device(scales.y_ref if known else scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
         x0_std=to_device(0.0 if known else scales.y_scale * np.sqrt(var[-1, 1 + n])),
         y_hat=to_device(scales.y_ref + scales.y_scale * y_hat_n),
@@ -240,7 +296,10 @@ def assemble(st, problem, theta, cov, beta_var, envelope, trade, y_hat_n, y_pred
         alpha_held=alpha_held,
         mixture_weights=None if weights is None else tuple(float(w) for w in weights),
         trade=trade,
-        drift_covered=drifting,
+        drift_covered=False if found is None else found.drifting,
+        conditional=conditional,
+        breakdown_drift=breakdown,
+        reference_drift=reference_drift,
     )
 
 

@@ -5,26 +5,26 @@ held at other scales show how far it runs."""
 import numpy as np
 
 from .._xla import to_device
-from ._mixture import fitting, widened
+from ._explanations import smoothing_explanations
+from ._mixture import fitting
 from ._smoother import smoother_modes
 from ._threads import in_threads, stack_hypers
 
 
-def level_profile(problem, tuning, sm, fit_noise, whiten=None, envelope=None):
-    """The envelope ``(lo, hi)`` on the β scale (or None) widened by the ±2σ band of each
-    smoothing, at the tuned intensities `tuning`, with the parameters held at one of
-    `level_ratios` × their mean over the tuned mode `sm` (a prior of variance `level_pin`
-    on θ_0's parameters, which the parameters' floor drift then keeps) whose residuals pass
-    the χ² test of `mixture`. Where the largest (smallest) ratio still fits, the profile goes
-    on by factors of `level_step` up to `level_max` (down to its inverse) until one does not.
-    Between the tuned scale (or a ratio that fits) and the nearest ratio that does not, it
-    bisects on the log scale while the failing run's order is outside its fitting
-    neighbour's ±2σ band, up to `level_splits` times a side (`level_next`). The order's level
-    is not settled by the data where these smoothings fit; their bands then make the reported
-    one cover that ridge."""
+def level_profile(problem, tuning, sm, fit_noise, whiten=None):
+    """The smoothings at the tuned intensities `tuning` with the parameters held at one of
+    `level_ratios` × their mean over the tuned mode `sm` (a prior of variance `level_pin` on
+    θ_0's parameters, which the parameters' floor drift then keeps), each an `Explanation` of
+    kind "level" (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
+    ratio still fits (the χ² test of `Explanation.fits`), the profile goes on by factors of
+    `level_step` up to `level_max` (down to its inverse) until one does not. Between the tuned
+    scale (or a ratio that fits) and the nearest ratio that does not, it bisects on the log
+    scale while the failing run's order is outside its fitting neighbour's ±2σ band, up to
+    `level_splits` times a side (`level_next`). The order's level is not settled by the data
+    along that ridge: the band weighs these smoothings by their likelihood."""
     s = problem.settings
     if not s.level_ratios:
-        return envelope
+        return []
     n, span = problem.n, problem.span
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
     hyper = stack_hypers([tuning.values])
@@ -49,7 +49,7 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, envelope=None):
 
         outs = [o for _, share in in_threads(problem, smoother_modes, len(runs), call,
                                               (problem.u.shape, s.max_iter)) for o in share]
-        return (np.concatenate([o[k] for o in outs]) for k in range(4))
+        return (np.concatenate([o[k] for o in outs]) for k in range(5))
 
     # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
     def sd(variance):
@@ -57,15 +57,16 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, envelope=None):
 
     tried = {1.0: (True, np.asarray(sm.theta)[:, 0], sd(np.asarray(sm.cov)[:, 0, 0]))}
     ratios = list(s.level_ratios)
+    explanations = []
     while ratios:
-        betas, variances, scores, residuals = held_runs(ratios)
+        betas, variances, scores, residuals, params = held_runs(ratios)
+        explanations += smoothing_explanations(["level"] * len(ratios), betas, variances, scores,
+                                               residuals, params, problem, fit_noise, whiten)
         fits = fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)
-        for c in np.flatnonzero(fits):
-            envelope = widened(envelope, betas[c], variances[c])
         for r, f, b, v in zip(ratios, fits, betas, variances):
             tried[r] = (bool(f), b, sd(v))
         ratios = [r for side in (1, -1) for r in level_next(tried, side, span, s)]
-    return envelope
+    return explanations
 
 
 def level_next(tried, side, span, settings):

@@ -5,7 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._xla import to_device
-from ._model import Hyper, order_of_np
+from ._explanations import smoothing_explanations
+from ._model import Hyper, model_output, order_of_np
 from ._smoother import host_score, mix_modes
 from ._threads import run_mode_shares
 
@@ -27,21 +28,13 @@ def fitting(residuals, mask, n, fit_noise, whiten=None):
     return np.asarray(chi2_fits(chi2, dof), bool)
 
 
-def widened(envelope, beta, variance):
-    """The envelope ``(lo, hi)`` (None: empty) widened to cover ``β ± 2σ``."""
-    sd = np.sqrt(np.maximum(variance, 0.0))
-    lo, hi = beta - 2 * sd, beta + 2 * sd
-    if envelope is None:
-        return lo, hi
-    return np.minimum(envelope[0], lo), np.maximum(envelope[1], hi)
-
-
-def held_order(problem, hyper, start, noise):
+def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     """The order trajectory smoothed again with the tuned order drift but the parameters held
-    (drift `constant_drift`) and the measurement noise at `noise` (the constant fit's misfit:
-    held parameters leave more of it), from the constant-order fit `start`. With one input an
-    order and drifting parameters trade off; where the tuned parameters drift, this is the
-    order the data give without that drift. None if the smoothing does not converge."""
+    (drift `constant_drift`) and the measurement noise at `noise` (the tuned one), from the
+    constant-order fit `start`. With one input an order and drifting parameters trade off;
+    where the tuned parameters drift, this is the order the data give without that drift. Returns ``(order, explanation)``, the smoothing
+    as an `Explanation` of kind "held" (χ² at `fit_noise`, or under `whiten`); ``(None,
+    None)`` if the smoothing does not converge."""
     dtype = problem.u.dtype
     held = Hyper(hyper.log_q_order,
                  jnp.log(to_device(np.asarray(problem.settings.constant_drift, dtype))),
@@ -49,8 +42,13 @@ def held_order(problem, hyper, start, noise):
                  hyper.log_ar_time)
     sm = problem.smooth_from(held, start)
     if not bool(sm.converged):
-        return None
-    return to_device(order_of_np(np.asarray(sm.theta)[:, 0], problem.bounds)[0])
+        return None, None
+    theta, n = np.asarray(sm.theta), problem.n
+    residuals = np.asarray(problem.y) - model_output(theta, np.asarray(sm.phi), n)
+    (explanation,) = smoothing_explanations(
+        ["held"], theta[None, :, 0], np.asarray(sm.cov)[None, :, 0, 0], [host_score(sm)],
+        residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten)
+    return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation
 
 
 def alternative_rows(settings, tuning, starts, hold):
@@ -58,7 +56,8 @@ def alternative_rows(settings, tuning, starts, hold):
     the parameters drifting (they follow the starts): the tuned intensities from every
     start; unless `hold`, the parameters' drift set to each of `alt_param_drift`, then the
     order held with the parameters drifting at those levels; the order's drift scaled by each
-    of `alt_order_drift` (from at least `order_drift_base`)."""
+    of `alt_order_drift` (from at least `order_drift_base`). Returns ``(rows, count, kinds)``
+    with each row's kind of `Explanation`."""
     s = settings
     qo, qp, *rest = tuning.values
     # the order drift's range as the search box holds it (logs, and back)
@@ -72,54 +71,38 @@ def alternative_rows(settings, tuning, starts, hold):
     base = max(qo, s.order_drift_base)
     drifts = np.clip(base * np.asarray(s.alt_order_drift), lowest, highest)
     rows += [(float(q), qp, *rest) for q in drifts]
-    return rows, 0 if hold else 2 * len(s.alt_param_drift)
+    kinds = ["start"] * len(starts)
+    if not hold:
+        kinds += ["param_drift"] * len(s.alt_param_drift) + ["held_order"] * len(s.alt_param_drift)
+    kinds += ["order_drift"] * len(drifts)
+    return rows, 0 if hold else 2 * len(s.alt_param_drift), kinds
 
 
 def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None):
     """The order's variance (N,) on the β scale from an evidence-weighted mixture (see
     `mix_modes`) of the tuned smoothing `sm` and of the runs of `alternative_rows`, those
-    after the starts from the time average of the tuned mode. Returns
-    ``(variance, weights, envelope, drifting)``, the tuned run first; `envelope`:
-    ``(lo, hi)`` (N,) on the β scale, the union of the ±2σ bands of the alternatives whose
-    residuals pass a χ² test at 2σ at the noise variance `fit_noise` (or, for a coloured
-    noise, under its `whiten`), or None; `drifting`: one of those has the parameters
-    drifting."""
+    after the starts from the time average of the tuned mode. Returns ``(variance, weights,
+    explanations)``, the tuned run first; `explanations`: each run as an `Explanation` (its
+    χ² at the noise variance `fit_noise`, or for a coloured noise under its `whiten`; []
+    without it)."""
     span = problem.span
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
-    rows, drifting_count = alternative_rows(problem.settings, tuning, starts, hold)
+    rows, _, kinds = alternative_rows(problem.settings, tuning, starts, hold)
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores, residuals = run_mode_shares(
+    betas, variances, scores, residuals, params = run_mode_shares(
         problem, rows, to_device(np.asarray(firsts, problem.u.dtype)), problem.settings.max_iter,
     )
-    betas = np.concatenate([np.asarray(sm.theta)[None, :, 0], np.asarray(betas)])
-    variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], np.asarray(variances)])
-    scores = np.concatenate([[host_score(sm)], np.asarray(scores)])
+    theta, n = np.asarray(sm.theta), problem.n
+    betas = np.concatenate([theta[None, :, 0], betas])
+    variances = np.concatenate([np.asarray(sm.cov)[None, :, 0, 0], variances])
+    scores = np.concatenate([[host_score(sm)], scores])
     variance, weights = mix_modes(betas, variances, scores, 0, span)
-    # the alternatives that explain the data (a χ² test at 2σ, at the noise `fit_noise`):
-    # the band covers each one's ±2σ, whatever its evidence (evidence under the random-walk
-    # prior is not a safe guide between a moving order and drifting parameters, nor between
-    # order-drift levels)
-    envelope, drifting = None, False
-    first = 1 + len(starts)  # after the tuned run and the starts: the drifting parameters
-    drift_rows = range(first, first + drifting_count)
+    explanations = []
     if fit_noise is not None:
-        # the alternatives only: `residuals` has no row for the tuned run (index 0). One with
-        # the parameters drifting must also be within the evidence floor: those runs fit
-        # almost any record, with the order's level free
-        drifts = np.isin(np.arange(1, len(scores)), drift_rows)
-        floor = evidence_floor(scores[0], problem.settings.envelope_evidence)
-        plausible = np.isfinite(scores[1:]) & (~drifts | (scores[1:] >= floor))
-        passing = fitting(residuals, problem.mask, problem.n, fit_noise, whiten) & plausible
-        for c in 1 + np.flatnonzero(passing):
-            drifting |= c in drift_rows
-            envelope = widened(envelope, betas[c], variances[c])
-    return variance, weights, envelope, drifting
-
-
-def evidence_floor(tuned, below):
-    """The lowest Laplace evidence at which a run with the parameters drifting may widen the
-    band: `below` nats under the tuned run's evidence `tuned`, or −∞ (no floor) where the
-    tuned run did not converge."""
-    return tuned - below if np.isfinite(tuned) else -np.inf
+        tuned = np.asarray(problem.y) - model_output(theta, np.asarray(sm.phi), n)
+        explanations = smoothing_explanations(
+            ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
+            np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten)
+    return variance, weights, explanations

@@ -218,16 +218,17 @@ def smoother_modes(
     """`iterated_smoother` for a batch of noise intensities `hyper` (leading axis C), each from
     the constant trajectory of its row of `starts` (C, d), in order (`_runs`). Returns, per
     run, only what a mixture of them needs: the order coordinate β of the mode (C, N), its
-    smoothed variance (C, N), the run's `score` (C,) and its residuals from the noise-free
-    output (C, N)."""
+    smoothed variance (C, N), the run's `score` (C,), its residuals from the noise-free
+    output (C, N) and its parameters (C, N, n)."""
     n, yy = u.shape[1], np.asarray(y)
     out = []
     for sm in _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max_iter,
                     batched, schedule):
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
         res = yy - model_output(theta, phi, n)
-        out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res))
-    return tuple(np.array([o[k] for o in out]) for k in range(4))
+        out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res,
+                    theta[:, 1 : 1 + n]))
+    return tuple(np.array([o[k] for o in out]) for k in range(5))
 
 
 def score(sm):

@@ -4,7 +4,9 @@ explains the data as well as the best such fit."""
 
 import numpy as np
 
+from ._explanations import Explanation, relative_drift
 from ._mixture import chi2_fits
+from ._model import beta_of_np
 from ._start import least_squares, phi_columns
 
 
@@ -39,7 +41,8 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
     memory term (``y ≈ c + Σ a_jk B_k Φ_j``), then inside the integral
     (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `least_squares`).
     The integral is linear: the coarse hats' columns are sums of the fine ones'
-    (`refinement`), so one run of the memory a constant order serves both."""
+    (`refinement`), so one run of the memory a constant order serves both. Returns the χ²
+    and the designs: ``designs[a][knots][form]`` (N, n·k), a drifting coefficient a column."""
     s = problem.settings
     u, y, mask, fine = (np.asarray(a) for a in (problem.u, problem.y, problem.mask, fine))
     num, n = u.shape
@@ -49,17 +52,65 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
     inside_u = (u[:, :, None] * fine[:, None, :]).reshape(num, n * k)
     # one block of `phi_block` = k + 1 columns an input: its own and its k drifting ones
     columns = np.concatenate([u, inside_u], axis=1)
-    out = []
+    out, designs = [], []
     for alpha in alphas:
         both = phi_columns(problem.memory, columns, alpha, s.phi_block)
         phi, inside = both[:, :n], both[:, n:].reshape(num, n, k)
-        row = []
+        row, design = [], []
         for basis, drifting in ((coarse, inside @ r), (fine, inside)):
             gain = phi[:, :, None] * basis[:, None, :]
-            row.append([least_squares(x.reshape(num, -1), y, mask, whiten, offset)[0]
-                        for x in (gain, drifting)])
+            xs = [x.reshape(num, -1) for x in (gain, drifting)]
+            row.append([least_squares(x, y, mask, whiten, offset)[0] for x in xs])
+            design.append(xs)
         out.append(row)
-    return np.asarray(out)
+        designs.append(design)
+    return np.asarray(out), designs
+
+
+def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True):
+    """The least relative drift of the parameters ``p_j = basis @ a_j`` (`basis` (N, k), the
+    design `x` (N, n·k) a coefficient a column) among fits whose χ² (the weighted residual sum
+    of squares × `scale`) stays within `limit`: the smoothest fit (least squares with a
+    penalty ``λ Σ_j ‖Δa_j‖²`` on the coefficients' differences, λ the largest that keeps the
+    χ² within the limit, found by bisection in log λ) — ∞ where even the unpenalised fit
+    exceeds the limit, and the drift of the constant parameters (0) where they fit within it.
+    See `vojax._tracker._explanations.relative_drift`."""
+    num, k = basis.shape
+    n = x.shape[1] // k
+    cols = np.concatenate([x, np.ones((num, 1))], axis=1) if offset else x
+    yy = y
+    if whiten is not None:
+        cols, yy = whiten(cols), whiten(y)
+    w = np.sqrt(np.asarray(mask, float))
+    a_mat, b = cols * w[:, None], yy * w
+    gram, rhs = a_mat.T @ a_mat, a_mat.T @ b
+    diff = np.diff(np.eye(k), axis=0)  # (k − 1, k): the coefficients' first differences
+    penalty = np.zeros_like(gram)
+    for j in range(n):
+        block = slice(j * k, (j + 1) * k)
+        penalty[block, block] = diff.T @ diff
+    unit = np.trace(gram) / max(np.trace(penalty), 1e-300)
+
+    def fit(lam):
+        coef = np.linalg.lstsq(gram + lam * unit * penalty, rhs, rcond=None)[0]
+        res = b - a_mat @ coef
+        return float(res @ res) * scale, coef
+
+    chi2, coef = fit(0.0)
+    if not chi2 <= limit:
+        return np.inf
+    lo, hi = -12.0, 12.0  # log10 λ, in units of `unit`
+    if fit(10.0**hi)[0] <= limit:
+        return 0.0  # the parameters constant within the limit
+    for _ in range(40):
+        mid = (lo + hi) / 2
+        c_mid, coef_mid = fit(10.0**mid)
+        if c_mid <= limit:
+            lo, coef = mid, coef_mid
+        else:
+            hi = mid
+    params = np.stack([basis @ coef[j * k : (j + 1) * k] for j in range(n)], axis=1)
+    return relative_drift(params, span)
 
 
 def trade_interval(problem, noise, whiten=None, offset=True):
@@ -69,24 +120,29 @@ def trade_interval(problem, noise, whiten=None, offset=True):
     inside) whose best fit passes a χ² test at 2σ (``χ² ≤ dof + 2√(2 dof)``); None when
     neither explains the data. Each form's drift is on `trade_knots` knots, or on
     `trade_knots_fine` where Akaike's criterion prefers them. ``offset=False``: the offset is
-    known to be 0."""
+    known to be 0. Returns ``(interval, explanations)``: each grid order inside a form's
+    interval as an `Explanation` of kind "trade", with the least drift its fits need
+    (`least_drift`)."""
     s = problem.settings
     lo, hi = problem.bounds
     n = problem.n
     alphas = np.linspace(lo, hi, s.trade_orders + 2)[1:-1]
     fine = hat_basis(problem.times, problem.last, s.trade_knots_fine)
-    chi2 = drift_profile(problem, alphas, fine, whiten, offset)
-    chi2 = chi2 / noise if whiten is None else chi2
+    chi2, designs = drift_profile(problem, alphas, fine, whiten, offset)
+    scale = 1.0 / noise if whiten is None else 1.0
+    chi2 = chi2 * scale
     fitted = float(np.sum(np.asarray(problem.mask)))
-    found = []
+    bases = (fine @ refinement(s.trade_knots), fine)
+    y, mask = np.asarray(problem.y), np.asarray(problem.mask)
+    found, explanations = [], []
     for form in range(chi2.shape[2]):
-        c, knots = chi2[:, 0, form], s.trade_knots
+        c, knots, level = chi2[:, 0, form], s.trade_knots, 0
         c_fine = chi2[:, 1, form]
         # the finer drift where its added coefficients pay for themselves (Akaike)
         if np.all(np.isfinite(c_fine)) and (
             c.min() - c_fine.min() > 2 * n * (s.trade_knots_fine - s.trade_knots)
         ):
-            c, knots = c_fine, s.trade_knots_fine
+            c, knots, level = c_fine, s.trade_knots_fine, 1
         dof = max(fitted - n * knots - 1, 1.0)
         if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):
             continue
@@ -99,4 +155,12 @@ def trade_interval(problem, noise, whiten=None, offset=True):
         i, j = inside[0], inside[-1]
         found.append(lo if i == 0 else crossing(i, i - 1))
         found.append(hi if j == alphas.size - 1 else crossing(j, j + 1))
-    return (float(min(found)), float(max(found))) if found else None
+        limit = c.min() + s.trade_chi2
+        for a in inside:
+            drift = least_drift(designs[a][level][form], y, mask, bases[level], problem.span,
+                                limit, scale, whiten, offset)
+            beta = np.full(y.shape[0], float(beta_of_np(alphas[a], problem.bounds)))
+            explanations.append(Explanation("trade", beta, np.zeros_like(beta), float(c[a]),
+                                            dof, np.nan, drift, accepted=True))
+    interval = (float(min(found)), float(max(found))) if found else None
+    return interval, explanations

@@ -1,0 +1,175 @@
+"""The tracker's explanations on the calibration suite, saved once and scored under band rules.
+
+Every band the tracker reports is built from its explanations of the record
+(`vojax._tracker._explanations`): the tuned smoothing, its alternatives (other starts, order
+drifts, parameter drifts), the level profile's held scales and the trade-off's constant
+orders, each with its order trajectory and Laplace band, its χ², its evidence and the drift of
+its parameters. `--dump` runs the tracker on the suite's draws (`bench_calibration.draw_case`)
+under the settings named and saves, per record and setting, every explanation on the clock
+the tracker fitted (block means of a long record), with the truth there; `--evaluate` then
+scores band rules on them as the suite does (per family: identified, pooled coverage of the
+±2σ band over the second half, median z RMS, median order RMS, confidently wrong), and, for
+the conditional answer, how often its promise is false (the band misses the truth while the
+breakdown drift exceeds the true drift).
+
+    python scripts/band_explanations.py --dump DIR [--first 0] [--per-family 12]
+        [--settings free constant constant-x0] [--families ...] [--workers 2]
+    python scripts/band_explanations.py --evaluate DIR [DIR ...] [--out FILE]
+"""
+
+import argparse
+import gzip
+import os
+import pickle
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+SETTINGS = {
+    "free": {},
+    "constant": dict(parameters="constant"),
+    "constant-x0": dict(parameters="constant", x0=0.0),
+    "free-x0": dict(x0=0.0),
+}
+
+_CAP: dict = {}
+
+
+def _spy():
+    """Keeps the last `fit_points` result (on the fitted clock) in `_CAP`."""
+    from vojax._tracker import _estimator, _fit
+
+    original = _fit.fit_points
+
+    def watched(*args, **kwargs):
+        _CAP["result"] = original(*args, **kwargs)
+        return _CAP["result"]
+
+    # `Tracker` calls it by its own name; the blocks import it when they run
+    _estimator.fit_points = _fit.fit_points = watched
+
+
+def _compact(a):
+    a = np.asarray(a)
+    return a.astype(np.float32) if a.dtype == np.float64 and a.ndim >= 1 else a
+
+
+def _record(family, index, setting, data):
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import bench_calibration as bench
+
+    import vojax
+    from vojax._tracker._blocks import block_average, block_size
+
+    if "signals" not in _CAP:
+        _CAP["signals"] = bench.real_signals(Path(data))
+        _spy()
+    case = bench.draw_case(family, index, _CAP["signals"])
+    grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
+    kwargs = dict(SETTINGS.get(setting, {}))
+    if setting == "stated":
+        kwargs = dict(parameters=case["stated"])
+    started = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            res = vojax.identify(case["u"], case["y"], warn=False, **grid, **kwargs)
+        except ValueError as e:
+            return dict(family=family, index=index, setting=setting, error=str(e))
+    seconds = time.perf_counter() - started
+    fit = _CAP["result"]
+    t = np.asarray(case["t"], float)
+    size = block_size(t.size, vojax.TrackerSettings().max_points)
+    t_fit = t if size == 1 else block_average(t, size)
+    truth = np.interp(t_fit, t, case["alpha"])
+    d = res.diagnostics
+    return dict(
+        family=family, index=index, setting=setting, samples=case["samples"], block=size,
+        shape=case["shape"], seconds=seconds, true_drift=case["true_drift"],
+        stated=case.get("stated"), drift=case["drift"], noise=case["noise"], rho=case["rho"],
+        identified=bool(d.identified), reasons=tuple(d.reasons),
+        verdict=getattr(d, "verdict", None),
+        breakdown_drift=getattr(d, "breakdown_drift", None),
+        truth=_compact(truth), alpha=_compact(fit.alpha), lower=_compact(fit.alpha_lower),
+        upper=_compact(fit.alpha_upper), std=_compact(fit.alpha_std),
+        bounds=tuple(res.alpha_bounds),
+        explanations=[dict(kind=e.kind, beta=_compact(e.beta), var=_compact(e.var),
+                           chi2=e.chi2, dof=e.dof, evidence=e.evidence, drift=e.drift,
+                           accepted=e.accepted) for e in fit.explanations],
+        other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
+        noise_levels=getattr(fit, "noise_levels", None),
+        case_noise=float(np.var(case["y"] - case["x"])),
+    )
+
+
+def _job(args):
+    family, index, settings, data = args
+    return [_record(family, index, s, data) for s in settings]
+
+
+def dump(directory, first, per_family, workers, data, families, settings):
+    import multiprocessing as mp
+
+    import bench_calibration as bench
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    jobs = [(f, i, settings, data) for i in range(first, first + per_family)
+            for f in (families or bench.FAMILIES)]
+    rows = []
+    began = time.perf_counter()
+    with mp.get_context("spawn").Pool(workers) as pool:
+        for out in pool.imap_unordered(_job, jobs):
+            rows.extend(out)
+            for r in out:
+                print(f"{r['family']:20s} {r['index']:3d} {r['setting']:12s} "
+                      f"{'ID' if r.get('identified') else '--'} {r.get('seconds', 0):.1f}s",
+                      flush=True)
+    path = directory / f"explanations_{first}_{first + per_family - 1}.pkl.gz"
+    with gzip.open(path, "wb") as f:
+        pickle.dump(rows, f)
+    print(f"-> {path}: {len(rows)} records, {time.perf_counter() - began:.0f} s, "
+          f"{os.cpu_count()} CPUs, {workers} workers")
+
+
+def load(directories):
+    rows = []
+    for d in directories:
+        for path in sorted(Path(d).glob("explanations_*.pkl.gz")):
+            with gzip.open(path, "rb") as f:
+                rows.extend(pickle.load(f))
+    return [r for r in rows if "error" not in r]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--dump", default=None)
+    parser.add_argument("--evaluate", nargs="*", default=None)
+    parser.add_argument("--first", type=int, default=0)
+    parser.add_argument("--per-family", type=int, default=12)
+    parser.add_argument("--families", nargs="*", default=None)
+    parser.add_argument("--settings", nargs="*", default=["free", "constant", "constant-x0"])
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args(argv)
+    import bench_calibration as bench
+
+    if args.dump:
+        dump(args.dump, args.first, args.per_family, args.workers, str(bench.DATA),
+             args.families, args.settings)
+    if args.evaluate:
+        from band_scores import report
+
+        report(load(args.evaluate), args.out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,261 @@
+"""Band rules scored on saved explanations (`band_explanations.py --dump`): per setting and
+family, the records identified, the pooled coverage of the ±2σ band over the second half of
+the fitted clock, the median z RMS of the identified, the median order RMS, the confidently
+wrong (identified, the truth outside the band at most samples)."""
+
+import numpy as np
+
+HALFWIDTH = 0.1
+SMOOTHED = ("tuned", "start", "order_drift", "param_drift", "held_order")
+CONSTANT = ("tuned", "start", "order_drift", "level", "held")
+
+
+def order_of(beta, bounds):
+    lo, hi = bounds
+    s = 1.0 / (1.0 + np.exp(-np.asarray(beta, float)))
+    return lo + (hi - lo) * s, (hi - lo) * s * (1.0 - s)
+
+
+def explanations(r, kinds=None):
+    return [e for e in r["explanations"] if kinds is None or e["kind"] in kinds]
+
+
+def tuned(r):
+    out = explanations(r, ("tuned",))
+    return out[0] if out else None
+
+
+def mixture_var(r, kinds=("tuned", "start", "order_drift")):
+    """`mix_modes` over the tuned run and its alternatives of `kinds` (the tuned run first)."""
+    from vojax._tracker._smoother import mix_modes
+
+    ex = explanations(r, kinds)
+    ex = [e for e in ex if e["kind"] == "tuned"] + [e for e in ex if e["kind"] != "tuned"]
+    betas = np.stack([np.asarray(e["beta"], float) for e in ex])
+    var = np.stack([np.maximum(np.asarray(e["var"], float), 0) for e in ex])
+    scores = np.array([e["evidence"] for e in ex], float)
+    span = betas.shape[1]
+    v, _ = mix_modes(betas, var, scores, 0, span)
+    return v
+
+
+def band_from(center, var, bounds, members=(), k=1.0):
+    """The band about the β trajectory `center` with variance `var` (× k²), widened to cover
+    each member's ±2kσ; returns (alpha, lower, upper, sd) on the order scale."""
+    sd_b = k * np.sqrt(np.maximum(var, 0))
+    alpha, slope = order_of(center, bounds)
+    lower = order_of(center - 2 * sd_b, bounds)[0]
+    upper = order_of(center + 2 * sd_b, bounds)[0]
+    widened = False
+    for b, v in members:
+        s = k * np.sqrt(np.maximum(v, 0))
+        lower = np.minimum(lower, order_of(b - 2 * s, bounds)[0])
+        upper = np.maximum(upper, order_of(b + 2 * s, bounds)[0])
+        widened = True
+    sd = slope * sd_b
+    if widened:
+        sd = np.maximum(sd, (upper - lower) / 4)
+    return alpha, lower, upper, sd
+
+
+def score(r, band):
+    alpha, lower, upper, sd = (np.asarray(a, float) for a in band)
+    truth = np.asarray(r["truth"], float)
+    half = slice(truth.size // 2, truth.size)
+    inside = (truth >= lower) & (truth <= upper)
+    width = float(np.median((upper - lower)[half]) / 2)
+    ident = width <= HALFWIDTH and not r["other_reasons"]
+    cov = float(np.mean(inside[half]))
+    z = (alpha - truth)[half] / np.maximum(sd[half], 1e-300)
+    return dict(identified=ident, coverage=cov, inside=int(np.sum(inside[half])),
+                count=int(truth[half].size), z=float(np.sqrt(np.mean(z**2))),
+                rms=float(np.sqrt(np.mean((alpha - truth)[half] ** 2))),
+                wrong=bool(ident and cov < 0.5), width=width)
+
+
+def table(rows, rules, settings, families):
+    lines = ["| setting | rule | family | identified | coverage (identified) | z RMS "
+             "(identified, median) | z RMS (all, median) | order RMS | confidently wrong |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for setting in settings:
+        for name, rule in rules.items():
+            for family in [*families, "pooled"]:
+                sel = [r for r in rows if r["setting"] == setting
+                       and (family == "pooled" or r["family"] == family)]
+                if not sel:
+                    continue
+                scored = []
+                for r in sel:
+                    b = rule(r)
+                    if b is not None:
+                        scored.append(score(r, b))
+                if not scored:
+                    continue
+                ident = [s for s in scored if s["identified"]]
+                cov = (sum(s["inside"] for s in ident) / max(1, sum(s["count"] for s in ident))
+                       if ident else float("nan"))
+                zi = np.median([s["z"] for s in ident]) if ident else float("nan")
+                za = np.median([s["z"] for s in scored])
+                lines.append(
+                    f"| {setting} | {name} | {family} | {len(ident)}/{len(scored)} | "
+                    f"{cov:.2f} | {zi:.2f} | {za:.2f} | "
+                    f"{np.median([s['rms'] for s in scored]):.4f} | "
+                    f"{sum(s['wrong'] for s in ident)}/{len(ident)} |")
+    return lines
+
+
+# ---------------------------------------------------------------- rules
+
+
+def reported(r):
+    return r["alpha"], r["lower"], r["upper"], r["std"]
+
+
+def tuned_only(r, k=1.0):
+    t = tuned(r)
+    if t is None:
+        return None
+    return band_from(np.asarray(t["beta"], float), np.asarray(t["var"], float), r["bounds"], k=k)
+
+
+def mixture_only(r, k=1.0):
+    t = tuned(r)
+    if t is None:
+        return None
+    return band_from(np.asarray(t["beta"], float), mixture_var(r), r["bounds"], k=k)
+
+
+def level_weights(r, members):
+    """Weights ∝ exp(−Δχ²/2) over the held scales' runs (the tuned run as the scale 1),
+    by trapezoid quadrature in log-ratio order is not kept: equal weights per run."""
+    chi2 = np.array([e["chi2"] for e in members], float)
+    ok = np.isfinite(chi2) & np.array([np.isfinite(e["evidence"]) or e["kind"] == "tuned"
+                                       for e in members])
+    w = np.where(ok, np.exp(-(chi2 - np.min(chi2[ok])) / 2), 0.0)
+    return w / w.sum()
+
+
+def level_integrated(r, k=1.0, combine="add"):
+    t = tuned(r)
+    if t is None:
+        return None
+    members = [t] + explanations(r, ("level",))
+    w = level_weights(r, members)
+    bt = np.asarray(t["beta"], float)
+    v_l = sum(wi * (np.asarray(e["var"], float) + (np.asarray(e["beta"], float) - bt) ** 2)
+              for wi, e in zip(w, members))
+    v_mix = mixture_var(r)
+    var = v_mix + v_l - np.asarray(t["var"], float) if combine == "add" else np.maximum(v_mix, v_l)
+    return band_from(bt, var, r["bounds"], k=k)
+
+
+def union_fitting(r, kinds, k=1.0, delta=None):
+    """The mixture's band widened by the ±2σ of every explanation of `kinds` that fits (the
+    χ² test, or with `delta` Δχ² ≤ delta from the tuned run)."""
+    t = tuned(r)
+    if t is None:
+        return None
+    members = []
+    for e in explanations(r, kinds):
+        if e["kind"] == "tuned":
+            continue
+        fits = e["accepted"] if e["accepted"] is not None else (
+            e["chi2"] <= e["dof"] + 2 * np.sqrt(2 * e["dof"]))
+        if delta is not None and e["kind"] != "trade":
+            fits = fits and e["chi2"] <= t["chi2"] + delta
+        if fits and (np.isfinite(e["evidence"]) or e["kind"] == "trade"):
+            members.append((np.asarray(e["beta"], float), np.asarray(e["var"], float)))
+    return band_from(np.asarray(t["beta"], float), mixture_var(r), r["bounds"], members, k=k)
+
+
+def report(rows, out=None):
+    families = sorted({r["family"] for r in rows})
+    settings = sorted({r["setting"] for r in rows})
+    rules = {
+        "reported": reported,
+        "tuned": tuned_only,
+        "mixture": mixture_only,
+        "level-integrated": level_integrated,
+        "union-fitting (no trade)": lambda r: union_fitting(
+            r, ("start", "order_drift", "param_drift", "held_order", "level", "held")),
+        "union-fitting Δχ²≤4": lambda r: union_fitting(
+            r, ("start", "order_drift", "param_drift", "held_order", "level", "held", "trade"),
+            delta=4.0),
+    }
+    rules.update({
+        "library stated": library_rule("stated"),
+        "library conditional": library_rule("conditional"),
+        "library conditional k=1.5": library_rule("conditional", scale=1.5),
+        "library stated, centres": library_rule("stated", member_width=False),
+        "library conditional, centres": library_rule("conditional", member_width=False),
+        "library conditional, centres, no level": library_rule(
+            "conditional", member_width=False, level_weight=False),
+    })
+    lines = table(rows, rules, settings, families) + [""] + promises(rows)
+    lines += [""] + promises(rows, member_width=False)
+    text = "\n".join(lines)
+    print(text)
+    if out:
+        from pathlib import Path
+
+        Path(out).write_text(text + "\n")
+
+
+# ---------------------------------------------------------------- the library's own bands
+
+
+def as_explanations(r):
+    from vojax._tracker._explanations import Explanation
+
+    return [Explanation(e["kind"], np.asarray(e["beta"], float),
+                        np.maximum(np.asarray(e["var"], float), 0), float(e["chi2"]),
+                        float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"])
+            for e in r["explanations"]]
+
+
+def library_bands(r, **kwargs):
+    from vojax._tracker._band import bands
+
+    ex = as_explanations(r)
+    if not any(e.kind == "tuned" for e in ex):
+        return None
+    stated = {"free": np.inf, "constant": 0.0, "constant-x0": 0.0, "free-x0": np.inf}.get(
+        r["setting"], r.get("stated") or np.inf)
+    return bands(ex, r["bounds"], len(r["truth"]), stated, **kwargs)
+
+
+def library_rule(which, **kwargs):
+    def rule(r):
+        b = library_bands(r, **kwargs)
+        if b is None:
+            return None
+        return b.stated if which == "stated" else b.conditional
+    return rule
+
+
+def promises(rows, **kwargs):
+    """The conditional answers' promise per setting and family: how many records are
+    conditionally identified, how many of those miss the truth, and how many of the latter
+    promise more than their true drift (breakdown > true drift)."""
+    lines = ["| setting | family | conditional (narrow) | miss the truth | breakdown > true "
+             "drift (false promise) | breakdown drift (median, conditional) |",
+             "|---|---|---|---|---|---|"]
+    for setting in sorted({r["setting"] for r in rows}):
+        for family in sorted({r["family"] for r in rows}):
+            sel = [r for r in rows if r["setting"] == setting and r["family"] == family]
+            narrow, miss, false, drifts = 0, 0, 0, []
+            for r in sel:
+                b = library_bands(r, **kwargs)
+                if b is None:
+                    continue
+                s = score(r, b.conditional)
+                if s["width"] <= HALFWIDTH:
+                    narrow += 1
+                    drifts.append(b.breakdown_drift)
+                    if s["coverage"] < 0.5:
+                        miss += 1
+                        false += b.breakdown_drift > r["true_drift"]
+            med = np.median(drifts) if drifts else float("nan")
+            lines.append(f"| {setting} | {family} | {narrow}/{len(sel)} | {miss} | {false} | "
+                         f"{med:.3g} |")
+    return lines

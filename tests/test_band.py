@@ -1,0 +1,190 @@
+"""The band from the explanations (`vojax._tracker._band`) as rules on stand-in explanations
+whose answers are known: which explanations join the band, where the breakdown drift falls,
+what the statement about the parameters admits; and the least drift of the trade-off's fits
+against a brute-force search. What the bands do on recorded inputs: `test_calibration.py`."""
+
+import numpy as np
+import pytest
+
+from vojax._tracker._band import bands, reference_variance
+from vojax._tracker._explanations import Explanation, relative_drift
+from vojax._tracker._model import order_of_np
+from vojax._tracker._trade import least_drift
+
+N = 60
+BOUNDS = (0.0, 1.0)
+DOF = 50.0
+FITS, FAILS = 40.0, 200.0  # χ² that passes the 2σ test at 50 dof (≤ 70), and one that fails
+
+
+def ex(kind, beta, var=0.01, chi2=FITS, evidence=0.0, drift=0.0, accepted=None):
+    return Explanation(kind, np.full(N, float(beta)), np.full(N, float(var)), chi2, DOF,
+                       evidence, drift, accepted)
+
+
+def halfwidth(band):
+    _, lower, upper, _ = band
+    return float(np.median((upper - lower)[N // 2 :]) / 2)
+
+
+def test_the_tuned_smoothing_alone_is_its_own_band():
+    b = bands([ex("tuned", 0.0, var=0.04)], BOUNDS, N, np.inf)
+    alpha, lower, upper, std = b.stated
+    np.testing.assert_allclose(alpha, 0.5)
+    np.testing.assert_allclose(lower, order_of_np(-0.4, BOUNDS)[0])  # β ± 2·0.2
+    np.testing.assert_allclose(upper, order_of_np(0.4, BOUNDS)[0])
+    np.testing.assert_allclose(std, 0.25 * 0.2)  # dα/dβ = 1/4 at β = 0
+    assert b.breakdown_drift == np.inf
+    for got, want in zip(b.conditional, b.stated):
+        np.testing.assert_array_equal(got, want)
+    # the calibrated scale multiplies every σ
+    wider = bands([ex("tuned", 0.0, var=0.04)], BOUNDS, N, np.inf, scale=1.5)
+    np.testing.assert_allclose(wider.stated[3], 1.5 * std)
+
+
+def test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits():
+    """Going up in drift, a fitting explanation inside the band joins it; the first outside
+    it sets the breakdown drift. One that does not fit never counts, whatever its drift."""
+    tuned = ex("tuned", 0.0)
+    inside = ex("param_drift", 0.15, drift=0.1)  # β 0.15: inside ±0.2 of the tuned one
+    outside = ex("trade", 2.0, var=0.0, drift=0.3, accepted=True)
+    misfit = ex("held_order", -3.0, drift=0.05, chi2=FAILS)
+    farther = ex("trade", -2.0, var=0.0, drift=0.6, accepted=True)
+    b = bands([tuned, inside, outside, misfit, farther], BOUNDS, N, np.inf)
+    assert b.breakdown_drift == pytest.approx(0.3)
+    # the conditional band: the tuned one's widened by the one inside
+    lo, hi = order_of_np(np.array([-0.2, 0.15 + 0.2]), BOUNDS)[0]
+    np.testing.assert_allclose(b.conditional[1], lo)
+    np.testing.assert_allclose(b.conditional[2], hi)
+    # free: every explanation that fits; a stated bound of 0.2 admits only the one inside
+    assert halfwidth(b.stated) == pytest.approx(
+        (order_of_np(2.0, BOUNDS)[0] - order_of_np(-2.0, BOUNDS)[0]) / 2)
+    bounded = bands([tuned, inside, outside, misfit, farther], BOUNDS, N, 0.2)
+    for got, want in zip(bounded.stated[1:3], b.conditional[1:3]):
+        np.testing.assert_allclose(got, want)
+    # nothing outside fits: no breakdown, the conditional band is the whole union
+    b = bands([tuned, inside, misfit], BOUNDS, N, np.inf)
+    assert b.breakdown_drift == np.inf
+
+
+def test_an_explanation_as_drift_free_as_the_answer_never_breaks_it():
+    """An order outside the band whose parameters drift no more than the answer's own (within
+    the drift floor) is not a drifting alternative: it cannot set the breakdown drift."""
+    tuned = ex("tuned", 0.0, drift=0.1)
+    same = ex("param_drift", 2.0, drift=0.102)
+    b = bands([tuned, same], BOUNDS, N, np.inf, drift_floor=0.005)
+    assert b.breakdown_drift == np.inf
+    assert b.reference_drift == pytest.approx(0.1)
+
+
+def test_the_held_smoothing_answers_where_the_tuned_parameters_drift():
+    """The tuned smoothing lets the parameters drift by 20 %; the smoothing with them held
+    fits too: it is the conditional answer (its own Laplace band), and the tuned one, outside
+    it, breaks it at its drift. Where the held smoothing does not fit, the tuned one answers."""
+    tuned = ex("tuned", 1.0, drift=0.2)
+    held = ex("held", 0.0, var=0.0025)
+    b = bands([tuned, held], BOUNDS, N, np.inf)
+    np.testing.assert_allclose(b.conditional[0], 0.5)
+    np.testing.assert_allclose(b.conditional[2], order_of_np(0.1, BOUNDS)[0])
+    assert b.breakdown_drift == pytest.approx(0.2) and b.reference_drift == 0.0
+    b = bands([tuned, ex("held", 0.0, chi2=FAILS)], BOUNDS, N, np.inf)
+    np.testing.assert_allclose(b.conditional[0], order_of_np(1.0, BOUNDS)[0])
+    assert b.reference_drift == pytest.approx(0.2)
+
+
+def test_integrated_alternatives_are_weighed_not_unioned():
+    """Other starts and order drifts enter by evidence, the level profile's held scales by
+    exp(−Δχ²/2): the variance is the weighted spread about the tuned mode, and an
+    alternative that fits but carries almost no weight widens neither the band with the
+    parameters stated constant nor the conditional band; with the parameters free, every
+    explanation that fits is covered, that one too."""
+    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=40.0)
+    start = ex("start", 1.0, var=0.01, evidence=-np.log(3.0))  # weight 1/4 against 3/4
+    var = reference_variance([tuned, start], tuned, N)
+    np.testing.assert_allclose(var, 0.01 + 0.25 * 1.0)
+    far = ex("order_drift", 3.0, var=0.01, evidence=-50.0)  # fits, weight e^−50
+    alone = halfwidth(bands([tuned], BOUNDS, N, 0.0).stated)
+    held = bands([tuned, far], BOUNDS, N, 0.0)
+    assert halfwidth(held.stated) == pytest.approx(alone, rel=1e-12)
+    free = bands([tuned, far], BOUNDS, N, np.inf)
+    assert halfwidth(free.conditional) == pytest.approx(alone, rel=1e-12)
+    np.testing.assert_allclose(free.stated[2], order_of_np(3.2, BOUNDS)[0])
+    # a held scale 2 units of χ² above the tuned run: weights 1 : e^−1
+    level = ex("level", 0.5, var=0.02, chi2=42.0, evidence=-5.0)
+    w = np.exp(-1.0) / (1.0 + np.exp(-1.0))
+    want = (1 - w) * 0.01 + w * (0.02 + 0.25)
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N), want)
+
+
+def test_relative_drift():
+    p = np.stack([np.linspace(1.0, 1.2, 11), np.linspace(-2.0, -2.1, 11)], axis=1)
+    assert relative_drift(p, 11) == pytest.approx(0.2 / 1.1)
+    assert relative_drift(p, 6) == pytest.approx(0.1 / 1.05)  # the fitted span only
+    assert relative_drift(np.zeros((5, 1)), 5) == np.inf
+
+
+def _drift_design(seed=0, num=200, knots=6):
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0.0, 1.0, num)
+    basis = np.clip(1.0 - np.abs(s[:, None] * (knots - 1) - np.arange(knots)[None, :]), 0, None)
+    phi = 1.0 + 0.5 * np.sin(7 * s)
+    x = phi[:, None] * basis
+    p = 2.0 + 0.3 * s  # a 15 % drift
+    y = 0.1 + phi * p + 0.01 * rng.standard_normal(num)
+    return x, y, basis, np.ones(num)
+
+
+def test_least_drift_against_a_brute_force_search():
+    """The least drift among fits within a χ² limit: 0 where constant parameters fit within
+    it, ∞ where not even the best fit does, and in between a fit that meets the limit with
+    no more drift than any of 4,000 random fits within it (a brute-force search over the
+    coefficients near the least-squares ones)."""
+    x, y, basis, mask = _drift_design()
+    scale = 1.0 / 0.01**2
+    cols = np.c_[x, np.ones(y.size)]
+    coef = np.linalg.lstsq(cols, y, rcond=None)[0]
+    best = float(np.sum((y - cols @ coef) ** 2)) * scale
+    const = np.c_[x.sum(1), np.ones(y.size)]
+    c_const = float(np.sum((y - const @ np.linalg.lstsq(const, y, rcond=None)[0]) ** 2)) * scale
+    assert least_drift(x, y, mask, basis, y.size, best - 1.0, scale) == np.inf
+    assert least_drift(x, y, mask, basis, y.size, c_const + 1.0, scale) == 0.0
+    limit = best + 20.0
+    got = least_drift(x, y, mask, basis, y.size, limit, scale)
+    ls = relative_drift(basis @ coef[:-1], y.size)
+    assert 0.0 < got < ls
+    rng = np.random.default_rng(1)
+    found = []
+    for _ in range(4000):
+        trial = coef + rng.standard_normal(coef.size) * 0.02 * rng.uniform(0, 1)
+        if float(np.sum((y - cols @ trial) ** 2)) * scale <= limit:
+            found.append(relative_drift(basis @ trial[:-1], y.size))
+    assert found and got <= min(found) * 1.02
+
+
+def test_outside_is_judged_over_the_second_half():
+    """An explanation far from the band over the first half only is inside (the verdict
+    reads the second half, where the order has settled); one far over the second half is
+    outside."""
+    tuned = ex("tuned", 0.0)
+    early = ex("trade", 0.0, var=0.0, drift=0.2, accepted=True)
+    early.beta[: N // 2] = 3.0
+    late = ex("trade", 0.0, var=0.0, drift=0.4, accepted=True)
+    late.beta[N // 2 :] = 3.0
+    b = bands([tuned, early, late], BOUNDS, N, np.inf)
+    assert b.breakdown_drift == pytest.approx(0.4)
+
+
+def test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count():
+    """A smoothing with drifting parameters that fits (χ² test) but whose evidence lies more
+    than `evidence_floor` nats below the tuned one's neither breaks the band nor widens it;
+    one just inside the floor does, and the trade-off's profile (no evidence) always can."""
+    tuned = ex("tuned", 0.0, evidence=0.0)
+    far = ex("held_order", 3.0, drift=0.2, evidence=-250.0)
+    near = ex("param_drift", 3.0, drift=0.3, evidence=-150.0)
+    b = bands([tuned, far, near], BOUNDS, N, np.inf, evidence_floor=200.0)
+    assert b.breakdown_drift == pytest.approx(0.3)
+    b = bands([tuned, far], BOUNDS, N, np.inf, evidence_floor=200.0)
+    assert b.breakdown_drift == np.inf and halfwidth(b.stated) < 0.1
+    profile = ex("trade", 3.0, var=0.0, drift=0.4, evidence=np.nan, accepted=True)
+    b = bands([tuned, far, profile], BOUNDS, N, np.inf, evidence_floor=200.0)
+    assert b.breakdown_drift == pytest.approx(0.4)

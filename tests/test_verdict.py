@@ -1,0 +1,197 @@
+"""The verdict in three words and how far it carries: the verdict rules on stand-in bands,
+the statement about the parameters (free, constant, a drift bound) ordering the bands it
+gives, the order independent of the unit of time, and the verdict written everywhere a
+result goes."""
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax._diagnostics import diagnose
+
+N = 100
+ALPHA = np.full(N, 0.4)
+
+
+def _band(half):
+    return ALPHA - half, ALPHA + half
+
+
+def test_verdict_words_follow_the_stated_and_the_conditional_bands():
+    """identified: the stated band within ±0.1; conditional: only the conditional band is,
+    and its breakdown drift exceeds the answer's own drift; not identified: neither, or
+    something else refuses the band (here: it did not converge)."""
+    narrow, wide = _band(0.05), _band(0.3)
+    d = diagnose(ALPHA, *narrow, (0.01, 0.99), True, (), conditional=narrow, breakdown_drift=0.2,
+                 reference_drift=0.0)
+    assert d.verdict == "identified" and d.identified
+    d = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), trade=(0.1, 0.7), conditional=narrow,
+                 breakdown_drift=0.12, reference_drift=0.0)
+    assert d.verdict == "conditional" and not d.identified
+    assert d.conditional_halfwidth == pytest.approx(0.05) and d.breakdown_drift == 0.12
+    assert "drifting less than 12 % over the record the band is ±0.05" in d.message
+    assert d.reasons == ("trade_off",)
+    # no reach: the answer's own parameters drift as much as the alternative's
+    d = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), trade=(0.1, 0.7), conditional=narrow,
+                 breakdown_drift=0.12, reference_drift=0.12)
+    assert d.verdict == "not identified"
+    d = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), conditional=_band(0.2),
+                 breakdown_drift=0.3, reference_drift=0.0)
+    assert d.verdict == "not identified"
+    d = diagnose(ALPHA, *wide, (0.01, 0.99), False, (), conditional=narrow,
+                 breakdown_drift=0.3, reference_drift=0.0)
+    assert d.verdict == "not identified" and "not_converged" in d.reasons
+
+
+@pytest.fixture(scope="module")
+def drifting_gain():
+    """A constant order 0.45 under a gain rising 25 % over the record (σ = η(t)·D^q ε, the
+    tracker's own form of drift), a ramp–hold input, 1 % noise: one input cannot tell the
+    drift from a moving order."""
+    dt, n = 0.05, 400
+    t = dt * np.arange(n)
+    u = np.minimum(t / 4.0, 1.0)
+    phi = np.asarray(vojax.reference.fractional_integral(u, np.full(n, 0.45), dt))
+    gain = 1.0 + 0.25 * (1 + np.tanh((t / t[-1] - 0.5) / 0.15)) / 2
+    x = 2.0 * gain * phi
+    y = x + 0.01 * np.ptp(x) * np.random.default_rng(3).standard_normal(n)
+    return t, u, y, dt
+
+
+def _halfwidth(res):
+    half = res.alpha.shape[0] // 2
+    return float(np.median(np.asarray(res.alpha_upper - res.alpha_lower)[half:]) / 2)
+
+
+def test_a_drift_bound_admits_the_explanations_that_drift_no_more(drifting_gain):
+    """The band under a stated drift bound lies between the conditional band and the free
+    one, growing with the bound, and equals the free one once the bound passes every
+    explanation's drift; the conditional answer and its breakdown drift do not depend on the
+    statement (the same explanations), and a bound of 0 states the parameters constant."""
+    t, u, y, dt = drifting_gain
+    free = vojax.identify(u, y, dt, warn=False)
+    d = free.diagnostics
+    assert np.isfinite(d.breakdown_drift) and d.breakdown_drift > 0
+    below = vojax.identify(u, y, dt, parameters=0.5 * d.breakdown_drift, warn=False)
+    above = vojax.identify(u, y, dt, parameters=10.0, warn=False)
+    widths = [d.conditional_halfwidth, _halfwidth(below), _halfwidth(free)]
+    assert widths == sorted(widths)
+    assert _halfwidth(below) == pytest.approx(d.conditional_halfwidth, rel=1e-12)
+    np.testing.assert_allclose(above.alpha_lower, free.alpha_lower, rtol=1e-12)
+    np.testing.assert_allclose(below.conditional.alpha_upper, free.conditional.alpha_upper,
+                               rtol=1e-12)
+    assert below.diagnostics.breakdown_drift == d.breakdown_drift
+    assert below.parameters == pytest.approx(0.5 * d.breakdown_drift) and free.parameters == "free"
+    held = vojax.identify(u, y, dt, parameters=0, warn=False)
+    assert held.parameters == "constant"
+    assert held.tuning.parameter_drift == pytest.approx(vojax.TrackerSettings().constant_drift)
+
+
+def test_the_order_does_not_depend_on_the_unit_of_time(drifting_gain):
+    """The same record in seconds, milliseconds, hours and 1e12 × seconds: the order, its
+    bands and the verdict agree to 1e-6 (the tracker's clock is the record's span), and the
+    parameter changes as the unit requires, p·unit^(−α) (D^α of the output over p times the
+    input: I^α on a clock `unit` times finer is unit^α times larger)."""
+    t, u, y, _ = drifting_gain
+    runs = {unit: vojax.identify(u, y, t=unit * t, warn=False) for unit in (1.0, 1e3, 1 / 3600,
+                                                                           1e12)}
+    ref = runs[1.0]
+    for unit, res in runs.items():
+        for name in ("alpha", "alpha_lower", "alpha_upper"):
+            np.testing.assert_allclose(getattr(res, name), getattr(ref, name), rtol=0,
+                                       atol=1e-6)
+        np.testing.assert_allclose(res.conditional.alpha_upper, ref.conditional.alpha_upper,
+                                   rtol=0, atol=1e-6)
+        assert res.diagnostics.verdict == ref.diagnostics.verdict
+        want = np.asarray(ref.p)[:, 0] * unit ** (-np.asarray(ref.alpha))
+        np.testing.assert_allclose(np.asarray(res.p)[:, 0], want, rtol=1e-5)
+    # a time scale stated in the user's unit makes the parameters constant in that unit: the
+    # old behaviour, where the order moved with the unit
+    fixed = [vojax.identify(u, y, t=unit * t, time_scale=1.0, parameters="constant",
+                            warn=False) for unit in (1.0, 1e3)]
+    assert np.max(np.abs(np.asarray(fixed[0].alpha) - np.asarray(fixed[1].alpha))) > 1e-4
+
+
+def test_the_verdict_line_states_the_answer_and_its_reach(drifting_gain):
+    t, u, y, dt = drifting_gain
+    res = vojax.identify(u, y, dt, warn=False)
+    d, line = res.diagnostics, res.verdict_line()
+    summary = res.summary()
+    assert summary["verdict"]["value"] == d.verdict
+    if d.verdict == "conditional":
+        assert f"if the parameters drift less than {100 * d.breakdown_drift:.0f} %" in line
+        c = np.asarray(res.conditional.alpha)
+        assert line.startswith(f"conditional: α {c[c.size // 2]:.2f} → {c[-1]:.2f} ± ")
+    assert "alpha_conditional" in res.to_dataframe().columns
+
+
+def test_a_record_carries_its_clock_into_identify(tmp_path):
+    """`identify(record)` is `identify(record.inputs, record.output, **record.grid)`, on a
+    log-spaced record too; a step or an output given with a record is refused, since a step
+    would lose its clock without a word."""
+    t = np.geomspace(0.01, 10.0, 120)
+    u = np.minimum(t, 1.0)
+    y = np.asarray(vojax.fractional_integral(u, 0.4, t=t))
+    y = y + 0.005 * np.ptp(y) * np.random.default_rng(1).standard_normal(t.size)
+    path = tmp_path / "creep.csv"
+    path.write_text("time_s,stress,strain\n" + "".join(
+        f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
+    (rec,) = vojax.load_records(path, time="time_s", inputs=["stress"], output="strain")
+    assert not rec.uniform
+    got = vojax.identify(rec, parameters="constant", warn=False)
+    want = vojax.identify(rec.inputs, rec.output, t=rec.time, parameters="constant", warn=False)
+    np.testing.assert_array_equal(got.alpha, want.alpha)
+    np.testing.assert_array_equal(got.alpha_upper, want.alpha_upper)
+    with pytest.raises(ValueError, match="a Record carries its own output and clock: leave out dt"):
+        vojax.identify(rec, dt=0.1)
+    with pytest.raises(TypeError, match="`y` .* is missing"):
+        vojax.identify(rec.inputs)
+
+
+def test_the_command_line_states_the_parameters_in_a_unit_of_time(tmp_path):
+    """``--time-scale`` is `identify(time_scale=…)` in the time column's unit: a record whose
+    parameter is constant in seconds, given in milliseconds, gives with ``--time-scale 1000``
+    the order `identify` gives in seconds with ``time_scale=1``; without it the order on the
+    record's span, which differs; a scale that is not positive, or one given to the law, is
+    refused in one line and writes nothing."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    dt, n = 0.05, 200
+    t = dt * np.arange(n)
+    u = np.minimum(t / 2.0, 1.0) + 0.1 * np.sin(3 * t)
+    alpha = 0.35 + 0.2 * t / t[-1]
+    x = np.asarray(vojax.reference.fractional_integral(u, alpha, dt))
+    y = x + 0.01 * np.ptp(x) * np.random.default_rng(5).standard_normal(n)
+    (tmp_path / "r.csv").write_text("time_ms,stress,strain\n" + "".join(
+        f"{a!r},{b!r},{c!r}\n" for a, b, c in zip((1e3 * t).tolist(), u.tolist(), y.tolist())))
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    env["VOJAX_FAST_CPU_LOOPS"] = "0"
+
+    def cli(*extra, out="o"):
+        return subprocess.run(
+            [sys.executable, "-m", "vojax", "identify", "r.csv", "--time", "time_ms", "--input",
+             "stress", "--output", "strain", *extra, "--out", out],
+            cwd=tmp_path, env=env, capture_output=True, text=True)
+
+    proc = cli("--parameters", "constant", "--time-scale", "1000")
+    assert proc.returncode == 0, proc.stderr
+    got = np.loadtxt(tmp_path / "o" / "identification.csv", delimiter=",", skiprows=1,
+                     usecols=1)
+    header = (tmp_path / "o" / "identification.csv").read_text().splitlines()[0].split(",")
+    assert header[1] == "alpha"
+    want = vojax.identify(u, y, dt, parameters="constant", time_scale=1.0, warn=False)
+    np.testing.assert_allclose(got, np.asarray(want.alpha), rtol=0, atol=1e-6)
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["provenance"]["settings"]["time_scale"] == 1000.0
+    span = vojax.identify(u, y, dt, parameters="constant", warn=False)
+    assert np.max(np.abs(np.asarray(span.alpha) - got)) > 1e-3
+    for extra, said in ((("--time-scale", "0"), "argument --time-scale: expected a positive"),
+                        (("--time-scale", "1", "--method", "gradient"), "--time-scale sets the "
+                         "tracker")):
+        bad = cli(*extra, out="p")
+        assert bad.returncode != 0 and said in bad.stderr, bad.stderr
+        assert len(bad.stderr.strip().splitlines()) == 1
+        assert not (tmp_path / "p").exists()

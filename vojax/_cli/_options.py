@@ -1,0 +1,378 @@
+"""The options the commands share (columns, data, the fit, the law) and how they become the
+settings of a record's pipeline."""
+
+import argparse
+import sys
+
+from .._settings import TrackerSettings
+from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
+from ._types import (
+    CLIError,
+    _delimiter,
+    _finite,
+    _gain,
+    _parameters,
+    _positive,
+    _rate,
+    _segments,
+    _units,
+)
+
+
+def _column_options(p):
+    """How a file is read and turned into the model's signals (identify, batch, check)."""
+    p.add_argument("--time", required=True, help="name of the time column (its unit is the time unit)")
+    p.add_argument(
+        "--input",
+        action="append",
+        required=True,
+        dest="inputs",
+        help="input column (stress or force); repeat for several inputs (--model linear)",
+    )
+    p.add_argument("--output", required=True, help="output column (strain or displacement)")
+    p.add_argument(
+        "--model",
+        choices=("springpot", "kelvin-voigt", "maxwell", "zener", "linear"),
+        default="springpot",
+        help="springpot (default): σ = η D^q ε, u = σ, p = 1/η; kelvin-voigt: σ = kε + η D^q ε, "
+        "u = [σ, ε], p = [1/η, −k/η]; maxwell: ε = σ/E + I^q σ/η (--method refit); zener: a "
+        "spring E0 in parallel with a spring E1 and a springpot in series (--method refit); "
+        "linear: the input columns as given, x = output. The refit keeps moduli and "
+        "viscosities non-negative (a coefficient that breaks its sign is held at 0)",
+    )
+    p.add_argument(
+        "--area",
+        type=_positive,
+        help="contact area a of eq. (35): σ = F/a, in the units that make σ your stress unit "
+        "(default: none, the input column is the stress)",
+    )
+    p.add_argument(
+        "--length",
+        type=_positive,
+        help="specimen length l of eq. (35): ε = d/l, in the displacement column's unit "
+        "(default: none, the output column is the strain)",
+    )
+    p.add_argument(
+        "--group-by",
+        help="column naming the record in a long-format file (default: the file is one record)",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="reject non-uniform time steps (default: use them as recorded; the kernels "
+        "integrate exactly between any increasing sample times)",
+    )
+    p.add_argument(
+        "--resample",
+        type=_positive,
+        metavar="STEP",
+        help="resample every record linearly onto a uniform grid of this step (default: no); "
+        "refused above 1,000,000 samples or where the file has steps 4 times shorter",
+    )
+    p.add_argument(
+        "--trim-column",
+        help="drop leading samples while |this column| < --trim-below (e.g. force before "
+        "contact); the time restarts at 0 at the first kept sample (default: keep all)",
+    )
+    p.add_argument(
+        "--delimiter",
+        type=_delimiter,
+        default=",",
+        help="the CSV's field separator: ',' (default), ';' or tab",
+    )
+    p.add_argument(
+        "--decimal-comma",
+        action="store_true",
+        help="numbers are written with a decimal comma (1,5): needs --delimiter ';' or tab "
+        "(default: a decimal point)",
+    )
+    p.add_argument(
+        "--trim-below",
+        type=_finite,
+        help="the threshold of --trim-column, in that column's unit",
+    )
+    p.add_argument(
+        "--segments",
+        type=_segments,
+        help="AFM files: the segments to keep, e.g. 1,2 (numbered as in the file; default: all)",
+    )
+    p.add_argument(
+        "--no-contact",
+        action="store_true",
+        help="AFM files: keep the samples before the contact point (default: drop them)",
+    )
+    p.add_argument(
+        "--tip",
+        help="AFM files: the tip for the contact_strain column, sphere:RADIUS_m or "
+        "cone:HALF_ANGLE_deg (default: none)",
+    )
+    p.add_argument(
+        "--poisson",
+        type=_finite,
+        default=0.5,
+        help="AFM files: the sample's Poisson ratio for contact_strain (default 0.5)",
+    )
+
+
+def _refit_options(p):
+    """The refit's own options (identify, batch)."""
+    p.add_argument(
+        "--origin",
+        type=_finite,
+        metavar="T0",
+        help="the time (in the time column's unit) at which the test started, before the first "
+        "sample: the inputs are taken as held at their first values from T0 (a step load) and "
+        "the refit's x0 is the output at T0 (default: the first sample)",
+    )
+    p.add_argument(
+        "--fit-from",
+        type=_finite,
+        metavar="T",
+        help="the refit fits samples from this time on (the whole record still drives the "
+        "model; default: the first sample)",
+    )
+    p.add_argument(
+        "--fit-to",
+        type=_finite,
+        metavar="T",
+        help="the refit fits samples up to this time (default: the last sample)",
+    )
+
+
+def _data_options(p, *, many: bool):
+    _column_options(p)
+    _refit_options(p)
+    p.add_argument(
+        "--units",
+        type=_units,
+        metavar="COLUMN=UNIT,…",
+        help="units of columns whose names do not end in one, for the figures' axis labels, "
+        "e.g. stress=kPa,strain=1,time=ms (a name such as stress_kPa already says it); "
+        "changes no number",
+    )
+    p.add_argument(
+        "--parameters",
+        type=_parameters,
+        default=None,
+        metavar="free|constant|DRIFT",
+        help="what you know of the tracker's parameters: free (default, as vojax.identify: "
+        "they may drift, and the order band covers every order a drifting parameter explains "
+        "as well), constant (known not to drift: the band holds under that assumption only), "
+        "or the largest relative drift you vouch for over the test, (max − min)/|mean|, e.g. "
+        "0.1",
+    )
+    p.add_argument(
+        "--time-scale",
+        type=_positive,
+        default=None,
+        metavar="SECONDS",
+        help="the unit of time, in the time column's unit, in which --parameters holds (default: "
+        "the record's span, so that the order does not depend on the unit of the time column; "
+        "with a moving order a parameter constant in seconds drifts in milliseconds); as "
+        "vojax.identify(time_scale=...)",
+    )
+    p.add_argument(
+        "--x0",
+        type=_finite,
+        default=None,
+        metavar="VALUE",
+        help="the output's offset, where it is known (the output column's reading at rest, in "
+        "its unit; a tared sensor reads 0): the tracker holds it there instead of estimating "
+        "it, which narrows the order's band where the order's level, the parameters' scale and "
+        "the offset trade off; as vojax.identify(x0=...)",
+    )
+    p.add_argument(
+        "--max-points",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"the most points the tracker fits (default {TrackerSettings().max_points:,}, as vojax.identify): "
+        "a longer record is fitted as the means of blocks of consecutive samples, and the "
+        "estimates are given at every sample",
+    )
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument(
+        "--format",
+        choices=("png", "svg", "pdf"),
+        default="png",
+        help="format of the per-record figure (default png)",
+    )
+    p.add_argument(
+        "--method",
+        type=_method,
+        default="kalman",
+        metavar="{kalman,gradient,refit,kalman+refit,gradient+refit}",
+        help="kalman (default, as vojax.identify): the Bayesian tracker, with an order band "
+        "and a verdict; gradient: the paper's adaptive law (its band is not a confidence "
+        "band); refit: constant-order least squares; kalman+refit, gradient+refit: one of "
+        "the first two and the refit, with a warning where their bands are disjoint",
+    )
+    p.add_argument(
+        "--gamma",
+        type=_gain,
+        default=None,
+        help="the law's order gain γ (1/time unit) or 'auto' (default); for --method "
+        "gradient|gradient+refit only",
+    )
+    p.add_argument(
+        "--lam",
+        type=_rate,
+        default=None,
+        help="forgetting factor λ in 1/(time unit) (default: tuned with γ when --gamma auto, "
+        "else 0.9); a number with --gamma auto tunes γ alone at that λ; for --method "
+        "gradient|gradient+refit only",
+    )
+
+
+def _method(text):
+    """``--method``: a name of `METHODS`, or an earlier name (a note says which it means)."""
+    from .._data._pipeline import ALIASES, canonical_method
+
+    try:
+        method = canonical_method(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).replace("`method`", "--method")) from None
+    if text in ALIASES:
+        print(f"vojax: note: --method {text} is now called {method}.", file=sys.stderr)
+    return method
+
+
+def _law_options(args):
+    """``--gamma``/``--lam`` apply to the paper's law only: refused with another method."""
+    if not args.method.startswith("gradient"):
+        given = [f"--{k}" for k in ("gamma", "lam") if getattr(args, k) is not None]
+        if given:
+            raise CLIError(
+                f"{' and '.join(given)} set the paper's law, which --method {args.method} does "
+                "not use; add --method gradient (or gradient+refit), or leave them out."
+            )
+    if args.gamma is None:
+        args.gamma = "auto"
+    if args.method != "refit" and args.model in ("maxwell", "zener"):
+        raise CLIError(
+            f"--model {args.model} has a spring (an order-0 term) that the adaptive law and the "
+            "tracker do not take; add --method refit."
+        )
+    points = getattr(args, "max_points", None)
+    for name, value in (("--parameters", getattr(args, "parameters", None)),
+                        ("--max-points", points), ("--x0", getattr(args, "x0", None)),
+                        ("--time-scale", getattr(args, "time_scale", None))):
+        if value is not None and not args.method.startswith("kalman"):
+            raise CLIError(
+                f"{name} sets the tracker, which --method {args.method} does not run; add "
+                "--method kalman (or kalman+refit)."
+            )
+    if points is not None and not MIN_POINTS <= points <= TRACKER_MAX_POINTS:
+        raise CLIError(
+            f"--max-points must be from {MIN_POINTS:,} to {TRACKER_MAX_POINTS:,}, got {points:,}."
+        )
+    fit = [f"--{k.replace('_', '-')}" for k in FIT_OPTIONS if getattr(args, k) is not None]
+    if fit and not args.method.endswith("refit"):
+        raise CLIError(
+            f"{' and '.join(fit)} set the refit, which --method {args.method} does not run; "
+            f"add --method refit (or {args.method}+refit)."
+        )
+    if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
+        raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
+
+
+FIT_OPTIONS = ("origin", "fit_from", "fit_to")
+
+
+def _load(path, args):
+    from .._data import load_records
+    from .._data._records import check_units
+
+    if (args.trim_column is None) != (args.trim_below is None):
+        raise CLIError("--trim-column and --trim-below go together.")
+    if args.decimal_comma and args.delimiter == ",":
+        raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
+    try:
+        check_units(getattr(args, "units", None), [args.time, *args.inputs, args.output])
+    except ValueError as e:
+        raise CLIError(str(e).replace("`units`", "--units")) from None
+    import warnings
+
+    # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        records = load_records(path, **_loader(args))
+    for w in caught:
+        print(f"vojax: warning: {w.message}", file=sys.stderr)
+    return records
+
+
+def _settings(args) -> dict:
+    """The options that set the identification."""
+    return dict(
+        model=args.model,
+        method=args.method,
+        gamma=args.gamma,
+        lam=args.lam,
+        area=args.area,
+        length=args.length,
+        **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
+        **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
+        **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
+        **({"x0": args.x0} if getattr(args, "x0", None) is not None else {}),
+        **({"time_scale": args.time_scale}
+           if getattr(args, "time_scale", None) is not None else {}),
+        **({"compare": True} if getattr(args, "compare", False) else {}),
+    )
+
+
+def _loader(args) -> dict:
+    """The options that set how records are read."""
+    return dict(
+        time=args.time,
+        inputs=list(args.inputs),
+        output=args.output,
+        group_by=args.group_by,
+        strict=args.strict,
+        resample=args.resample,
+        trim_column=args.trim_column,
+        trim_below=args.trim_below,
+        delimiter=args.delimiter,
+        decimal="," if args.decimal_comma else ".",
+        **_afm_loader(args),
+        **({"units": args.units} if getattr(args, "units", None) else {}),
+    )
+
+
+def _afm_loader(args) -> dict:
+    """The AFM options, only where given (a CSV's provenance is unchanged by them)."""
+    from .._data._afm import check_tip
+
+    try:
+        check_tip(args.tip, args.poisson)
+    except ValueError as e:
+        raise CLIError(str(e)) from None
+    out = {}
+    if args.segments is not None:
+        out["segments"] = list(args.segments)
+    if args.no_contact:
+        out["from_contact"] = False
+    if args.tip is not None:
+        out["tip"] = args.tip
+    if args.poisson != 0.5:
+        out["poisson"] = args.poisson
+    return out
+
+
+def _select(records, args):
+    """`identify` works on one record: with --group-by, --record names it."""
+    names = [r.name for r in records]
+    if args.record is not None:
+        if args.group_by is None:
+            raise CLIError("--record selects a record of a long-format file: give --group-by too.")
+        chosen = [r for r in records if r.name == args.record]
+        if not chosen:
+            shown = ", ".join(repr(n) for n in names[:5]) + (", …" if len(names) > 5 else "")
+            raise CLIError(f"no record {args.record!r} in {args.file} (records: {shown}).")
+        return chosen
+    if len(records) > 1:
+        raise CLIError(
+            f"{args.file} holds {len(records)} records (--group-by {args.group_by}); identify "
+            f"takes one: add --record NAME (e.g. --record {names[0]!r}), or use vojax batch."
+        )
+    return records

@@ -1,0 +1,153 @@
+"""The blocks of a record's summary: the tracker's or the law's, the comparison's, the
+test that would settle a refused order, and the disagreement of two estimators."""
+
+
+import dataclasses
+
+import numpy as np
+
+from .._stats import delta_stderr
+from ._outputs import diagnostics_dict, nrmse
+from ._regressors import stress_strain
+
+
+def adaptive_part(res, y, physical):
+    """Per-sample columns and the summary block of an `Identification` (either method)."""
+    alpha = np.asarray(res.alpha)
+    p = np.asarray(res.p)
+    params = {k: np.asarray(v) for k, v in physical(p).items()}
+    columns = {
+        "alpha": alpha,
+        "alpha_lower": np.asarray(res.alpha_lower),
+        "alpha_upper": np.asarray(res.alpha_upper),
+        **params,
+    }
+    if getattr(res, "conditional", None) is not None:
+        c = res.conditional
+        columns.update(alpha_conditional=np.asarray(c.alpha),
+                       alpha_conditional_lower=np.asarray(c.alpha_lower),
+                       alpha_conditional_upper=np.asarray(c.alpha_upper))
+    part = {
+        "method": res.method,
+        "nrmse": nrmse(y, res.y_hat),
+        "alpha_min": float(alpha.min()),
+        "alpha_max": float(alpha.max()),
+        "alpha_mean": float(alpha.mean()),
+        "alpha_final": float(alpha[-1]),
+        "alpha_final_std": float(res.alpha_std[-1]),
+        "parameters_final": {k: float(v[-1]) for k, v in params.items()},
+        "parameters_final_stderr": delta_stderr(
+            physical, p[-1], np.diag(np.asarray(res.p_std)[-1] ** 2)
+        ),
+        "x0": float(res.x0),
+        "x0_std": float(res.x0_std),
+        **diagnostics_dict(res.diagnostics),
+    }
+    if res.method == "kalman":
+        part["answer"] = res.verdict_line()
+    if res.method == "gradient":
+        part.update(gamma=float(res.gamma), lam=float(res.lam))
+    else:
+        part.update(tuning=dataclasses.asdict(res.tuning))
+    return columns, part
+
+
+def compare_part(record, area=None, length=None):
+    """`vojax.compare` of one record (its one input as the stress, its output as the strain,
+    through `area` and `length` as eq. (35)) as the ``compare`` block of its summary: the
+    best law, the next one and the Bayes factor between them, the verdict, and each law's
+    log evidence, weight and held-out NRMSE."""
+    from .._compare import compare
+
+    if record.inputs.shape[1] != 1:
+        raise ValueError(
+            f"--compare takes one input column (the stress); this record has "
+            f"{record.inputs.shape[1]}."
+        )
+    c = compare(*stress_strain(record, area, length), **record.grid)
+    rows = c.rows
+    out = {
+        "best": rows[0]["model"],
+        "second": rows[1]["model"] if len(rows) > 1 else None,
+        "bayes_factor": c.bayes_factor(rows[0]["model"], rows[1]["model"]) if len(rows) > 1 else None,
+        "verdict": c.verdict,
+    }
+    for key in ("log_evidence", "weight", "holdout_nrmse"):
+        out[key] = {r["model"]: float(r[key]) for r in rows}
+    return out
+
+
+def settling_part(u, y, res, times, unit=""):
+    """The oscillation that would settle a refused order (`vojax.settling_test` on the
+    record's own load, at its median order and parameters over the second half and its
+    noise), as JSON-ready values with its sentence; the record averaged to at most 1,000
+    points (the design needs no finer clock). None where no oscillation determines it."""
+    from .._settling import settling_test
+    from .._stats import noise_variance
+    from .._tracker._blocks import block_average, block_size
+
+    times = np.asarray(times, float)
+    size = block_size(times.size, 1000)
+    t_b, u_b = block_average(times, size), block_average(np.asarray(u, float), size)
+    alpha, p = np.asarray(res.alpha), np.asarray(res.p)
+    half = alpha.size // 2
+    noise = float(np.sqrt(max(noise_variance(np.asarray(y)), 1e-300) / size))
+    try:
+        test = settling_test(u_b, float(np.median(alpha[half:])), np.median(p[half:], axis=0),
+                             t=t_b - t_b[0], noise_std=noise)
+    except ValueError:
+        return None
+    return {"amplitude": test.amplitude, "frequency": test.frequency,
+            "start": test.start + float(t_b[0]), "cycles": test.cycles, "band": test.band,
+            "band_without": test.band_without, "sentence": test.sentence(unit)}
+
+
+def time_unit(record) -> str:
+    """The unit of a record's time column: given in its `units`, or the last part of its
+    name where that is a unit of time (``time_s``), else ""."""
+    units = dict(record.units)
+    if record.time_name in units:
+        return units[record.time_name]
+    unit = str(record.time_name).rpartition("_")[2]
+    return unit if unit in ("s", "ms", "us", "min", "h", "day") else ""
+
+
+def disagreement(columns, summary) -> str:
+    """One sentence when the two estimators run on a record give disjoint order bands over
+    the second half of the fitted samples (median of each bound), else ``""``: at most one of
+    them can be right, and neither band says so alone."""
+    half = len(columns["alpha"]) // 2
+    lo_a = float(np.median(columns["alpha_lower"][half:]))
+    hi_a = float(np.median(columns["alpha_upper"][half:]))
+    lo_r, hi_r = summary["refit"]["order_lower"], summary["refit"]["order_upper"]
+    if hi_a < lo_r or hi_r < lo_a:
+        name = "the tracker" if "kalman" in summary else "the paper's law"
+        return (
+            f"{name} ([{lo_a:.3g}, {hi_a:.3g}] over the second half) and the constant-order "
+            f"refit ([{lo_r:.3g}, {hi_r:.3g}]) disagree: their bands are disjoint, so at least one "
+            "model is wrong for these data; compare both fits in the figure"
+        )
+    return ""
+
+
+def _padded(fn, u, y, pad_to, **kwargs):
+    """``fn(u, y, …)`` on the record padded to `pad_to` samples and masked, its per-sample
+    outputs cut back: one compiled program serves every record of a bucket. Padding comes
+    after the end, so the causal memory of the real samples does not see it."""
+    import jax
+
+    num = y.shape[0]
+    if pad_to is None or pad_to <= num:
+        return fn(u, y, **kwargs)
+    extra = pad_to - num
+    up = np.concatenate([u, np.zeros((extra, u.shape[1]))])
+    yp = np.concatenate([y, np.full(extra, y[-1])])
+    mask = np.r_[np.ones(num), np.zeros(extra)]
+    if kwargs.get("direct") is not None:  # order-0 regressors are padded like the inputs
+        d = kwargs["direct"]
+        kwargs = {**kwargs, "direct": np.concatenate([d, np.zeros((extra, d.shape[1]))])}
+    res = fn(up, yp, mask=mask, **kwargs)
+    return jax.tree_util.tree_map(
+        lambda a: np.asarray(a)[:num] if getattr(a, "ndim", 0) >= 1 and a.shape[0] == pad_to else a,
+        res,
+    )

@@ -1,0 +1,101 @@
+"""`settling_test`: the oscillation to superpose on a load that settles the order whatever
+the parameters do, from the Fisher information with drifting parameters."""
+
+
+import math
+
+import numpy as np
+
+from . import _validate as check
+from ._design import fisher_information
+
+
+class SettlingTest:
+    """An oscillation to superpose on a load so that the order is determined whatever the
+    parameters do (`settling_test`): ``u + amplitude·sin(2π·frequency·(t − start))`` from
+    `start` on, with `cycles` cycles to the end of the test; `band`: the order's predicted
+    ±2σ half-width with it, `band_without`: without it (∞ where the test alone does not
+    determine the order), both with the parameters free to drift; `design`: its
+    `fisher_information`."""
+
+    def __init__(self, amplitude, frequency, start, cycles, band, band_without, design,
+                 fraction=None):
+        self.amplitude, self.frequency, self.start, self.cycles = (
+            amplitude, frequency, start, cycles)
+        self.band, self.band_without, self.design = band, band_without, design
+        self.fraction = fraction  # the amplitude over the input's RMS
+
+    def inputs(self, u, times):
+        """The planned inputs (N,) or (N, n) with the oscillation superposed on each input."""
+        u = np.asarray(u, float)
+        wave = np.where(times >= self.start,
+                        np.sin(2 * np.pi * self.frequency * (times - self.start)), 0.0)
+        return u + self.amplitude * (wave if u.ndim == 1 else wave[:, None])
+
+    def sentence(self, unit="") -> str:
+        """The test in words, e.g. "a 10 % oscillation at 0.5 Hz from t = 20 s would give
+        about ±0.03 whatever the parameters do"."""
+        per = {"s": " Hz", "": " per unit of time"}.get(unit, f" per {unit}")
+        size = (f"{100 * self.fraction:.0f} % of the load's RMS ({self.amplitude:.3g})"
+                if self.fraction else f"{self.amplitude:.3g}")
+        return (f"an oscillation of {size} at {self.frequency:.3g}{per} from t = "
+                f"{self.start:.3g}{' ' + unit if unit else ''} would give about ±{self.band:.2g} "
+                "whatever the parameters do (under the model, at the noise measured)")
+
+    def __repr__(self):
+        return (f"SettlingTest(amplitude={self.amplitude:.3g}, frequency={self.frequency:.3g}, "
+                f"start={self.start:.3g}, band=±{self.band:.3g}, "
+                f"band_without=±{self.band_without:.3g})")
+
+
+def settling_test(
+    u, order, p, dt=None, *, t=None, noise_std, amplitude=0.1, cycles=(5, 10, 20, 40),
+    starts=(0.0, 0.5), parameter_knots=8, order_drift=None, x0=True, memory="direct",
+    order_range=(0.01, 0.99),
+) -> SettlingTest:
+    """The oscillation to superpose on the load `u` (planned, or the one a record had) that
+    best determines the order while the parameters are free to drift (on `parameter_knots`
+    hat functions, as a gain): of a sine of `amplitude` × the input's RMS with each number of
+    `cycles` from each start (a fraction of the test's span in `starts`), at least 8 samples
+    a cycle, the one whose predicted order band (`fisher_information` with
+    `parameter_knots`, and `order_drift` where given: the tracker's band at that drift) is
+    narrowest. `order`, `p`, `noise_std`: the hypothesised order (a number or a trajectory),
+    parameters and noise, e.g. from `identify` on a first test. Returns a `SettlingTest`."""
+    u2 = np.asarray(check.samples(u, "u"), float)
+    u2 = u2.reshape(u2.shape[0], -1)
+    num = u2.shape[0]
+    times = np.asarray(t, float) if t is not None else float(check.step(dt)) * np.arange(num)
+    if not (isinstance(amplitude, (int, float)) and 0 < amplitude < math.inf):
+        raise ValueError(f"`amplitude` must be a positive number, got {amplitude!r}.")
+    span = float(times[-1] - times[0])
+    step = float(np.median(np.diff(times)))
+    scale = float(np.sqrt(np.mean(u2**2)))
+    grid = dict(dt=dt, t=t, noise_std=noise_std, x0=x0, memory=memory,
+                order_range=order_range, parameter_knots=parameter_knots,
+                order_drift=order_drift)
+    order = np.broadcast_to(np.asarray(order, float), (num,))
+
+    def band(inputs):
+        try:
+            return fisher_information(inputs, order, p, **grid)
+        except ValueError:  # the test does not determine the order at all
+            return None
+
+    without = band(u2)
+    best = None
+    for frac in starts:
+        start = float(times[0] + frac * span)
+        for count in cycles:
+            frequency = count / max(float(times[-1]) - start, 1e-300)
+            if frequency * step > 1 / 8:  # fewer than 8 samples a cycle
+                continue
+            test = SettlingTest(amplitude * scale, frequency, start, count, np.inf, np.inf, None)
+            design = band(test.inputs(u2, times))
+            if design is not None and (best is None or design.order_band < best.band):
+                best = SettlingTest(test.amplitude, frequency, start, count, design.order_band,
+                                    np.inf if without is None else without.order_band, design,
+                                    amplitude)
+    if best is None:
+        raise ValueError("no oscillation of these cycles fits the sampling (8 samples a cycle "
+                         "at least) or determines the order; sample faster or longer.")
+    return best

@@ -1,0 +1,151 @@
+"""The band from the explanations: the answer under what the user states about the
+parameters, the conditional answer (the band the data give while the parameters drift less
+than its breakdown drift), and that breakdown drift.
+
+Each explanation that fits the data (`Explanation.fits`) is an account the band must cover
+when the statement allows its drift. The reference is the fitting smoothing whose parameters
+drift least (the tuned smoothing where none fits); its band is the evidence-weighted mixture
+of the tuned intensities' modes and order drifts, with the parameters' scale integrated over
+the level profile where they are held. Going up in drift, each fitting explanation inside the
+band so far joins it; the first one outside it sets the breakdown drift: with that much drift
+an order outside the band explains the data as well, and no test of this record tells them
+apart.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from ._model import order_of_np
+from ._smoother import mix_modes
+
+# the alternatives that share the reference's assumption about the parameters: weighed into
+# its variance (by evidence, or the level profile's χ²), never unioned with it
+INTEGRATED = ("start", "order_drift", "level")
+
+
+@dataclasses.dataclass(frozen=True)
+class Bands:
+    """Bands on the order scale over the fitted points: `stated` (under the statement about
+    the parameters) and `conditional` (while they drift less than `breakdown_drift`), each
+    ``(alpha, lower, upper, std)``; `reference_drift` is the drift of the conditional
+    answer's own parameters; `breakdown_drift` is ∞ where no order outside the conditional
+    band fits the data with any drift tried."""
+
+    stated: tuple
+    conditional: tuple
+    breakdown_drift: float
+    reference_drift: float
+    drifting: bool = False  # the stated band covers an explanation with drifting parameters
+
+
+def _orders(beta, var, bounds, scale, floor=0.0):
+    """``(alpha, lower, upper, std)`` of the β trajectory `beta` with variance `var`, its
+    standard deviation × `scale`, and on the order's scale at least `floor`."""
+    alpha, slope = order_of_np(beta, bounds)
+    sd = np.maximum(scale * np.sqrt(np.maximum(var, 0.0)), floor / np.maximum(slope, 1e-300))
+    return (alpha, order_of_np(beta - 2 * sd, bounds)[0], order_of_np(beta + 2 * sd, bounds)[0],
+            slope * sd)
+
+
+def reference_variance(explanations, tuned, span, level_weight=True, temperature=1.0):
+    """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
+    order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
+    integrated over it (each held scale weighted by exp(−Δχ²/(2·temperature)) from the
+    best: a tempered likelihood, since the smoothings' χ² differ by more than their
+    parameters' count where the random-walk prior shapes each trajectory its own way)."""
+    mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
+    var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
+                       np.array([e.evidence for e in mixed]), 0, span)
+    levels = [e for e in explanations if e.kind == "level" and e.converged]
+    if not (levels and level_weight):
+        return var
+    members = [tuned] + levels
+    chi2 = np.array([e.chi2 for e in members])
+    w = np.exp(-(chi2 - chi2.min()) / (2 * temperature))
+    w /= w.sum()
+    spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))
+    return var + spread - tuned.var
+
+
+def _outside(alpha, band, half):
+    """An order trajectory lies outside a band: at most samples of the second half."""
+    _, lower, upper, _ = band
+    out = (alpha < lower) | (alpha > upper)
+    return bool(np.mean(out[half:]) > 0.5)
+
+
+def _union(band, member):
+    alpha, lower, upper, std = band
+    _, lo, hi, _ = member
+    return alpha, np.minimum(lower, lo), np.maximum(upper, hi), np.maximum(std, (np.maximum(
+        upper, hi) - np.minimum(lower, lo)) / 4)
+
+
+def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
+          member_width=True, level_weight=True, temperature=1.0, floor=0.0,
+          evidence_floor=np.inf, union_integrated=True):
+    """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
+    range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
+    of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
+    factor on each explanation's standard deviation; `drift_floor`: drifts below it count as
+    none (a held smoothing's parameters still move a little); `member_width`: a member
+    widens the band by its own ±2σ (else by its trajectory alone); `level_weight`: the level
+    profile's held scales weighed into the reference's variance, at that `temperature`;
+    `floor`: the least standard deviation of the order (its model error: quadrature,
+    interpolation of the input between samples); `evidence_floor`: a smoothing with drifting
+    parameters whose Laplace evidence lies more than this many nats below the tuned one's
+    does not count, however well it fits (such runs fit almost any record, their order's
+    level free)."""
+    tuned = next(e for e in explanations if e.kind == "tuned")
+    held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
+    # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
+    # the parameters held where the tuned one lets them drift and the held one fits too
+    if held is not None and tuned.drift > drift_floor:
+        reference = held
+        ref_band = _orders(held.beta, held.var, bounds, scale, floor)
+    else:
+        reference = tuned
+        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
+                                                          level_weight, temperature),
+                           bounds, scale, floor)
+    plausible = lambda e: not (  # noqa: E731
+        e.kind in ("param_drift", "held_order") and np.isfinite(tuned.evidence)
+        and e.evidence < tuned.evidence - evidence_floor)
+    ladder = [e for e in explanations if e.kind not in ("tuned", *INTEGRATED) and e is not held
+              and e.fits and e.converged and plausible(e)]
+    if reference is held:
+        ladder.append(tuned)
+    ladder.sort(key=lambda e: e.drift)
+    half = span // 2
+    band = tuple(a[:span] for a in ref_band)
+    breakdown = np.inf
+    def member(e):
+        return _orders(e.beta, e.var if member_width else np.zeros_like(e.var), bounds, scale,
+                       floor)
+
+    conditional_drifts = False
+    for e in ladder:
+        m = tuple(a[:span] for a in member(e))
+        if max(e.drift - reference.drift, 0.0) > drift_floor and _outside(m[0], band, half):
+            breakdown = e.drift
+            break
+        band = _union(band, m)
+        conditional_drifts |= e.drift > reference.drift + drift_floor
+    conditional = tuple(np.concatenate([a, b[span:]]) for a, b in zip(band, ref_band))
+    # the stated band: with the parameters held, the reference's (its alternatives weighed
+    # in); with a drift bound below the breakdown drift, the conditional band (the promise
+    # the conditional answer makes for every drift below it); with more drift allowed, every
+    # explanation that fits within it, the reference's alternatives included: one input
+    # cannot say which holds
+    stated, drifting = ref_band, False
+    if 0 < stated_drift < breakdown:
+        stated, drifting = conditional, conditional_drifts
+    elif stated_drift > 0:
+        others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged
+                  and union_integrated]
+        for e in [*others, *ladder]:
+            if e.drift <= max(stated_drift, reference.drift) + drift_floor:
+                stated = _union(stated, member(e))
+                drifting |= e.drift > reference.drift + drift_floor
+    return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting)
