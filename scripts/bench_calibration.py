@@ -4,7 +4,8 @@ Each draw is a semi-synthetic record: a segment of a real recorded signal (every
 ../shared/data: beef and silicone indentation force, AFM force and piezo height, adhesive
 staircase and load–unload stress, myocardium stretch, PP/PVC creep strain, rheometer creep
 stress, LAOS strain) drives a drawn order trajectory α(t) and parameter p(t) through eq. (12)
-— p inside the integral — computed by `vojax.reference`'s direct sums on a grid twice as fine
+— p inside the integral, constant or drifting in units of the record's span (the tracker's
+clock) — computed by `vojax.reference`'s direct sums on a grid twice as fine
 (never the code under test; for the ``long`` family, whose direct sums would take hours,
 by the reference's NumPy recursion of the exponential memory at a tolerance of 1e-10: within
 2e-12 of the direct sums on 4,000 samples), plus a drawn measurement noise. Families vary one thing at a
@@ -234,8 +235,8 @@ def draw_case(family, index, signals):
     gain = family.startswith("gain-drift")
     stated = None
     drifting = "drift" in family
-    if family == "informative":
-        u_fine = u_fine + oscillation(s_fine, rng)
+    if family == "informative":  # the input the tracker assumes: linear between its samples
+        u_fine = np.interp(fine_t, t, (u_fine + oscillation(s_fine, rng))[picks])
         form = index % 3  # constant, drifting inside the integral, drifting as a gain
         drifting, gain = form > 0, form == 2
     if family == "stated-drift":
@@ -249,8 +250,10 @@ def draw_case(family, index, signals):
         p_fine = 1.0 + drift * (1 + np.tanh((s_fine - centre) / w)) / 2
     truth = (dict(memory="direct") if fine_n <= DIRECT_MAX
              else dict(memory="exponential", tol=1e-10))
+    # on the record's own clock, time over its span: a parameter constant (or drifting by so
+    # much) in units of the span, as `identify` states it by default (its `time_scale`)
     integral = lambda v: np.asarray(  # noqa: E731
-        reference.fractional_integral(v, alpha_fine, h, **truth))
+        reference.fractional_integral(v, alpha_fine, h / width, **truth))
     if gain:  # the gain of the memory term drifts: y = p(t)·I^α(t) u (σ = η(t)·D^q ε)
         x = (p_fine * integral(u_fine))[picks]
     else:  # eq. (12): D^α x = p(t)·u, p inside the integral
@@ -304,6 +307,8 @@ TRACKERS = {
     "tracker-x0": dict(x0=0.0),
     "tracker-constant-x0": dict(parameters="constant", x0=0.0),
 }
+# the stated-drift family's own statement: the drift bound drawn with the record
+STATED = ("tracker-stated",)
 
 
 def run_method(method, case, max_points=None, threads=None):
@@ -320,9 +325,10 @@ def run_method(method, case, max_points=None, threads=None):
         grid["settings"] = vojax.TrackerSettings(run_threads=threads)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if method in TRACKERS:
+        if method in TRACKERS or method in STATED:
+            options = TRACKERS.get(method) or dict(parameters=case["stated"] or "free")
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid,
-                                 **TRACKERS[method])
+                                 **options)
         elif method == "law":
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
         else:
@@ -337,7 +343,14 @@ def run_method(method, case, max_points=None, threads=None):
                         / max(noise_variance(case["y"]), 1e-300)),
         chi2_true=float(np.mean((case["y"] - np.asarray(res.y_hat)) ** 2)
                         / max(float(np.var(case["y"] - case["x"])), 1e-300)),
+        verdict=getattr(d, "verdict", "identified" if d.identified else "not identified"),
+        breakdown_drift=float(getattr(d, "breakdown_drift", float("nan"))),
     )
+    conditional = getattr(res, "conditional", None)
+    if conditional is not None:
+        extra["conditional"] = tuple(np.asarray(a) for a in (
+            conditional.alpha, conditional.alpha_std, conditional.alpha_lower,
+            conditional.alpha_upper))
     return (np.asarray(res.alpha), np.asarray(res.alpha_std), np.asarray(res.alpha_lower),
             np.asarray(res.alpha_upper), bool(d.identified), d.message, extra)
 
@@ -353,6 +366,22 @@ def score(case, out):
     half = case["t"] > case["t"][-1] / 2
     inside = (truth >= lower) & (truth <= upper)
     z = (alpha - truth) / np.maximum(std, 1e-300)
+    extra = dict(extra)
+    conditional = extra.pop("conditional", None)
+    if conditional is not None:  # the conditional answer's own scores
+        c_alpha, c_std, c_lower, c_upper = conditional
+        c_inside = (truth >= c_lower) & (truth <= c_upper)
+        c_z = (c_alpha - truth) / np.maximum(c_std, 1e-300)
+        extra.update(
+            c_coverage=float(np.mean(c_inside[half])), c_inside=int(np.sum(c_inside[half])),
+            c_z_rms=float(np.sqrt(np.mean(c_z[half] ** 2))),
+            c_rms=float(np.sqrt(np.mean((c_alpha - truth)[half] ** 2))),
+            # a false promise: the conditional band misses the truth at most samples while its
+            # breakdown drift exceeds the true drift
+            false_promise=bool(extra.get("verdict") == "conditional"
+                               and np.mean(c_inside[half]) < 0.5
+                               and extra.get("breakdown_drift", 0) > case["true_drift"]),
+        )
     return dict(
         coverage=float(np.mean(inside[half])),
         inside=int(np.sum(inside[half])),
@@ -381,6 +410,8 @@ def _worker(job):
     case = draw_case(family, index, signals)
     rows = []
     for method in methods:
+        if method in STATED and case["stated"] is None:  # a statement only that family draws
+            continue
         # a record no longer than `max_points` and than identify's default is fitted sample by
         # sample in both runs: the same computation, so its row of the default's run is reused
         key = (family, index, method)
@@ -397,6 +428,7 @@ def _worker(job):
         row.update(
             family=family, index=index, method=method, input=case["input"], shape=case["shape"],
             samples=case["samples"], noise=case["noise"], rho=case["rho"], drift=case["drift"],
+            true_drift=case["true_drift"], stated=case["stated"],
             seconds=time.perf_counter() - started,
         )
         rows.append(row)
@@ -407,7 +439,42 @@ _SIGNALS: dict = {}
 
 
 def summarise(rows, methods, families):
-    """Per family and pooled, for each method: the table's lines."""
+    """Per family and pooled, for each method: the table's lines; then the conditional
+    answers' table."""
+    return _stated_table(rows, methods, families) + [""] + _conditional_table(
+        rows, methods, families)
+
+
+def _conditional_table(rows, methods, families):
+    """Per family and pooled, for each tracker: the records whose verdict is "conditional",
+    the conditional band's pooled coverage and median z RMS over them, its confidently wrong,
+    the false promises (the band misses the truth while the breakdown drift exceeds the true
+    drift) and the median breakdown drift."""
+    lines = [
+        "| method | family | conditional | coverage (conditional, pooled) | z RMS "
+        "(conditional, median) | confidently wrong | false promises | breakdown drift "
+        "(median) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for method in methods:
+        for family in [*families, "pooled"]:
+            sel = [r for r in rows if r["method"] == method and "c_coverage" in r
+                   and (family == "pooled" or r["family"] == family)]
+            if not sel:
+                continue
+            cond = [r for r in sel if r.get("verdict") == "conditional"]
+            cov = (sum(r["c_inside"] for r in cond) / max(1, sum(r["count"] for r in cond))
+                   if cond else float("nan"))
+            z = np.median([r["c_z_rms"] for r in cond]) if cond else float("nan")
+            wrong = sum(r["c_coverage"] < 0.5 for r in cond)
+            false = sum(r["false_promise"] for r in cond)
+            drift = np.median([r["breakdown_drift"] for r in cond]) if cond else float("nan")
+            lines.append(f"| {method} | {family} | {len(cond)}/{len(sel)} | {cov:.2f} | {z:.2f} "
+                         f"| {wrong}/{len(cond)} | {false}/{len(cond)} | {drift:.2g} |")
+    return lines
+
+
+def _stated_table(rows, methods, families):
     lines = [
         "| method | family | cases | identified | coverage (identified, pooled) | coverage "
         "(all, pooled) | z RMS (identified, median) | order RMS (median) | confidently wrong "
@@ -445,7 +512,8 @@ def main(argv=None):
     )
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
     parser.add_argument("--methods", nargs="*", default=[
-        "tracker", "tracker-constant", "tracker-x0", "tracker-constant-x0", "law"])
+        "tracker", "tracker-constant", "tracker-x0", "tracker-constant-x0", "tracker-stated",
+        "law"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--threads", type=int, default=None,
                         help="threads of one record's smoothings (default: one per core, at "
@@ -473,22 +541,36 @@ def main(argv=None):
     if args.reuse:
         reuse = {(r["family"], r["index"], r["method"]): r
                  for r in json.loads(Path(args.reuse).read_text())}
+    # each record's rows are appended to OUT.partial.jsonl as they come: a run stopped by a
+    # time limit is resumed from there (the records it finished are not run again)
+    partial = Path(args.out).with_suffix(".partial.jsonl") if args.out else None
+    done = []
+    if partial is not None and partial.exists():
+        done = [json.loads(line) for line in partial.read_text().splitlines() if line.strip()]
+    finished = {(r["family"], r["index"]) for r in done}
     jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse, args.threads)
-            for i in range(args.first, args.first + args.per_family) for f in args.families]
+            for i in range(args.first, args.first + args.per_family) for f in args.families
+            if (f, i) not in finished]
     started = time.perf_counter()
-    rows = []
+    rows = [r for r in done if r["family"] in args.families
+            and args.first <= r["index"] < args.first + args.per_family]
+
+    def record(out):
+        rows.extend(out)
+        _progress(out)
+        if partial is not None:
+            with partial.open("a") as f:
+                f.write("".join(json.dumps(r, default=float) + "\n" for r in out))
+
     if args.workers > 1:
         import multiprocessing as mp
 
         with mp.get_context("spawn").Pool(args.workers) as pool:
             for out in pool.imap_unordered(_worker, jobs):
-                rows.extend(out)
-                _progress(out)
+                record(out)
     else:
         for job in jobs:
-            out = _worker(job)
-            rows.extend(out)
-            _progress(out)
+            record(_worker(job))
     wall = time.perf_counter() - started
     ran = {(r["family"], r["index"], r["method"]) for r in rows}
     kept = [dict(r, kept=True) for path in args.keep
@@ -502,6 +584,7 @@ def main(argv=None):
         f"# bench_calibration: {args.per_family} draws per family (indices {args.first}–"
         f"{args.first + args.per_family - 1}), seeds from family/index; "
         f"{os.cpu_count()} CPUs, {args.workers} workers, {wall:.0f} s wall"
+        + (f" (resumed: {len(finished)} records from an earlier run)" if finished else "")
         + ("" if args.max_points is None else
            f"; the tracker at max_points={args.max_points} (longer records as block means)")
         + ("" if not args.reuse else
@@ -516,6 +599,7 @@ def main(argv=None):
     if args.out:
         Path(args.out).write_text("\n".join(lines) + "\n")
         Path(args.out).with_suffix(".json").write_text(json.dumps(rows, indent=1, default=float))
+        partial.unlink(missing_ok=True)
     return rows
 
 

@@ -99,98 +99,25 @@ def test_every_diagnostic_message_has_a_troubleshooting_section():
         assert f"`{reason.value}`" in found[0], f"the section {found[0]!r} names no reason"
 
 
-def _markdown_tables(text):
-    """The rows of every table of a page, as lists of cells, table by table."""
-    tables, current = [], []
-    for line in text.splitlines() + [""]:
-        if line.startswith("|"):
-            cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not set("".join(cells)) <= set("-: "):
-                current.append(cells)
-        elif current:
-            tables.append(current)
-            current = []
-    return tables
-
-
-def _calibration_rows(path, method):
-    """A results table of scripts/bench_calibration.py, in the docs' columns."""
-    rows = []
-    for line in path.read_text().splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) == 9 and cells[0] == method:
-            _, family, _, identified, coverage, _, z, order, wrong = cells
-            rows.append([family, identified.split()[0], *(
-                "–" if v == "nan" else v for v in (coverage, z)
-            ), order, wrong])
-    return rows
-
-
-def test_the_docs_band_components_tables_are_the_scripts_summaries():
-    """The identifiability page's two tables of what sets the band's width (draws 0–11, and
-    the held-out draws) are the summaries that scripts/band_components.py computes from its
-    per-record results (recomputed here)."""
+def test_the_calibration_report_holds_the_benchmarks_tables():
+    """Every table of docs/calibration.md is the rows of its method in the results file it
+    names (scripts/calibration_report.py writes them), and the README's and the
+    identifiability page's headline numbers are the held-out default's pooled row."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
-        "band_components", ROOT / "scripts" / "band_components.py"
-    )
+        "calibration_report", ROOT / "scripts" / "calibration_report.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    expected = []
-    for name in ("band_components.txt", "band_components_held_out.txt"):
-        lines = (ROOT / "scripts" / "results" / name).read_text().splitlines()
-        table = lines[: next(i for i, x in enumerate(lines) if x.startswith("| parameters"))]
-        expected += _markdown_tables("\n".join(module.summarise(table)) + "\n")
-    docs = [
-        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
-        if t[0][:2] == ["parameters", "records"]
-    ]
-    assert len(expected) == 2 and all(len(t) == 3 for t in expected)  # header, two groups
-    assert docs == expected
-
-
-def test_the_docs_calibration_tables_are_the_benchmarks_results():
-    """The eight calibration tables of the identifiability page (the offset estimated, then
-    known), and the README's summary of the held-out draws, are those of scripts/results/
-    (the benchmark's own output)."""
-    results = ROOT / "scripts" / "results"
-    tables = [
-        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
-        if t[0][:2] == ["family", "identified"]
-    ]
-    expected = [
-        _calibration_rows(results / name, method)
-        for offset in ("", "-x0")  # the offset estimated, then known
-        for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")
-        for method in ("tracker" + offset, "tracker-constant" + offset)
-    ]
-    assert len(tables) == 8 and all(len(rows) == 11 for rows in expected)
-    assert [t[1:] for t in tables] == expected
-    pooled = dict(zip(["family", "identified", "coverage", "z", "order", "wrong"],
-                      expected[2][-1]))
-    done, total = map(int, pooled["identified"].split("/"))
-    wrong = pooled["wrong"].split("/")[0]
-    readme = " ".join((ROOT / "README.md").read_text().split())
-    assert (f"{wrong} of the {done} records it calls identified is confidently wrong" in readme
-            and f"pooled coverage {pooled['coverage']}" in readme
-            and f"it identifies {round(100 * done / total)} % of the {total} records" in readme)
-
-
-def test_the_docs_band_rules_table_is_the_scripts_summary():
-    """The identifiability page's table of band rules is the summary at the head of
-    scripts/results/band_rules.txt, and its first rule of each setting (the band as reported)
-    counts what the calibration suite's results count for that setting."""
-    lines = (ROOT / "scripts" / "results" / "band_rules.txt").read_text()
-    expected = _markdown_tables(lines)[0]
-    docs = [
-        t for t in _markdown_tables((ROOT / "docs" / "identifiability.md").read_text())
-        if t[0][:2] == ["parameters", "band"]
-    ]
-    assert docs == [expected]
-    results = ROOT / "scripts" / "results"
-    for setting, method in (("drifting", "tracker"), ("constant", "tracker-constant")):
-        row = next(r for r in expected if r[0] == setting and r[1].startswith("reported"))
-        pooled = [_calibration_rows(results / name, method)[-1]
-                  for name in ("bench_calibration.txt", "bench_calibration_held_out.txt")]
-        assert row[2:] == [c for r in pooled for c in (r[1], r[5].split("/")[0])]
+    page = (ROOT / "docs" / "calibration.md").read_text()
+    # one table per method the held-out run scored
+    assert len(module.MARKER.findall(page)) >= 5
+    assert module.render(page) == page
+    pooled = next(line for line in module.rows("bench_calibration_held_out.txt", "tracker",
+                                                 "stated") if "| pooled |" in line)
+    cells = [c.strip() for c in pooled.strip().strip("|").split("|")]
+    identified, wrong = cells[3].split()[0], cells[8]
+    for name in ("README.md", "docs/identifiability.md"):
+        text = " ".join((ROOT / name).read_text().split())
+        assert f"identified {identified} held-out records, {wrong.split('/')[0]} of them " \
+               "confidently wrong" in text, name
