@@ -61,7 +61,7 @@ def _rows(module, signals, method, families, count=6):
 
 
 @pytest.mark.xfail(
-    strict=False,
+    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
     reason="open (issue 50): the band from explanations covers 0.73 of the samples of this suite's drifting-parameter records, below the 0.9 asked (the former union band covered more, several times wider)",
 )
 def test_default_tracker_is_never_confidently_wrong_where_a_parameter_drifts(suite):
@@ -91,7 +91,7 @@ def test_tracker_with_constant_parameters_identifies_white_and_noisy_draws(suite
 
 
 @pytest.mark.xfail(
-    strict=False,
+    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
     reason="the premise no longer holds: with the span's clock the order of this record is found within 0.014 (the test asks for a record whose constant fit is more than 0.1 off, on the level ridge); a record that still sits on the ridge is to be found",
 )
 def test_constant_parameters_band_covers_the_level_another_scale_allows(suite):

@@ -129,7 +129,7 @@ def test_without_information_the_order_spreads_as_the_trackers_random_walk(drift
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    strict=False,
+    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
     reason="open (issue 50): at given intensities the band now weighs the level profile's held scales and the alternatives in, the prediction is the Laplace band at the mode alone: realised 0.059 against 0.013 predicted",
 )
 def test_the_tracker_reaches_the_predicted_band_at_given_intensities():

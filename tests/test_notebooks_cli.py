@@ -46,7 +46,7 @@ def test_paper_simulation_notebook_executes():
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    strict=False,
+    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
     reason="the notebook's text and this check predate the refit's inflation for correlated residuals: on the adhesive (lag-1 0.99) the refit's interval [0.24, 0.59] now holds the held tracker's order 0.40, so 'three bands that do not overlap' no longer holds; to be rewritten",
 )
 def test_tissue_notebook_executes():
