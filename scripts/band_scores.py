@@ -186,13 +186,8 @@ def report(rows, out=None):
         "library stated": library_rule("stated"),
         "library conditional": library_rule("conditional"),
         "library conditional k=1.5": library_rule("conditional", scale=1.5),
-        "library stated, centres": library_rule("stated", member_width=False),
-        "library conditional, centres": library_rule("conditional", member_width=False),
-        "library conditional, centres, no level": library_rule(
-            "conditional", member_width=False, level_weight=False),
     })
     lines = table(rows, rules, settings, families) + [""] + promises(rows)
-    lines += [""] + promises(rows, member_width=False)
     text = "\n".join(lines)
     print(text)
     if out:

@@ -766,7 +766,7 @@ MUTATIONS = {
     "the level profile's held scales left out of the reference's variance": (
         'vojax/_tracker/_band.py',
         [
-            ('    if not (levels and level_weight):',
+            ('    if not levels:',
              '    if True:'),
         ],
         ['tests/test_band.py'],
@@ -774,8 +774,8 @@ MUTATIONS = {
     'the held scales weighted by exp(+Δχ²/2)': (
         'vojax/_tracker/_band.py',
         [
-            ('    w = np.exp(-(chi2 - chi2.min()) / (2 * temperature))',
-             '    w = np.exp((chi2 - chi2.min()) / (2 * temperature))'),
+            ('    w = np.exp(-(chi2 - chi2.min()) / 2)',
+             '    w = np.exp((chi2 - chi2.min()) / 2)'),
         ],
         ['tests/test_band.py'],
     ),

@@ -48,21 +48,19 @@ def _orders(beta, var, bounds, scale, floor=0.0):
             slope * sd)
 
 
-def reference_variance(explanations, tuned, span, level_weight=True, temperature=1.0):
+def reference_variance(explanations, tuned, span):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
-    integrated over it (each held scale weighted by exp(−Δχ²/(2·temperature)) from the
-    best: a tempered likelihood, since the smoothings' χ² differ by more than their
-    parameters' count where the random-walk prior shapes each trajectory its own way)."""
+    integrated over it (each held scale weighted by exp(−Δχ²/2) from the best)."""
     mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
     levels = [e for e in explanations if e.kind == "level" and e.converged]
-    if not (levels and level_weight):
+    if not levels:
         return var
     members = [tuned] + levels
     chi2 = np.array([e.chi2 for e in members])
-    w = np.exp(-(chi2 - chi2.min()) / (2 * temperature))
+    w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
     spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))
     return var + spread - tuned.var
@@ -83,16 +81,12 @@ def _union(band, member):
 
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
-          member_width=True, level_weight=True, temperature=1.0, floor=0.0,
-          evidence_floor=np.inf, union_integrated=True):
+          floor=0.0, evidence_floor=np.inf):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
     factor on each explanation's standard deviation; `drift_floor`: drifts below it count as
-    none (a held smoothing's parameters still move a little); `member_width`: a member
-    widens the band by its own ±2σ (else by its trajectory alone); `level_weight`: the level
-    profile's held scales weighed into the reference's variance, at that `temperature`;
-    `floor`: the least standard deviation of the order (its model error: quadrature,
+    none (a held smoothing's parameters still move a little); `floor`: the least standard deviation of the order (its model error: quadrature,
     interpolation of the input between samples); `evidence_floor`: a smoothing with drifting
     parameters whose Laplace evidence lies more than this many nats below the tuned one's
     does not count, however well it fits (such runs fit almost any record, their order's
@@ -106,9 +100,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         ref_band = _orders(held.beta, held.var, bounds, scale, floor)
     else:
         reference = tuned
-        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
-                                                          level_weight, temperature),
-                           bounds, scale, floor)
+        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span), bounds,
+                           scale, floor)
     plausible = lambda e: not (  # noqa: E731
         e.kind in ("param_drift", "held_order") and np.isfinite(tuned.evidence)
         and e.evidence < tuned.evidence - evidence_floor)
@@ -121,8 +114,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     band = tuple(a[:span] for a in ref_band)
     breakdown = np.inf
     def member(e):
-        return _orders(e.beta, e.var if member_width else np.zeros_like(e.var), bounds, scale,
-                       floor)
+        return _orders(e.beta, e.var, bounds, scale, floor)
 
     conditional_drifts = False
     for e in ladder:
@@ -142,8 +134,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
-        others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged
-                  and union_integrated]
+        others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged]
         for e in [*others, *ladder]:
             if e.drift <= max(stated_drift, reference.drift) + drift_floor:
                 stated = _union(stated, member(e))
