@@ -491,7 +491,7 @@ MUTATIONS = {
     ),
     "tables keep spreadsheet formulas": (
         "vojax/_data/_tables.py",
-        [("    if isinstance(value, str) and value.startswith(FORMULA_START):",
+        [("    if isinstance(value, str) and value.startswith(GUARDED):",
           "    if False:")],
         ["tests/test_outputs.py::test_tables_do_not_carry_spreadsheet_formulas"],
     ),

@@ -94,8 +94,8 @@ def _read_table(path):
     except (OSError, UnicodeDecodeError, csv.Error):
         return []
 
-    def plain(value):
-        if isinstance(value, str) and value.startswith("'") and value[1:].startswith(FORMULA_START):
+    def plain(value):  # the inverse of `_text_cell`: exactly one guard "'" comes off
+        if isinstance(value, str) and value.startswith("'") and value[1:].startswith(GUARDED):
             return value[1:]
         return value
 
@@ -108,10 +108,13 @@ def _read_table(path):
 # a text cell starting with one of these is a formula to a spreadsheet (a record named
 # "=HYPERLINK(…)" would run as one when the table is opened): it is written after a "'"
 FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+# a cell starting with the guard itself is guarded too, so that reading a table back takes
+# off exactly what writing added: "'=1" is written "''=1" and read back as "'=1"
+GUARDED = FORMULA_START + ("'",)
 
 
 def _text_cell(value):
-    if isinstance(value, str) and value.startswith(FORMULA_START):
+    if isinstance(value, str) and value.startswith(GUARDED):
         return "'" + value
     return value
 
