@@ -1,11 +1,13 @@
 """`vojax batch`: bad files reported while the rest go on, re-runs, and the sharded path."""
 
 import csv
+import importlib.util
 import json
 import os
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -584,3 +586,83 @@ def test_the_bars_time_left_is_paced_on_the_records_after_the_first(monkeypatch)
     clock[0] = 55.0
     bar.update(0, failed=1)  # a redraw halfway through the fourth record
     assert bar._counts() == "1 failed, 0 up to date; about 88 s left"  # (55 − 30)/2 × 7
+
+
+def _silent_port(http=False):
+    """A local TCP port that accepts connections and then never answers (or answers as an
+    HTTP server would), served by a daemon thread."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held = []
+
+    def serve():
+        while True:
+            conn, _ = server.accept()
+            held.append(conn)
+            if http:
+                conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n\r\nhello" * 64)
+
+    threading.Thread(target=serve, daemon=True).start()
+    return f"tcp://127.0.0.1:{server.getsockname()[1]}", server
+
+
+@pytest.mark.slow
+def test_a_scheduler_address_that_never_answers_cannot_hang_the_batch(tmp_path):
+    """An address that accepts and never speaks, one that speaks HTTP, and a real scheduler
+    with no worker: each ends the command with exit 1 and one line naming the address,
+    within the 60 s promised, writing nothing."""
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    data = tmp_path / "data"
+    data.mkdir()
+    _springpot_csv(data / "r.csv", n=20, q=0.3)
+    common = ["batch", str(data), "--time", "time_s", "--input", "stress", "--output", "strain",
+              "--out", "out"]
+    silent, s1 = _silent_port()
+    http, s2 = _silent_port(http=True)
+    with LocalCluster(n_workers=0, processes=True, dashboard_address=None) as empty:
+        cases = [(silent, "did not answer as a Dask scheduler within"),
+                 (http, "is not a reachable Dask scheduler"),
+                 (empty.scheduler_address, "has no worker (none joined within")]
+        for address, words in cases:
+            start = time.monotonic()
+            proc = _cli(*common, "--scheduler", address, cwd=tmp_path)
+            took = time.monotonic() - start
+            lines = proc.stderr.strip().splitlines()
+            assert proc.returncode == 1 and took < 60, (address, took, proc.stderr)
+            assert len(lines) == 1 and words in lines[0] and address in lines[0], proc.stderr
+            assert not (tmp_path / "out").exists()
+    s1.close()
+    s2.close()
+
+
+def test_workers_and_clients_that_cannot_work_are_refused(tmp_path):
+    """More local workers than cores (each is a process with its own compiled programs: a
+    thousand were killed by the system) and a client that is not a Dask client are refused
+    in one sentence, before anything is written."""
+    import os
+
+    import vojax.io
+
+    data = tmp_path / "data"
+    data.mkdir()
+    _springpot_csv(data / "r.csv", n=20, q=0.3)
+    many = (os.cpu_count() or 1) + 1
+    proc = _cli("batch", str(data), "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--out", "out", "--scheduler", "local", "--workers", str(many),
+                cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    assert f"--workers is {many}, more than this machine's" in proc.stderr
+    rec, = vojax.io.load_records(data / "r.csv", time="time_s", inputs=["stress"], output="strain")
+    with pytest.raises(TypeError, match="`client` must be a distributed.Client, got str"):
+        vojax.io.run_batch([rec], tmp_path / "py", client="local")
+    if importlib.util.find_spec("distributed") is not None:
+        with pytest.raises(ValueError, match=f"`workers` is {many}, more than"):
+            with vojax.io.dask_client("local", many):
+                pass
+    assert not (tmp_path / "out").exists() and not (tmp_path / "py").exists()

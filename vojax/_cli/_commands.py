@@ -1,6 +1,7 @@
 """The commands `identify`, `compare`, `batch`, `check` and `example`."""
 
 import contextlib
+import os
 import sys
 import time
 from pathlib import Path
@@ -186,6 +187,9 @@ def batch_command(args) -> int:
         raise CLIError("--workers sets the worker processes of --scheduler local; use it with that.")
     if args.workers is not None and args.workers < 1:
         raise CLIError(f"--workers must be at least 1, got {args.workers}.")
+    if args.workers is not None and args.workers > (os.cpu_count() or 1):
+        raise CLIError(f"--workers is {args.workers}, more than this machine's "
+                       f"{os.cpu_count() or 1} cores; use at most one worker per core.")
     if args.scheduler is not None and not args.scheduler.strip():
         raise CLIError("--scheduler needs 'local' or a scheduler's address (tcp://host:8786).")
     import dataclasses
@@ -195,6 +199,13 @@ def batch_command(args) -> int:
     found = _expand(args.files, args.pattern, args.out)
     files = [path for path, _ in found]
     _out_apart(args.out, files)
+    if args.scheduler not in (None, "local"):  # before anything is written
+        from .._data._dask import check_scheduler
+
+        try:
+            check_scheduler(args.scheduler)
+        except (ImportError, ConnectionError) as e:
+            raise CLIError(str(e)) from None
     out = _new_dir(args.out)
     records, failures = [], []
     for path, prefix in found:
@@ -219,8 +230,10 @@ def batch_command(args) -> int:
         client = None
         if args.scheduler is not None:
             try:
-                client = stack.enter_context(dask_client(args.scheduler, args.workers))
-            except ImportError as e:
+                client = stack.enter_context(
+                    dask_client(args.scheduler, args.workers, check=False)
+                )
+            except (ImportError, ConnectionError) as e:
                 raise CLIError(str(e)) from None
             except (OSError, TimeoutError) as e:
                 raise CLIError(

@@ -137,6 +137,11 @@ def run_batch(
     figures, as without it. Results equal the single-process run's to rounding.
     """
     check_parameters(method, parameters, max_points, x0, time_scale)
+    if client is not None and not all(hasattr(client, a) for a in ("submit", "nthreads")):
+        raise TypeError(
+            f"`client` must be a distributed.Client, got {type(client).__name__}: start one "
+            "with vojax.io.dask_client('local') (a context manager) and pass what it gives."
+        )
     method = canonical_method(method)
     out_dir = Path(out_dir)
     check_out_holds_no_input(out_dir, [r.source for r in records] + [f[0] for f in failures])

@@ -4,6 +4,8 @@ address), the tasks and their results back in the batch's process."""
 
 import contextlib
 import os
+import subprocess
+import sys
 import time
 
 import jax
@@ -12,6 +14,27 @@ import numpy as np
 from ._compute import _compute_group
 
 DASK_TASKS_PER_WORKER = 2  # a bucket is cut into about this many tasks per Dask worker
+CONNECT_S = 20  # seconds a scheduler's address has to answer as a Dask scheduler
+WORKERS_S = 20  # seconds a reachable scheduler has for its first worker to join
+PROBE_S = 50  # hard limit of the whole check, whatever the address does (a port that
+# accepts and never answers, an HTTP server, a dashboard): the user never waits longer
+
+# run in a child process so that no address can hang or exhaust this one: exit 0 with
+# workers, 3 without, 2 with a one-line reason on stderr
+_PROBE = """
+import sys
+from distributed import Client
+try:
+    client = Client(sys.argv[1], timeout=sys.argv[2] + "s")
+except BaseException as e:
+    print(str(e).splitlines()[0] if str(e) else type(e).__name__, file=sys.stderr)
+    sys.exit(2)
+try:
+    client.wait_for_workers(1, timeout=float(sys.argv[3]))
+except BaseException:
+    sys.exit(3)
+sys.exit(0)
+"""
 
 
 def _x64():
@@ -76,13 +99,14 @@ def _on_dask(client, groups, config, bar):
 
 
 @contextlib.contextmanager
-def dask_client(scheduler, workers=None):
+def dask_client(scheduler, workers=None, *, check=True):
     """A Dask client for `run_batch`: ``"local"`` starts a `LocalCluster` of `workers` worker
     processes (default: the cores, at most 8) with one thread each, which die with this
     process however it ends; any other string is the address of a running scheduler
     (``tcp://host:8786``), whose workers must have vojax installed and see the input files
     never (the records travel with the tasks) and the output folder never (this process
-    writes it). Closed on exit."""
+    writes it). Closed on exit. An address is first checked by `check_scheduler` (skipped
+    with ``check=False`` where the caller has just checked it)."""
     try:
         from distributed import Client, LocalCluster
     except ImportError:
@@ -94,6 +118,12 @@ def dask_client(scheduler, workers=None):
             workers = max(1, min(8, os.cpu_count() or 1))
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise ValueError(f"`workers` must be a positive integer, got {workers!r}.")
+        cores = os.cpu_count() or 1
+        if workers > cores:
+            raise ValueError(
+                f"`workers` is {workers}, more than this machine's {cores} cores: each worker "
+                "is a process with its own compiled programs; use at most one per core."
+            )
         with LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
         ) as cluster, Client(cluster) as client:
@@ -103,8 +133,39 @@ def dask_client(scheduler, workers=None):
         if workers is not None:
             raise ValueError("`workers` applies to scheduler='local' only: a running "
                              "cluster has its own workers.")
-        with Client(scheduler, timeout="30s") as client:
+        if check:
+            check_scheduler(scheduler)
+        with Client(scheduler, timeout=f"{CONNECT_S}s") as client:
             yield client
+
+
+def check_scheduler(address):
+    """Raises `ConnectionError` with a one-line reason unless `address` answers as a Dask
+    scheduler with at least one worker, within `PROBE_S` seconds whatever the address
+    does (the check runs in a child process, which is killed at the limit)."""
+    if not isinstance(address, str) or not address.strip():
+        raise ValueError(f"a scheduler's address is a string like tcp://host:8786, got {address!r}.")
+    import importlib.util
+
+    if importlib.util.find_spec("distributed") is None:
+        raise ImportError('the Dask scheduler needs the dask extra: pip install "vojax[dask]".')
+    command = [sys.executable, "-c", _PROBE, address, str(CONNECT_S), str(WORKERS_S)]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=PROBE_S)
+    except subprocess.TimeoutExpired:
+        raise ConnectionError(
+            f"{address} did not answer as a Dask scheduler within {PROBE_S} s (is it the "
+            "scheduler's port, 8786 by default, and not its dashboard's?)."
+        ) from None
+    if done.returncode == 3:
+        raise ConnectionError(
+            f"the Dask scheduler at {address} has no worker (none joined within "
+            f"{WORKERS_S} s): start one with `dask worker {address}`."
+        )
+    if done.returncode != 0:
+        lines = done.stderr.strip().splitlines()
+        reason = lines[-1] if lines else f"exit status {done.returncode}"
+        raise ConnectionError(f"{address} is not a reachable Dask scheduler: {reason}")
 
 
 def _dies_with_parent(parent):
