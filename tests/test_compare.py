@@ -255,3 +255,61 @@ def test_the_held_out_error_is_the_prediction_of_a_fit_that_did_not_see_the_end(
     assert row["holdout_nrmse"] == pytest.approx(want, rel=1e-6)
     whole = np.sqrt(np.mean((y - np.asarray(row["refit"].y_hat))[tail] ** 2)) / np.ptp(y)
     assert abs(whole - want) > 1e-4 * want
+
+
+DEGENERATE = [
+    ("no stress", lambda s, e: (0 * s, e), "`stress` is 0 at every sample"),
+    ("no strain", lambda s, e: (s, 0 * e), "`strain` is 0 at every sample"),
+    ("constant strain", lambda s, e: (s, 0 * e + 2.0), "`strain` is 2 at every sample"),
+    ("the strain as its own stress", lambda s, e: (e, e), "are the same series"),
+    ("tiny numbers", lambda s, e: (1e-200 * s, 1e-200 * e), "`stress`'s largest magnitude is 1e-200"),
+    ("huge numbers", lambda s, e: (s, 1e200 * e), "`strain`'s largest magnitude is"),
+]
+
+
+@pytest.mark.parametrize("case, change, words", DEGENERATE, ids=[c[0] for c in DEGENERATE])
+def test_a_record_no_law_can_describe_is_refused_not_answered_with_nan(case, change, words):
+    """Degenerate records (no stress, no change of strain, one series as both, numbers whose
+    squares underflow or overflow) are refused in one sentence: before, they returned rows
+    with NaN lag-1 and evidence, or a springpot "favoured" on a zero stress."""
+    stress, dt = _stress(60)
+    strain = np.asarray(vojax.simulate(stress, 0.3, 0.25, dt))
+    a, b = change(stress, strain)
+    with pytest.raises(ValueError, match=words.replace("(", r"\(")):
+        vojax.compare(a, b, dt, models=("springpot",))
+
+
+def test_every_number_of_a_comparison_is_finite_and_its_questions_name_the_models():
+    """An exact fit (noise-free springpot data): every number in every row is finite (its
+    residuals' lag-1 is 0, not 0/0); the Bayes factor of a model that was not compared is
+    refused naming those that were."""
+    stress, dt = _stress(60)
+    strain = np.asarray(vojax.simulate(stress, 0.3, 0.25, dt))
+    c = vojax.compare(stress, strain, dt, models=("springpot", "maxwell"))
+    for row in c.rows:
+        assert all(math.isfinite(v) for v in row.values() if isinstance(v, float)), row
+    assert c.bayes_factor("springpot", "springpot") == 1.0
+    with pytest.raises(ValueError, match="'zener' was not compared here; the models compared"):
+        c.bayes_factor("zener", "springpot")
+
+
+def test_the_command_refuses_a_degenerate_record_with_exit_1_and_no_nan_table(tmp_path):
+    """`vojax compare` on a file whose stress is 0 throughout exits 1 with one line naming
+    the record, and writes no comparison.csv (it used to exit 0 with NaN cells)."""
+    import csv
+
+    from .test_data_cli import _cli
+
+    stress, dt = _stress(40)
+    with open(tmp_path / "flat.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_s", "stress", "strain"])
+        w.writerows(zip(dt * np.arange(40), 0 * stress, np.linspace(0, 1, 40)))
+    done = _cli("compare", "flat.csv", "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--out", "out", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.strip().splitlines() == [
+        "vojax: error: flat: `stress` is 0 at every sample: nothing drives the strain, so no "
+        "law can be fitted to it."
+    ]
+    assert not (tmp_path / "out" / "comparison.csv").exists()

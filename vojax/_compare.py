@@ -17,6 +17,8 @@ MODELS = ("springpot", "kelvin-voigt", "maxwell", "zener", "variable")
 UNDECIDED_BF = 3.0
 OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `_fit`)
 STRONG_BF = 10.0
+SCALE_RANGE = (1e-100, 1e100)  # magnitudes a record's stress and strain may have (squares
+# of numbers outside underflow or overflow in the fits' sums of squares)
 
 
 class Comparison:
@@ -40,6 +42,11 @@ class Comparison:
     def bayes_factor(self, a: str, b: str) -> float:
         """The Bayes factor of model `a` over model `b` (Schwarz approximation)."""
         ev = {r["model"]: r["log_evidence"] for r in self.rows}
+        for name in (a, b):
+            if name not in ev:
+                raise ValueError(
+                    f"{name!r} was not compared here; the models compared are {', '.join(ev)}."
+                )
         return float(math.exp(min(ev[a] - ev[b], 700.0)))
 
     def table(self) -> str:
@@ -130,6 +137,7 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
         raise ValueError(f"`holdout` must lie in [0.05, 0.5], got {holdout!r}.")
     if (dt is None) == (t is None):
         raise ValueError("give exactly one of `dt` and `t`.")
+    _check_degenerate(stress, strain)
     num = stress.size
     times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
     grid = dict(dt=dt) if t is None else dict(t=times)
@@ -161,7 +169,7 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
         miss = np.asarray(strain - early.y_hat)[tail]
         span = float(np.ptp(strain)) or 1.0
         e = res - res.mean()
-        lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else float("nan")
+        lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else 0.0  # an exact fit: none
         order = np.asarray(fit.order)
         rows.append(dict(
             model=model, quantities=int(k), log_likelihood=loglik,
@@ -173,12 +181,41 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
             refit=fit,
             **({"note": nested} if nested else {}),
         ))
+    for r in rows:
+        bad = [k for k, v in r.items() if isinstance(v, float) and not math.isfinite(v)]
+        if bad:
+            raise ValueError(
+                f"the fit of {r['model']} gave a non-finite {bad[0]}: this record does not "
+                "determine that law (check that the stress drives the strain)."
+            )
     rows.sort(key=lambda r: -r["log_evidence"])
     top = rows[0]["log_evidence"]
     weights = np.exp([r["log_evidence"] - top for r in rows])
     for r, w in zip(rows, weights / weights.sum()):
         r["weight"] = float(w)
     return Comparison(rows, verdict_of(rows, num))
+
+
+def _check_degenerate(stress, strain):
+    """Refuses, in one sentence each, a record no law can be compared on: no stress, no
+    change of strain, the same series as both, or magnitudes outside `SCALE_RANGE`."""
+    if not np.any(stress):
+        raise ValueError("`stress` is 0 at every sample: nothing drives the strain, so no "
+                         "law can be fitted to it.")
+    if np.ptp(strain) == 0:
+        raise ValueError(f"`strain` is {strain[0]:g} at every sample: there is no response "
+                         "to fit.")
+    if stress.shape == strain.shape and np.array_equal(stress, strain):
+        raise ValueError("`stress` and `strain` are the same series: give the measured "
+                         "stress as the input and the strain as the output.")
+    lo, hi = SCALE_RANGE
+    for name, x in (("stress", stress), ("strain", strain)):
+        size = float(np.max(np.abs(x)))
+        if not lo <= size <= hi:
+            raise ValueError(
+                f"`{name}`'s largest magnitude is {size:.3g}, outside [{lo:g}, {hi:g}]: "
+                "express it in other units (kPa, µε, …) before comparing."
+            )
 
 
 def verdict_of(rows, num) -> str:
