@@ -262,7 +262,8 @@ DEGENERATE = [
     ("no strain", lambda s, e: (s, 0 * e), "`strain` is 0 at every sample"),
     ("constant strain", lambda s, e: (s, 0 * e + 2.0), "`strain` is 2 at every sample"),
     ("the strain as its own stress", lambda s, e: (e, e), "are the same series"),
-    ("tiny numbers", lambda s, e: (1e-200 * s, 1e-200 * e), "`stress`'s largest magnitude is 1e-200"),
+    ("tiny numbers", lambda s, e: (1e-200 * s, 1e-200 * e),
+     "`stress`'s largest magnitude is 1e-200"),
     ("huge numbers", lambda s, e: (s, 1e200 * e), "`strain`'s largest magnitude is"),
 ]
 
