@@ -5,6 +5,7 @@ tracker's spread and band over noise seeds."""
 
 import math
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from scipy.special import digamma, gamma
@@ -103,6 +104,31 @@ def test_bad_plans_are_refused_with_a_reason():
         vojax.fisher_information(u, 0.99, [1.0], dt, noise_std=0.1, order_drift=1.0)
     with pytest.raises(ValueError, match="at most 5000 samples"):
         vojax.fisher_information(np.ones(5001), 0.4, [1.0], dt, noise_std=0.1, order_drift=1.0)
+    # an order outside its range, a reversed or NaN range, noise levels whose squares leave
+    # float64: one sentence each (before: accepted silently, LinAlgError, OverflowError)
+    with pytest.raises(ValueError, match=r"`order` must lie in \(0.01, 0.99\), got 1.2"):
+        vojax.fisher_information(u, 1.2, [1.0], dt, noise_std=0.1)
+    with pytest.raises(ValueError, match="`order` contains NaN"):
+        vojax.fisher_information(u, np.full(n, np.nan), [1.0], dt, noise_std=0.1)
+    for bad in [(0.9, 0.1), (float("nan"), 0.5)]:
+        with pytest.raises(ValueError, match="`order_range` must satisfy 0.0 < lo < hi < 1.0"):
+            vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=0.1, order_range=bad)
+    for noise in (1e-300, 1e300):
+        with pytest.raises(ValueError, match=r"`noise_std` must lie in \(1e-150, 1e150\)"):
+            vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=noise)
+    with pytest.raises(ValueError, match="the information overflows float64"):
+        vojax.fisher_information(1e200 * u, 0.4, [1.0], dt, noise_std=1e-120)
+    # the covariance scales as the noise's variance over every level a float64 holds
+    a = vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=1.0)
+    b = vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=1e-100)
+    np.testing.assert_allclose(b.order_stderr, 1e-100 * a.order_stderr, rtol=1e-12)
+    protocol = lambda q, t: jnp.minimum(t / q[0], 1.0)  # noqa: E731
+    for kwargs, words in [(dict(max_steps=-1), "`max_steps` must be from 1"),
+                          (dict(order_range=(0.9, 0.1)), "`order_range` must satisfy"),
+                          (dict(order=1.5), "`order` must lie in")]:
+        call = dict(order=0.4, noise_std=0.1, num_samples=40) | kwargs
+        with pytest.raises(ValueError, match=words):
+            vojax.optimal_protocol(protocol, [1.0], [0.5], [2.0], p=[1.0], dt=dt, **call)
 
 
 def _ramp_hold(n=300, dt=0.05):

@@ -150,8 +150,8 @@ def fisher_information(
             or not 2 <= parameter_knots <= num // 2):
         raise ValueError(f"`parameter_knots` must be an integer from 2 to {num // 2}, got "
                          f"{parameter_knots!r}.")
-    if order_drift is not None:  # the prior is on the order's logistic coordinate
-        check.order(order, num, bounds=order_range)
+    order_range = check.interval(order_range, "order_range")
+    check.order(order, num, bounds=order_range)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
     # the grid, the orders and the memory checked and built as `fractional_integral` does;
     # Φ and ∂Φ/∂b from one scan
@@ -172,9 +172,23 @@ def fisher_information(
     if drift_hats is not None:
         names += [f"drift_{j + 1}_{k + 2}" for j in range(n)
                   for k in range(drift_hats.shape[1])]
-    information = jac.T @ jac / noise_std**2
+    # in units of the noise's variance until the end, so that no noise level a float64
+    # holds overflows on the way (1e-300 squared does)
+    variance = np.float64(noise_std) ** 2 if 1e-150 < noise_std < 1e150 else None
+    if variance is None:
+        raise ValueError(
+            f"`noise_std` must lie in (1e-150, 1e150) (its square is taken), got {noise_std!r}: "
+            "express the output in other units."
+        )
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
+        information = jac.T @ jac / variance
     if order_drift is not None:
         information[:num, :num] += _drift_precision(times, order, order_range, order_drift)
+    if not np.all(np.isfinite(information)):
+        raise ValueError(
+            f"the information overflows float64 at `noise_std` = {noise_std!r} and these "
+            "inputs: express the output and the inputs in other units."
+        )
     # inverted in the columns' own scales (the units of p and of the order differ by orders
     # of magnitude); a direction below 1e-12 of the largest is not determined by the test
     scale = np.sqrt(np.diag(information))
@@ -276,6 +290,9 @@ def optimal_protocol(
         raise ValueError(f"`num_samples` must be an integer ≥ 4, got {num_samples!r}.")
     if not (isinstance(noise_std, (int, float)) and 0 < noise_std < math.inf):
         raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
+    order_range = check.interval(order_range, "order_range")
+    max_steps = check.count(max_steps, "max_steps", 1, 100_000)
+    check.order(order, int(num_samples), bounds=order_range)
     t = float(dt) * np.arange(num_samples)
     mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
     hats, _ = _hats(t, int(knots))
