@@ -33,7 +33,7 @@ def test_a_constant_refit_reads_as_numbers():
     assert s["converged"]["value"] == "yes"
     text = str(s)
     assert len(text.splitlines()) == len(s) + 1 and f"{fit.order_value:.6g}" in text
-    with pytest.raises(ValueError, match="name the 2 coefficients"):
+    with pytest.raises(ValueError, match="`names` must be 2 non-empty strings"):
         fit.summary(names=["a"])
 
 
@@ -95,3 +95,27 @@ def test_the_summary_table_prints_tiny_and_huge_numbers_as_they_are():
     for line in lines[1:]:
         for number in line.split()[1:3]:
             assert float(number) != 0.0 or number == "0"
+
+
+def test_names_and_times_given_to_a_result_are_checked_in_one_sentence():
+    """`names` of the wrong length (IndexError before), repeated or not strings, and `t` of
+    the wrong length are refused by `to_dataframe` and `summary` alike, for both result
+    kinds; a lone string names a single parameter."""
+    pytest.importorskip("pandas")
+    fit = vojax.refit(U, _y(), DT)
+    res = vojax.identify(U, _y(), DT, method="gradient", gamma=0.5, lam=0.9, warn=False)
+    for names, words in [(["a"], "`names` must be 2 non-empty strings"),
+                         (["a", "b", "c"], "`names` must be 2 non-empty strings"),
+                         (["a", 1], "`names` must be 2 non-empty strings"),
+                         (["a", "a"], "`names` must be distinct")]:
+        with pytest.raises(ValueError, match=words):
+            res.to_dataframe(names=names)
+        with pytest.raises(ValueError, match=words):
+            res.summary(names=names)
+        with pytest.raises(ValueError, match=words):
+            fit.summary(names=names)
+    for result in (res, fit):
+        with pytest.raises(ValueError, match="`t` must be 400 finite times, one per sample"):
+            result.to_dataframe(t=T[:-1])
+    one = vojax.refit(U[:, :1], np.asarray(vojax.simulate(U[:, 0], 0.4, 1.0, DT)), DT)
+    assert "stiffness" in one.summary(names="stiffness")

@@ -77,7 +77,7 @@ class Identification(eqx.Module):
         order with its standard deviation, the order's median over the second half, the band's
         half-width, each parameter's final value (named by `names`, default ``p1``, ``p2``…),
         the offset, and the verdict with its reason."""
-        from ._results import Summary, row
+        from ._results import Summary, parameter_names, row
 
         alpha, std = np.asarray(self.alpha), np.asarray(self.alpha_std)
         half = alpha.shape[0] // 2
@@ -86,9 +86,7 @@ class Identification(eqx.Module):
         out["order (median, second half)"] = row(np.median(alpha[half:]))
         out["band half-width (median)"] = row(self.diagnostics.band_halfwidth)
         p, p_std = np.asarray(self.p), np.asarray(self.p_std)
-        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
-        if len(names) != p.shape[1]:
-            raise ValueError(f"`names` must name the {p.shape[1]} parameters, got {len(names)}.")
+        names = parameter_names(names, p.shape[1])
         for j, name in enumerate(names):
             out[f"{name} (final)"] = row(p[-1, j], p_std[-1, j])
         out["x0"] = row(self.x0, self.x0_std)
@@ -156,11 +154,11 @@ class Identification(eqx.Module):
         """The per-sample columns (``alpha`` with ``alpha_std`` and its band, each parameter
         and its standard deviation, ``y_hat``, ``y_pred``; ``time`` if `t` is given) as a
         pandas DataFrame (needs the optional pandas)."""
-        from ._results import to_dataframe
+        from ._results import dataframe_time, parameter_names, to_dataframe
 
         p, p_std = np.asarray(self.p), np.asarray(self.p_std)
-        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.shape[1])]
-        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
+        names = parameter_names(names, p.shape[1])
+        columns = dataframe_time(t, p.shape[0])
         columns.update(
             alpha=self.alpha, alpha_std=self.alpha_std, alpha_lower=self.alpha_lower,
             alpha_upper=self.alpha_upper,

@@ -92,7 +92,7 @@ class Refit(eqx.Module):
         """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the
         order (or its knots), each coefficient (named by `names`, default ``p1``, ``p2``…)
         with its standard error, the offset, the residual σ and whether it converged."""
-        from ._results import Summary, row
+        from ._results import Summary, parameter_names, row
 
         out = Summary()
         if self.constant:
@@ -104,9 +104,7 @@ class Refit(eqx.Module):
             for k, (q, se, tk) in enumerate(zip(knots, ses, np.asarray(self.knot_times))):
                 out[f"order at knot {k + 1} (t = {float(tk):.4g})"] = row(q, se)
         p, se = np.asarray(self.p), np.asarray(self.p_stderr)
-        names = list(names) if names is not None else [f"p{j + 1}" for j in range(p.size)]
-        if len(names) != p.size:
-            raise ValueError(f"`names` must name the {p.size} coefficients, got {len(names)}.")
+        names = parameter_names(names, p.size)
         for j, name in enumerate(names):
             held = bool(self.p_at_bound[j]) if j < len(self.p_at_bound) else False
             out[name] = row(p[j], se[j], "held at 0 by its sign" if held else "")
@@ -134,9 +132,9 @@ class Refit(eqx.Module):
     def to_dataframe(self, t=None):
         """The per-sample columns (``order``, its interval, ``y_hat``, ``residuals``; ``time``
         if `t` is given) as a pandas DataFrame (needs the optional pandas)."""
-        from ._results import to_dataframe
+        from ._results import dataframe_time, to_dataframe
 
-        columns = {} if t is None else {"time": np.asarray(t, dtype=float)}
+        columns = dataframe_time(t, np.asarray(self.order).shape[0])
         columns.update(
             order=self.order, order_lower=self.order_lower, order_upper=self.order_upper,
             y_hat=self.y_hat, residuals=self.residuals,

@@ -62,6 +62,33 @@ def plot_order(times, alpha, lower, upper, *, ax=None, label, xlabel, title=None
     return ax
 
 
+def dataframe_time(t, num):
+    """The `time` column of a result's DataFrame: `t` as ``(num,)`` finite floats."""
+    if t is None:
+        return {}
+    try:
+        times = np.asarray(t, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"`t` must be an array of {num} times, got {type(t).__name__}.") from None
+    if times.shape != (num,) or not np.all(np.isfinite(times)):
+        raise ValueError(f"`t` must be {num} finite times, one per sample, got shape {times.shape}.")
+    return {"time": times}
+
+
+def parameter_names(names, count):
+    """The names of a result's `count` parameters: ``p1, p2, …`` by default, or `names`, as
+    many distinct strings."""
+    if names is None:
+        return [f"p{j + 1}" for j in range(count)]
+    names = [names] if isinstance(names, str) else list(names)
+    if len(names) != count or not all(isinstance(n, str) and n for n in names):
+        raise ValueError(f"`names` must be {count} non-empty strings, one per parameter, got "
+                         f"{names!r}.")
+    if len(set(names)) != count:
+        raise ValueError(f"`names` must be distinct, got {names!r}.")
+    return names
+
+
 def to_dataframe(columns):
     """A pandas DataFrame of the per-sample `columns` (a dict of equal-length arrays)."""
     try:
