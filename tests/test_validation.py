@@ -93,3 +93,24 @@ def test_the_cli_fuzz_corpus_is_clean():
     assert proc.returncode == 0, text + proc.stderr[-2000:]
     total = int(text.split(" cases")[0].split()[-1])
     assert total >= 500 and f"clean: {total}/{total}" in text
+
+
+def test_a_number_given_as_text_is_refused_not_parsed():
+    """``x0='0'`` was taken as 0 (``jnp.asarray`` parses text): every route refuses it in
+    one sentence, as it refuses True."""
+    import vojax.io
+
+    n, dt = 40, 0.1
+    u = np.ones(n)
+    y = np.asarray(vojax.simulate(u, 0.4, 1.0, dt))
+    for bad in ("0", b"0", True):
+        with pytest.raises(TypeError, match="`x0` must be a number, got"):
+            vojax.identify(u, y, dt, x0=bad, warn=False)
+        with pytest.raises(TypeError, match="`x0` must be a number, got"):
+            vojax.identify(u, y, dt, x0=bad, method="gradient", gamma=0.5, warn=False)
+    rec = vojax.io.Record("r", "r.csv", np.arange(n) * dt, u[:, None], y, ("u",), "y", dt)
+    from vojax._data._batch import run_batch  # the command line's route
+
+    with pytest.raises(TypeError, match="`x0` must be a number, got '0'"):
+        run_batch([rec], "never-written", model="springpot", method="kalman", gamma=None,
+                  lam=None, x0="0")

@@ -250,6 +250,8 @@ def known_offset(x0) -> float:
 
 
 def scalar(x, name):
+    if isinstance(x, (str, bytes, bool)) or x is None:  # jnp.asarray("0") would take it
+        raise TypeError(f"`{name}` must be a number, got {x!r}.")
     try:
         arr = jnp.asarray(x, jnp.result_type(float))
     except (TypeError, ValueError):
