@@ -245,11 +245,16 @@ def test_cli_compilation_cache_is_used_and_changes_nothing(tmp_path):
         (["missing.csv"], "no such file"),
         (["test.csv", "--area", "-1"], "argument --area: expected a positive number"),
         (["test.csv", "--trim-column", "stress"], "--trim-column and --trim-below go together"),
-        (["test.csv", "--model", "kelvin-voigt", "--input", "strain"], "takes one --input"),
+        (["two.csv", "--model", "kelvin-voigt", "--input", "stress2"], "takes one --input"),
     ],
 )
 def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
     _springpot_csv(tmp_path / "test.csv", n=20)
+    lines = (tmp_path / "test.csv").read_text().splitlines()  # a second stress column
+    (tmp_path / "two.csv").write_text("\n".join(
+        line if line.startswith("#") else f"{line},{line.split(',')[1].replace('stress', 'stress2')}"
+        for line in lines
+    ) + "\n")
     base = ["--time", "time_s", "--input", "stress", "--output", "strain", "--out", "out"]
     proc = _cli("identify", *args[:1], *base, *args[1:], cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr
@@ -564,3 +569,35 @@ def test_units_label_the_figures_and_change_no_number(tmp_path, capsys, monkeypa
     (rec,) = load_records(tmp_path / "s.csv", time="time_s", inputs=["stress"],
                           output="strain", units={"time_s": "ms"})
     assert rec.units == (("time_s", "ms"),)
+
+
+def test_each_column_has_one_role_and_a_lone_input_may_be_a_string(tmp_path):
+    """A single input given as a string is that column (it was read as its letters: "no
+    column 's'"); a column given twice as an input, or as an input and the output (which fits
+    itself perfectly), or the time as the output, is refused in one sentence, in Python and
+    on the command line."""
+    from vojax._data import load_records
+
+    _springpot_csv(tmp_path / "r.csv", n=30)
+    one, = load_records(tmp_path / "r.csv", time="time_s", inputs="stress", output="strain")
+    two, = load_records(tmp_path / "r.csv", time="time_s", inputs=["stress"], output="strain")
+    np.testing.assert_array_equal(one.inputs, two.inputs)
+    assert one.input_names == ("stress",)
+    cases = [
+        (dict(inputs=["stress", "stress"]), "the column 'stress' is given twice as an input"),
+        (dict(inputs=["strain"]), "the column 'strain' is both an input and the output"),
+        (dict(inputs=["stress"], output="time_s"), "one column is given two roles"),
+        (dict(inputs=[3]), "`inputs` must name a column"),
+        (dict(inputs=[]), "`inputs` must name at least one column"),
+    ]
+    for change, words in cases:
+        call = dict(time="time_s", inputs=["stress"], output="strain") | change
+        with pytest.raises((ValueError, TypeError), match=words):
+            load_records(tmp_path / "r.csv", **call)
+    for args, words in [(["--input", "strain", "--output", "strain"], "both an input and"),
+                        (["--input", "stress", "--input", "stress", "--output", "strain"],
+                         "given twice as an input")]:
+        done = _cli("identify", "r.csv", "--time", "time_s", *args, "--out", "o", cwd=tmp_path)
+        assert done.returncode == 1 and words in done.stderr, done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1
+        assert not (tmp_path / "o").exists()

@@ -162,11 +162,44 @@ def load_records(
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
+    inputs = column_names(time, inputs, output, group_by)
     pairs = check_units(units, [time, *inputs, output])
     return [dataclasses.replace(r, units=pairs) for r in _read_records(
         path, time, inputs, output, group_by, strict, resample, trim_column, trim_below,
         delimiter, decimal, segments, from_contact, tip, poisson,
     )]
+
+
+def column_names(time, inputs, output, group_by=None) -> list[str]:
+    """The input columns as a list (a single name may be given as a string), each role's
+    name checked: text, the inputs distinct, and no column in two roles (the output as its
+    own input fits itself perfectly and says nothing)."""
+    if isinstance(inputs, str):
+        inputs = [inputs]
+    try:
+        inputs = list(inputs)
+    except TypeError:
+        raise TypeError(
+            f"`inputs` must be a column name or a list of them, got {inputs!r}."
+        ) from None
+    named = dict(time=time, output=output) | ({} if group_by is None else dict(group_by=group_by))
+    for role, name in [*named.items(), *(("inputs", n) for n in inputs)]:
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"`{role}` must name a column (a non-empty string), got {name!r}.")
+    if not inputs:
+        raise ValueError("`inputs` must name at least one column.")
+    twice = sorted({n for n in inputs if inputs.count(n) > 1})
+    if twice:
+        raise ValueError(f"the column {twice[0]!r} is given twice as an input.")
+    for role, name in named.items():
+        if name in inputs:
+            raise ValueError(
+                f"the column {name!r} is both an input and the {role.replace('_', ' ')}."
+            )
+    if len(set(named.values())) < len(named):
+        roles = ", ".join(f"{r}={n!r}" for r, n in named.items())
+        raise ValueError(f"one column is given two roles: {roles}.")
+    return inputs
 
 
 def check_units(units, columns) -> tuple[tuple[str, str], ...]:
