@@ -601,3 +601,46 @@ def test_each_column_has_one_role_and_a_lone_input_may_be_a_string(tmp_path):
         assert done.returncode == 1 and words in done.stderr, done.stderr
         assert len(done.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "o").exists()
+
+
+def test_hostile_cells_clocks_and_silent_inputs_get_one_sentence(tmp_path):
+    """A note holding U+2028 or a form feed is a text cell, not a line break (the reader
+    split lines as str.splitlines does); a clock reaching 1e308 and a resampling step of
+    1e-300 are refused in one sentence (OverflowError, exit 3 before; a 300-digit count);
+    an input column that is 0 throughout is refused by the refit and the tracker alike (the
+    refit exited 0 with q = 0.5 [0.01, 0.99])."""
+    from vojax._data import load_records
+
+    t = DT * np.arange(30)
+    stress = np.minimum(t, 1.0)
+    strain = np.asarray(vojax.simulate(stress, 0.4, 1.0, DT))
+    notes = ["n"] * 30
+    notes[5], notes[7] = "x\u2028y", "a\fb"
+    with open(tmp_path / "notes.csv", "w", newline="", encoding="utf-8") as f:
+        f.write("time_s,stress,strain,note\n")
+        for row in zip(t, stress, strain, notes):
+            f.write(",".join(map(str, row)) + "\n")
+    rec, = load_records(tmp_path / "notes.csv", time="time_s", inputs="stress", output="strain")
+    np.testing.assert_array_equal(rec.output, strain)
+    far = tmp_path / "far.csv"
+    far.write_text("time_s,stress,strain\n" + "".join(
+        f"{a!r},1.0,{b!r}\n" for a, b in zip(np.linspace(0, 1e308, 30).tolist(), strain.tolist())
+    ))
+    zero = tmp_path / "zero.csv"
+    zero.write_text("time_s,stress,strain\n" + "".join(
+        f"{a!r},0.0,{b!r}\n" for a, b in zip(t.tolist(), strain.tolist())
+    ))
+    base = ["--time", "time_s", "--input", "stress", "--output", "strain"]
+    for args, words in [
+        (["far.csv"], f"line 3: the time {1e308 / 29:g} is beyond ±1e+100"),
+        (["notes.csv", "--resample", "1e-300"], "makes 2.9e+300 samples"),
+        (["zero.csv", "--method", "refit"], "the input column 'stress' is 0 at every sample"),
+        (["zero.csv"], "the input column 'stress' is 0 at every sample"),
+    ]:
+        done = _cli("identify", args[0], *base, *args[1:], "--out", "o", cwd=tmp_path)
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 1 and len(lines) == 1 and words in lines[0], done.stderr
+    with pytest.raises(ValueError, match="input 1 of `u` is 0 at every sample"):
+        vojax.refit(0 * stress, strain, DT)
+    with pytest.raises(ValueError, match="input 2 of `u` is 0 at every sample"):
+        vojax.identify(np.c_[stress, 0 * stress], strain, DT, warn=False)

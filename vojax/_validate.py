@@ -196,6 +196,14 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
         )
     if u2.shape[0] < 3:
         raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
+    if _is_concrete(u2):
+        silent = ~np.any(np.asarray(u2) != 0, axis=0)
+        if np.any(silent):
+            j = int(np.argmax(silent))
+            raise ValueError(
+                f"input {j + 1} of `u` is 0 at every sample: nothing it drives can be "
+                "identified (its parameter is undetermined); leave that input out."
+            )
     grid(dt, t, u2.shape[0])
     if lam is not None and not isinstance(lam, str):
         positive(lam, "lam")

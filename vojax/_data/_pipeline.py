@@ -120,6 +120,12 @@ def identify_record(
             f"{method}+refit."
         )
     check_parameters(method, parameters, max_points, x0, time_scale)
+    silent = [n for n, col in zip(record.input_names, np.asarray(record.inputs).T) if not col.any()]
+    if silent:
+        raise ValueError(
+            f"the input column {silent[0]!r} is 0 at every sample: nothing it drives can be "
+            "identified (its coefficient is undetermined); leave it out of --input."
+        )
     u, y, names, physical = regressors(record, model, area, length)
     grid = record.grid
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only

@@ -2,6 +2,7 @@
 
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +52,9 @@ def _read_csv(path: Path, delimiter=","):
     except PermissionError:
         raise DataError(f"{path}: not readable (permission denied).") from None
     lines, header_seen = [], False
-    for i, line in enumerate(text.splitlines(keepends=True)):
+    # lines end at \n, \r\n or \r only, as the csv module's do (str.splitlines also ends
+    # them at a form feed or U+2028, which a text cell may hold)
+    for i, line in enumerate(io.StringIO(text, newline="")):
         if not line.strip():
             continue
         if line.lstrip().startswith("#"):

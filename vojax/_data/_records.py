@@ -55,6 +55,9 @@ class Record:
         return {"dt": self.dt} if self.uniform else {"t": self.time}
 
 
+TIME_LIMIT = 1e100  # the largest time (in the file's unit) a record may hold
+
+
 def _clock(path, name, t, columns: dict, lines, strict: bool, resample=None):
     """Checks the time column; resamples the record onto a uniform grid only when asked.
 
@@ -67,6 +70,13 @@ def _clock(path, name, t, columns: dict, lines, strict: bool, resample=None):
             raise DataError(f"{label}, line {lines[i]}, column {key!r}: value is NaN or infinite.")
     if t.size < 3:
         raise DataError(f"{label}: only {t.size} samples; at least 3 are needed.")
+    far = np.abs(t) > TIME_LIMIT
+    if np.any(far):
+        i = int(np.argmax(far))
+        raise DataError(
+            f"{label}, line {lines[i]}: the time {float(t[i]):g} is beyond ±{TIME_LIMIT:g} "
+            "(its differences and products would overflow): give the time in other units."
+        )
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0)) + 1
@@ -92,13 +102,15 @@ def _resample(label, t, columns, step, steps, spread):
     create more than `RESAMPLE_LIMIT` samples."""
     if not np.isfinite(step) or step <= 0:
         raise DataError(f"--resample must be a positive step, got {step}.")
-    count = int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1
-    if count > RESAMPLE_LIMIT:
+    with np.errstate(over="ignore"):  # a tiny step over a long record: inf, refused below
+        many = np.floor((t[-1] - t[0]) / step + 1e-9) + 1
+    if not many <= RESAMPLE_LIMIT:
         raise DataError(
-            f"{label}: --resample {step:g} makes {count:,} samples of a record {t[-1] - t[0]:g} "
+            f"{label}: --resample {step:g} makes {many:.3g} samples of a record {t[-1] - t[0]:g} "
             f"long (the limit is {RESAMPLE_LIMIT:,}); use a larger step, or leave --resample "
             "out: irregular clocks are used as recorded."
         )
+    count = int(many)
     shortest = int(np.argmin(steps))
     if step > RESAMPLE_MAX_RATIO * steps[shortest]:
         raise DataError(
