@@ -314,3 +314,25 @@ def test_the_command_refuses_a_degenerate_record_with_exit_1_and_no_nan_table(tm
         "law can be fitted to it."
     ]
     assert not (tmp_path / "out" / "comparison.csv").exists()
+
+
+def test_a_long_record_is_compared_on_its_block_means():
+    """Above `max_points` the comparison is that of the block means (first sample alone,
+    then blocks of B: mean time, stress, strain), computed here by hand: the same rows to
+    rounding, `block` = B; a record at the limit is compared sample by sample."""
+    n, dt = 1201, 0.01
+    t = dt * np.arange(n)
+    stress = np.minimum(t / 2.0, 1.0) + 0.5 * (t > 6.0)
+    strain = np.asarray(vojax.simulate(stress, 0.3, 0.25, dt))
+    strain = strain + 1e-3 * np.random.default_rng(4).standard_normal(n)
+    c = vojax.compare(stress, strain, dt, models=("springpot", "maxwell"), max_points=301)
+    assert c.block == 4  # 1 + ceil(1200 / 4) = 301 points
+    starts = np.r_[0, np.arange(1, n, 4)]
+    mean = lambda v: np.add.reduceat(v, starts) / np.diff(np.r_[starts, n])  # noqa: E731
+    by_hand = vojax.compare(mean(stress), mean(strain), t=mean(t),
+                            models=("springpot", "maxwell"))
+    assert by_hand.block == 1 and [r["model"] for r in c.rows] == [r["model"] for r in by_hand.rows]
+    for a, b in zip(c.rows, by_hand.rows):
+        assert a["log_evidence"] == pytest.approx(b["log_evidence"], rel=1e-9, abs=1e-9)
+    with pytest.raises(ValueError, match="`max_points` must be from 100"):
+        vojax.compare(stress, strain, dt, max_points=10)
