@@ -252,7 +252,8 @@ def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
     _springpot_csv(tmp_path / "test.csv", n=20)
     lines = (tmp_path / "test.csv").read_text().splitlines()  # a second stress column
     (tmp_path / "two.csv").write_text("\n".join(
-        line if line.startswith("#") else f"{line},{line.split(',')[1].replace('stress', 'stress2')}"
+        line if line.startswith("#")
+        else f"{line},{line.split(',')[1].replace('stress', 'stress2')}"
         for line in lines
     ) + "\n")
     base = ["--time", "time_s", "--input", "stress", "--output", "strain", "--out", "out"]

@@ -71,7 +71,9 @@ def dataframe_time(t, num):
     except (TypeError, ValueError):
         raise TypeError(f"`t` must be an array of {num} times, got {type(t).__name__}.") from None
     if times.shape != (num,) or not np.all(np.isfinite(times)):
-        raise ValueError(f"`t` must be {num} finite times, one per sample, got shape {times.shape}.")
+        raise ValueError(
+            f"`t` must be {num} finite times, one per sample, got shape {times.shape}."
+        )
     return {"time": times}
 
 
