@@ -130,3 +130,61 @@ def test_bad_afm_files_fail_with_one_line(tmp_path):
         csv_file = tmp_path / "a.csv"
         csv_file.write_text("t,u,y\n0,1,2\n1,1,2\n2,1,2\n")
         load_records(csv_file, time="t", inputs=["u"], output="y", segments=[1])
+
+
+def _damaged(path, channel, change):
+    """A copy of the shipped JPK file with one channel of segment 1 changed (None: left out)."""
+    import zipfile
+
+    with zipfile.ZipFile(RAW) as z, zipfile.ZipFile(path, "w") as out:
+        for name in z.namelist():
+            data = z.read(name)
+            if name == f"segments/1/channels/{channel}.dat":
+                data = change(data)
+            if data is not None:
+                out.writestr(name, data)
+    return path
+
+
+DAMAGE = [
+    ("a channel cut at an odd byte", "vDeflection", lambda d: d[: len(d) // 2 + 1],
+     "curve 0: a damaged channel (buffer size"),
+    ("a channel cut at a whole sample", "vDeflection", lambda d: d[: len(d) // 2 // 8 * 8],
+     "curve 0: its channels differ in length"),
+    ("a channel left out", "height", lambda d: None, "curve 0: a damaged channel (No data"),
+]
+
+
+@pytest.mark.parametrize("case, channel, change, words", DAMAGE, ids=[d[0] for d in DAMAGE])
+def test_a_damaged_jpk_channel_is_a_data_error_naming_file_and_curve(tmp_path, case, channel,
+                                                                      change, words):
+    """afmformats reads a channel when it is first used, and fails there with its own
+    BaseException-derived error or NumPy's words, naming no file (a user's ``except
+    Exception`` missed it): vojax says it as a DataError naming the file and the curve."""
+    path = _damaged(tmp_path / "d.jpk-force", channel, change)
+    with pytest.raises(DataError, match=f"d.jpk-force, {words}".replace("(", r"\(")):
+        load_records(path, time="time_s", inputs=["force_N"], output="indentation_m")
+
+
+def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
+    """Two damaged JPK files beside a good one: the good one is computed, each damaged one
+    is in failures.csv with its one-line reason, exit 2 (a batch with failures); and `check`
+    takes no --out (argparse read it as --output and ran)."""
+    from .test_data_cli import _cli
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "good.jpk-force").write_bytes(RAW.read_bytes())
+    for name, channel, change, _ in DAMAGE[:2]:
+        _damaged(folder / f"{name.split()[-1]}.jpk-force", channel, change)
+    base = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
+    done = _cli("batch", "in", *base, "--method", "refit", "--quiet", "--out", "out",
+                cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    with open(tmp_path / "out" / "failures.csv", newline="") as f:
+        failed = list(csv.DictReader(f))
+    assert sorted(Path(r["file"]).name for r in failed) == ["byte.jpk-force", "sample.jpk-force"]
+    assert all("curve 0:" in r["reason"] for r in failed)
+    assert (tmp_path / "out" / "good" / "summary.json").is_file()
+    check = _cli("check", str(RAW), *base, "--out", "c", cwd=tmp_path)
+    assert check.returncode == 1 and "unrecognized arguments: --out c" in check.stderr

@@ -10,7 +10,13 @@ class CLIError(Exception):
 
 class _Parser(argparse.ArgumentParser):
     """An unknown option or a bad value: one line, exit 1, as every other bad input (argparse
-    would print its usage and exit 2, the code of a batch with failed records)."""
+    would print its usage and exit 2, the code of a batch with failed records). Options are
+    taken only as spelled in full: argparse would read ``vojax check --out x`` as
+    ``--output x`` (a command without --out) and go on."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         self.exit(1, f"vojax: error: {message} (see {self.prog} --help).\n")

@@ -109,63 +109,87 @@ def read_afm(path, *, tip=None, poisson=0.5):
 
     from afmformats import errors
 
-    # afmformats' own errors derive from BaseException, and it logs a traceback of its own
-    # before raising: the reason is said once, in one line
+    # afmformats' own errors derive from BaseException, it logs a traceback of its own
+    # before raising, and it reads a curve's channels only when they are first used (a
+    # damaged channel fails there, with NumPy's words): the reason is said once, in one
+    # line naming the file and the curve
     fatal = (Exception, errors.AFMFileFormatError, errors.MissingMetaDataError)
     log = logging.getLogger("afmformats")
     level = log.level
     log.setLevel(logging.CRITICAL)
     try:
-        curves = afmformats.load_data(path)
-    except fatal as e:  # noqa: BLE001 - a damaged or unknown file: one line
-        text = str(e).splitlines()[0] if str(e) else type(e).__name__
-        raise DataError(f"{path}: not a readable AFM file ({text}).") from None
+        try:
+            curves = afmformats.load_data(path)
+        except fatal as e:  # noqa: BLE001 - a damaged or unknown file: one line
+            raise DataError(f"{path}: not a readable AFM file ({_first_line(e)}).") from None
+        if not curves:
+            raise DataError(f"{path}: holds no force curve.")
+        out = []
+        for k, curve in enumerate(curves):
+            name = path.name[: -len(path.suffix)] if len(curves) == 1 else f"{path.stem}-{k}"
+            try:
+                out.append(_curve(path, k, curve, name, tip, poisson))
+            except DataError:
+                raise
+            except fatal as e:  # noqa: BLE001 - a damaged channel: this file's error
+                raise DataError(
+                    f"{path}, curve {k}: a damaged channel ({_first_line(e)})."
+                ) from None
     finally:
         log.setLevel(level)
-    if not curves:
-        raise DataError(f"{path}: holds no force curve.")
-    out = []
-    for k, curve in enumerate(curves):
-        name = path.name[: -len(path.suffix)] if len(curves) == 1 else f"{path.stem}-{k}"
-        columns = set(curve.columns)
-        for need in ("time", "force", "segment"):
-            if need not in columns:
-                raise DataError(f"{path}, curve {k}: has no {need!r} column.")
-        height = "height (measured)" if "height (measured)" in columns else "height (piezo)"
-        if height not in columns:
-            raise DataError(f"{path}, curve {k}: has no height column.")
-        t = np.asarray(curve["time"], float)
-        force = np.asarray(curve["force"], float)
-        segment = np.asarray(curve["segment"], float)
-        h = np.asarray(curve[height], float)
-        cols = {
-            "time_s": t,
-            "segment": segment,
-            "force_N": force,
-            "height_measured_m": np.asarray(curve["height (measured)"], float)
-            if "height (measured)" in columns else np.full(t.size, np.nan),
-            "height_piezo_m": np.asarray(curve["height (piezo)"], float)
-            if "height (piezo)" in columns else np.full(t.size, np.nan),
-        }
-        spring = float(curve.metadata.get("spring constant", np.nan))
-        c, f0 = contact_index(force)
-        nan = np.full(t.size, np.nan)
-        if c is None or not (0 < spring < math.inf):
-            cols.update(force_rise_N=nan, indentation_m=nan, contact_strain=nan)
-            contact = None
-        else:
-            cols["force_rise_N"] = force - f0
-            cols["indentation_m"] = (h[c] - h) - (force - f0) / spring
-            cols["contact_strain"] = nan if tip is None else contact_strain(
-                cols["indentation_m"], tip, poisson
-            )
-            contact = c
-        meta = dict(
-            name=name,
-            spring_constant=spring,
-            contact_index=contact,
-            contact_time=None if contact is None else float(t[contact]),
-            modality=curve.modality,
-        )
-        out.append((cols, meta))
     return out
+
+
+def _first_line(error) -> str:
+    return str(error).splitlines()[0] if str(error) else type(error).__name__
+
+
+def _curve(path, k, curve, name, tip, poisson):
+    """One force curve's columns and metadata (see `read_afm`)."""
+    columns = set(curve.columns)
+    for need in ("time", "force", "segment"):
+        if need not in columns:
+            raise DataError(f"{path}, curve {k}: has no {need!r} column.")
+    height = "height (measured)" if "height (measured)" in columns else "height (piezo)"
+    if height not in columns:
+        raise DataError(f"{path}, curve {k}: has no height column.")
+    t = np.asarray(curve["time"], float)
+    force = np.asarray(curve["force"], float)
+    segment = np.asarray(curve["segment"], float)
+    h = np.asarray(curve[height], float)
+    cols = {
+        "time_s": t,
+        "segment": segment,
+        "force_N": force,
+        "height_measured_m": np.asarray(curve["height (measured)"], float)
+        if "height (measured)" in columns else np.full(t.size, np.nan),
+        "height_piezo_m": np.asarray(curve["height (piezo)"], float)
+        if "height (piezo)" in columns else np.full(t.size, np.nan),
+    }
+    sizes = {key: v.shape for key, v in cols.items()}
+    if len(set(sizes.values())) > 1 or h.shape != t.shape:
+        raise DataError(
+            f"{path}, curve {k}: its channels differ in length "
+            f"({', '.join(f'{key} {v[0]}' for key, v in sizes.items())}): a damaged file."
+        )
+    spring = float(curve.metadata.get("spring constant", np.nan))
+    c, f0 = contact_index(force)
+    nan = np.full(t.size, np.nan)
+    if c is None or not (0 < spring < math.inf):
+        cols.update(force_rise_N=nan, indentation_m=nan, contact_strain=nan)
+        contact = None
+    else:
+        cols["force_rise_N"] = force - f0
+        cols["indentation_m"] = (h[c] - h) - (force - f0) / spring
+        cols["contact_strain"] = nan if tip is None else contact_strain(
+            cols["indentation_m"], tip, poisson
+        )
+        contact = c
+    meta = dict(
+        name=name,
+        spring_constant=spring,
+        contact_index=contact,
+        contact_time=None if contact is None else float(t[contact]),
+        modality=curve.modality,
+    )
+    return cols, meta
