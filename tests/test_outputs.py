@@ -497,3 +497,19 @@ def test_the_manifest_keeps_what_every_run_wrote(tmp_path):
     (tmp_path / "mine.csv").write_text("x")
     with pytest.raises(ValueError, match="was not written by vojax"):
         claim_outputs(tmp_path, ["mine.csv"])
+
+
+def test_a_batch_whose_out_is_its_input_folder_says_so(tmp_path):
+    """`batch in --out in`, `--out` a link to `in`, and `--out` a folder above `in`: the
+    documented refusal (it said "in is a folder without CSV, NPZ or AFM files", which held
+    CSVs), and nothing written."""
+    work = tmp_path / "w"
+    (work / "in").mkdir(parents=True)
+    _springpot_csv(work / "in" / "a.csv", n=30)
+    os.symlink("in", work / "link")
+    for out in ("in", "link", "."):
+        proc = _cli("batch", "in", *BASE, "--out", out, cwd=work)
+        assert proc.returncode == 1, proc.stderr
+        assert f"the output folder '{out}' holds the input 'in/a.csv'" in proc.stderr
+        assert proc.stderr.count("\n") == 1
+    assert sorted(p.name for p in work.rglob("*")) == ["a.csv", "in", "link"]

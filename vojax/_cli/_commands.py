@@ -51,6 +51,8 @@ def _expand(paths, pattern=None, out=None):
                 found = [p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in kinds]
             else:
                 found = [p for p in folder.glob(pattern) if p.is_file()]
+            if found and inside_out(folder):  # --out is this folder or holds it: said so
+                _out_apart(out, [str(found[0])])
             found = [p for p in found if not inside_out(p)]
             if not found:
                 what = f"files matching {pattern!r}" if pattern else "CSV, NPZ or AFM files"
