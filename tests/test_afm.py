@@ -98,6 +98,13 @@ def test_records_from_contact_by_segment():
         load_records(RAW, time="time_s", inputs=["force"], output="indentation_m")
     with pytest.raises(ValueError, match="a cone's half-angle must lie in"):
         load_records(RAW, time="time_s", inputs=["force_N"], output="indentation_m", tip=("cone", 95))
+    for radius in (1e-320, 5.0, float("nan")):  # subnormal, µm given as m, NaN: refused
+        with pytest.raises(ValueError, match="a sphere's radius is in metres, from 1e-10 to"):
+            load_records(RAW, time="time_s", inputs=["force_N"], output="contact_strain",
+                         tip=("sphere", radius))
+    with pytest.raises(ValueError, match="a sphere's radius is in metres"):
+        load_records(RAW, time="time_s", inputs=["force_N"], output="contact_strain",
+                     tip="sphere:1e-320")
     whole, = load_records(RAW, time="time_s", inputs=["force_N"], output="height_measured_m",
                           from_contact=False)
     assert whole.output.size == cols["time_s"].size

@@ -34,6 +34,9 @@ def is_afm(path) -> bool:
     return Path(path).suffix.lower() in AFM_SUFFIXES
 
 
+SPHERE_RADIUS_M = (1e-10, 1e-2)  # a sphere's radius outside these (m) is a unit mistake
+
+
 def check_tip(tip, poisson=0.5):
     """``None``, ``("sphere", R)`` (R in m) or ``("cone", θ)`` (θ the half-angle in degrees),
     checked; also accepts the command line's ``"sphere:R"`` / ``"cone:θ"``."""
@@ -54,8 +57,12 @@ def check_tip(tip, poisson=0.5):
         raise ValueError(f"a tip is ('sphere', radius in m) or ('cone', half-angle in degrees), got {tip!r}.")
     shape, size = tip[0], float(tip[1])
     if shape == "sphere":
-        if not 0 < size < math.inf:
-            raise ValueError(f"a sphere's radius must be positive and finite, got {size} m.")
+        lo, hi = SPHERE_RADIUS_M
+        if not lo <= size <= hi:
+            raise ValueError(
+                f"a sphere's radius is in metres, from {lo:g} to {hi:g} (an AFM tip's), got "
+                f"{size:g} m."
+            )
     elif shape == "cone":
         if not 0 < size < 90:
             raise ValueError(f"a cone's half-angle must lie in (0, 90) degrees, got {size}.")
