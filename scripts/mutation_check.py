@@ -867,6 +867,183 @@ MUTATIONS = {
         ],
         ['tests/test_design.py::test_drifting_parameters_information_against_a_hand_built_jacobian'],
     ),
+
+    # --- the newer surface (issue: tests that fail when it is wrong) ---
+    "a record named with a leading quote gains a row at each re-run": (
+        "vojax/_data/_tables.py",
+        [('GUARDED = FORMULA_START + ("\'",)', "GUARDED = FORMULA_START")],
+        ["tests/test_properties.py::test_tables_read_back_exactly_what_was_written"],
+    ),
+    "compare answers a record with no stress": (
+        "vojax/_compare.py",
+        [("    if not np.any(stress):", "    if False:")],
+        ["tests/test_compare.py::test_a_record_no_law_can_describe_is_refused_not_answered_with_nan"],
+    ),
+    "compare takes numbers whose squares leave float64": (
+        "vojax/_compare.py",
+        [("        if not lo <= size <= hi:", "        if False:")],
+        ["tests/test_compare.py::test_a_record_no_law_can_describe_is_refused_not_answered_with_nan"],
+    ),
+    "Bayes factor of a model not compared: a KeyError": (
+        "vojax/_compare.py",
+        [("            if name not in ev:", "            if False:")],
+        ["tests/test_compare.py::test_every_number_of_a_comparison_is_finite_and_its_questions_name_the_models"],
+    ),
+    "compare fits every sample of a long record": (
+        "vojax/_compare.py",
+        [("    if block > 1:  # block means", "    if False:  # block means")],
+        ["tests/test_compare.py::test_a_long_record_is_compared_on_its_block_means"],
+    ),
+    "held-out error from the fit that saw the end": (
+        "vojax/_compare.py",
+        [("        miss = np.asarray(strain - early.y_hat)[tail]",
+          "        miss = np.asarray(strain - fit.y_hat)[tail]")],
+        ["tests/test_compare.py::test_the_held_out_error_is_the_prediction_of_a_fit_that_did_not_see_the_end"],
+    ),
+    '"strongly favoured" from a Bayes factor of 3': (
+        "vojax/_compare.py",
+        [('            strength = "strongly " if bf >= STRONG_BF else ""',
+          '            strength = "strongly " if bf >= UNDECIDED_BF else ""')],
+        ["tests/test_compare.py::test_the_verdict_words_follow_the_bayes_factor"],
+    ),
+    "A-criterion over the first half of the test": (
+        "vojax/_design.py",
+        [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
+        ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
+    ),
+    "optimal protocol's Design forgets its knots": (
+        "vojax/_design.py",
+        [("noise_std=noise_std, knots=knots, x0=x0,", "noise_std=noise_std, knots=1, x0=x0,")],
+        ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
+    ),
+    "fisher_information takes an order outside its range": (
+        "vojax/_design.py",
+        [("    check.order(order, num, bounds=order_range)\n", "")],
+        ["tests/test_design.py::test_bad_plans_are_refused_with_a_reason"],
+    ),
+    "fisher_information squares any noise level": (
+        "vojax/_design.py",
+        [("    if variance is None:", "    if False:")],
+        ["tests/test_design.py::test_bad_plans_are_refused_with_a_reason"],
+    ),
+    "AFM contact one sample early": (
+        "vojax/_data/_afm.py",
+        [("(0 if below.size == 0 else int(below[-1]) + 1)", "(0 if below.size == 0 else int(below[-1]))")],
+        ["tests/test_afm.py::test_the_contact_point_is_the_first_sample_that_stays_five_spreads_above_the_baseline"],
+    ),
+    "AFM baseline spread without 1.4826 (5 MAD)": (
+        "vojax/_data/_afm.py",
+        [("    spread = 1.4826 * float(", "    spread = 1.0 * float(")],
+        ["tests/test_afm.py::test_the_contact_point_is_the_first_sample_that_stays_five_spreads_above_the_baseline"],
+    ),
+    "AFM channels of different lengths taken": (
+        "vojax/_data/_afm.py",
+        [("    if len(set(sizes.values())) > 1 or h.shape != t.shape:", "    if False:")],
+        ["tests/test_afm.py::test_a_damaged_jpk_channel_is_a_data_error_naming_file_and_curve"],
+    ),
+    "AFM damaged channel raises afmformats' or NumPy's error": (
+        "vojax/_data/_afm.py",
+        [("            except fatal as e:  # noqa: BLE001 - a damaged channel: this file's error",
+          "            except KeyboardInterrupt as e:  # a damaged channel")],
+        ["tests/test_afm.py::test_a_damaged_jpk_channel_is_a_data_error_naming_file_and_curve"],
+    ),
+    "AFM sphere radius of any size": (
+        "vojax/_data/_afm.py",
+        [("        if not lo <= size <= hi:", "        if not 0 < size < math.inf:")],
+        ["tests/test_afm.py::test_records_from_contact_by_segment"],
+    ),
+    "progress bar's time left re-stamped at every update": (
+        "vojax/_progress.py",
+        [("(self.first or now) - self.started", "now - self.started")],
+        ["tests/test_batch.py::test_the_bars_time_left_is_paced_on_the_records_after_the_first"],
+    ),
+    "reserved device names with an extension not hashed": (
+        "vojax/_data/_paths.py",
+        [("        or stem in RESERVED\n", "")],
+        ["tests/test_properties.py::test_record_folders_are_distinct_safe_names"],
+    ),
+    "manifest rewritten with this run's names only": (
+        "vojax/_data/_paths.py",
+        [("    new = known | set(names)", "    new = set(names)")],
+        ["tests/test_outputs.py::test_the_manifest_keeps_what_every_run_wrote"],
+    ),
+    "an order bound of 0 admitted": (
+        "vojax/_validate.py",
+        [("    if not (within[0] < lo < hi < within[1]):", "    if not (within[0] <= lo < hi < within[1]):")],
+        ["tests/test_validation.py::test_an_order_bound_at_zero_or_one_is_refused"],
+    ),
+    "summary values printed in fixed point": (
+        "vojax/_results.py",
+        [('    return f"{x:.6g}"', '    return f"{x:.6f}"')],
+        ["tests/test_results.py::test_the_summary_table_prints_tiny_and_huge_numbers_as_they_are"],
+    ),
+    "a number given as text parsed": (
+        "vojax/_validate.py",
+        [("    if isinstance(x, (str, bytes, bool)) or x is None:", "    if x is None:")],
+        ["tests/test_validation.py::test_a_number_given_as_text_is_refused_not_parsed"],
+    ),
+    "the output taken as its own input": (
+        "vojax/_data/_records.py",
+        [("        if name in inputs:", "        if False:")],
+        ["tests/test_data_cli.py::test_each_column_has_one_role_and_a_lone_input_may_be_a_string"],
+    ),
+    "a lone input name read as its letters": (
+        "vojax/_data/_records.py",
+        [("    if isinstance(inputs, str):\n        inputs = [inputs]\n", "")],
+        ["tests/test_data_cli.py::test_each_column_has_one_role_and_a_lone_input_may_be_a_string"],
+    ),
+    "CSV lines split at U+2028 and form feeds": (
+        "vojax/_data/_read.py",
+        [('enumerate(io.StringIO(text, newline=""))', "enumerate(text.splitlines(keepends=True))")],
+        ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
+    ),
+    "an input that is 0 throughout fitted": (
+        "vojax/_validate.py",
+        [("        if np.any(silent):", "        if False:")],
+        ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
+    ),
+    "a record's silent input column not named": (
+        "vojax/_data/_pipeline.py",
+        [("    if silent:\n", "    if False:\n")],
+        ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
+    ),
+    "a clock reaching 1e308 taken": (
+        "vojax/_data/_records.py",
+        [("    far = np.abs(t) > TIME_LIMIT", "    far = np.abs(t) > np.inf")],
+        ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
+    ),
+    "command-line options abbreviated": (
+        "vojax/_cli/_types.py",
+        [('kwargs.setdefault("allow_abbrev", False)', 'kwargs.setdefault("allow_abbrev", True)')],
+        ["tests/test_afm.py::test_a_damaged_file_in_a_batch_fails_only_its_own_record"],
+    ),
+    "--out as the input folder called a folder without files": (
+        "vojax/_cli/_commands.py",
+        [("            if found and inside_out(folder):", "            if False:")],
+        ["tests/test_outputs.py::test_a_batch_whose_out_is_its_input_folder_says_so"],
+    ),
+    "more local workers than cores": (
+        "vojax/_cli/_commands.py",
+        [("    if args.workers is not None and args.workers > (os.cpu_count() or 1):",
+          "    if False:")],
+        ["tests/test_batch.py::test_workers_and_clients_that_cannot_work_are_refused"],
+    ),
+    "a client that is not a Dask client taken": (
+        "vojax/_data/_batch.py",
+        [('    if client is not None and not all(hasattr(client, a) for a in ("submit", "nthreads")):',
+          "    if False:")],
+        ["tests/test_batch.py::test_workers_and_clients_that_cannot_work_are_refused"],
+    ),
+    "repeated parameter names taken": (
+        "vojax/_results.py",
+        [("    if len(set(names)) != count:", "    if False:")],
+        ["tests/test_results.py::test_names_and_times_given_to_a_result_are_checked_in_one_sentence"],
+    ),
+    "a DataFrame's time of the wrong length taken": (
+        "vojax/_results.py",
+        [("    if times.shape != (num,) or not np.all(np.isfinite(times)):", "    if False:")],
+        ["tests/test_results.py::test_names_and_times_given_to_a_result_are_checked_in_one_sentence"],
+    ),
 }
 
 

@@ -195,3 +195,19 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
     assert (tmp_path / "out" / "good" / "summary.json").is_file()
     check = _cli("check", str(RAW), *base, "--out", "c", cwd=tmp_path)
     assert check.returncode == 1 and "unrecognized arguments: --out c" in check.stderr
+
+
+def test_the_contact_point_is_the_first_sample_that_stays_five_spreads_above_the_baseline():
+    """A baseline alternating ±s (median 0, median absolute deviation s, so σ = 1.4826 s)
+    then a noiseless ramp of slope k from sample c0: the contact is the first ramp sample
+    above 5σ, ``c0 + floor(5·1.4826·s/k) + 1``, by hand; one sample earlier is below the
+    threshold and a spread without its 1.4826 (5 MAD) would fire 1.48× too early."""
+    s, k, c0, n = 1e-12, 0.7e-12, 300, 600
+    force = np.where(np.arange(n) % 2 == 0, s, -s)
+    force[c0:] = k * np.arange(n - c0)
+    c, f0 = _afm.contact_index(force)
+    assert f0 == 0.0
+    threshold = 5.0 * 1.4826 * s
+    assert c == c0 + math.floor(threshold / k) + 1
+    assert force[c] > threshold >= force[c - 1]
+    assert _afm.contact_index(np.full(n, 2.0))[0] is None  # never leaves the baseline

@@ -114,3 +114,18 @@ def test_a_number_given_as_text_is_refused_not_parsed():
     with pytest.raises(TypeError, match="`x0` must be a number, got '0'"):
         run_batch([rec], "never-written", model="springpot", method="kalman", gamma=None,
                   lam=None, x0="0")
+
+
+def test_an_order_bound_at_zero_or_one_is_refused():
+    """The order lives strictly inside (0, 1) (its logistic coordinate is infinite at the
+    ends, 1/Γ(0) = 0 kills the memory): bounds reaching 0 or 1 are refused by every route."""
+    n, dt = 40, 0.1
+    u = np.ones(n)
+    y = np.asarray(vojax.simulate(u, 0.4, 1.0, dt))
+    for bounds in [(0.0, 0.9), (0.1, 1.0), (-0.1, 0.5)]:
+        with pytest.raises(ValueError, match=r"must satisfy 0.0 < lo < hi < 1.0"):
+            vojax.refit(u, y, dt, order_bounds=bounds)
+        with pytest.raises(ValueError, match=r"must satisfy 0.0 < lo < hi < 1.0"):
+            vojax.identify(u, y, dt, alpha_bounds=bounds, warn=False)
+        with pytest.raises(ValueError, match=r"must satisfy 0.0 < lo < hi < 1.0"):
+            vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=0.1, order_range=bounds)
