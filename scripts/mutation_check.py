@@ -879,9 +879,9 @@ MUTATIONS = {
         [("    if not np.any(stress):", "    if False:")],
         ["tests/test_compare.py::test_a_record_no_law_can_describe_is_refused_not_answered_with_nan"],
     ),
-    "compare takes numbers whose squares leave float64": (
-        "vojax/_compare.py",
-        [("        if not lo <= size <= hi:", "        if False:")],
+    "numbers whose squares leave float64 taken": (
+        "vojax/_validate.py",
+        [("    if size > hi or (0 < size < lo and not tiny):", "    if False:")],
         ["tests/test_compare.py::test_a_record_no_law_can_describe_is_refused_not_answered_with_nan"],
     ),
     "Bayes factor of a model not compared: a KeyError": (

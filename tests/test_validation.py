@@ -129,3 +129,26 @@ def test_an_order_bound_at_zero_or_one_is_refused():
             vojax.identify(u, y, dt, alpha_bounds=bounds, warn=False)
         with pytest.raises(ValueError, match=r"must satisfy 0.0 < lo < hi < 1.0"):
             vojax.fisher_information(u, 0.4, [1.0], dt, noise_std=0.1, order_range=bounds)
+
+
+def test_signals_whose_squares_leave_float64_are_refused_by_every_estimator():
+    """u or y of 1e300 (the refit returned p = inf with success) or of 1e-300, and a known
+    offset of 1e300 (the law returned NaN), are refused in one sentence that says to change
+    the units; an offset of 1e-200 is an offset of 0 in effect and is taken."""
+    n, dt = 40, 0.1
+    u = np.minimum(np.arange(n) * dt, 1.0) + 0.1
+    y = np.asarray(vojax.simulate(u, 0.4, 1.0, dt))
+    calls = [lambda a, b, **kw: vojax.refit(a, b, dt, warn=False, **kw),
+             lambda a, b, **kw: vojax.identify(a, b, dt, warn=False, **kw),
+             lambda a, b, **kw: vojax.identify(a, b, dt, method="gradient", gamma=0.5,
+                                               warn=False, **kw)]
+    for call in calls:
+        for a, b, name in [(1e300 * u, y, "u"), (1e-300 * u, y, "u"), (u, 1e300 * y, "y"),
+                           (u, 1e-300 * y, "y")]:
+            with pytest.raises(ValueError, match=f"`{name}`'s largest magnitude is .* outside "
+                                                 r"\[1e-100, 1e\+100\]: express it in other"):
+                call(a, b)
+        with pytest.raises(ValueError, match="`x0`'s largest magnitude is 1e\\+300"):
+            call(u, y, x0=1e300)
+    res = vojax.identify(u, y, dt, method="gradient", gamma=0.5, warn=False, x0=1e-200)
+    assert np.all(np.isfinite(np.asarray(res.alpha)))

@@ -20,8 +20,6 @@ OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `
 STRONG_BF = 10.0
 MAX_POINTS = 20_000  # a longer record is compared on block means (about 1.5 s per 1,000
 # points and law on two cores, growing a little faster than the points)
-SCALE_RANGE = (1e-100, 1e100)  # magnitudes a record's stress and strain may have (squares
-# of numbers outside underflow or overflow in the fits' sums of squares)
 
 
 class Comparison:
@@ -215,7 +213,7 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
 
 def _check_degenerate(stress, strain):
     """Refuses, in one sentence each, a record no law can be compared on: no stress, no
-    change of strain, the same series as both, or magnitudes outside `SCALE_RANGE`."""
+    change of strain, the same series as both, or magnitudes outside `check.MAGNITUDES`."""
     if not np.any(stress):
         raise ValueError("`stress` is 0 at every sample: nothing drives the strain, so no "
                          "law can be fitted to it.")
@@ -225,14 +223,8 @@ def _check_degenerate(stress, strain):
     if stress.shape == strain.shape and np.array_equal(stress, strain):
         raise ValueError("`stress` and `strain` are the same series: give the measured "
                          "stress as the input and the strain as the output.")
-    lo, hi = SCALE_RANGE
-    for name, x in (("stress", stress), ("strain", strain)):
-        size = float(np.max(np.abs(x)))
-        if not lo <= size <= hi:
-            raise ValueError(
-                f"`{name}`'s largest magnitude is {size:.3g}, outside [{lo:g}, {hi:g}]: "
-                "express it in other units (kPa, µε, …) before comparing."
-            )
+    check.magnitude(stress, "stress")
+    check.magnitude(strain, "strain")
 
 
 def verdict_of(rows, num) -> str:

@@ -196,6 +196,8 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
         )
     if u2.shape[0] < 3:
         raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
+    for name, arr in (("u", u2), ("y", y)):
+        magnitude(arr, name)
     if _is_concrete(u2):
         silent = ~np.any(np.asarray(u2) != 0, axis=0)
         if np.any(silent):
@@ -220,7 +222,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
     if x0 is None:  # (NumPy on concrete data: an eager slice would compile per length)
         x0 = y[0] if isinstance(y, jax.core.Tracer) else to_device(np.asarray(y)[0])
     else:
-        x0 = scalar(x0, "x0")
+        x0 = magnitude(scalar(x0, "x0"), "x0", tiny=True)
     if isinstance(r0, str):
         if r0 != "auto":
             raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
@@ -254,7 +256,27 @@ def check_mask(mask, num, num_inputs):
 def known_offset(x0) -> float:
     """`x0` as a finite Python float (the tracker's known output offset), checked as the
     law's is (`_scalar`)."""
-    return float(scalar(x0, "x0"))
+    return float(magnitude(scalar(x0, "x0"), "x0", tiny=True))
+
+
+MAGNITUDES = (1e-100, 1e100)  # a signal's largest magnitude outside these is refused: its
+# squares (in sums of squares, covariances, the noise's variance) leave float64
+
+
+def magnitude(x, name, tiny=False):
+    """`x` unchanged where its largest magnitude is 0 or lies within `MAGNITUDES` (or below,
+    where `tiny`: an offset of 1e-200 is 0 in effect); a `ValueError` saying to change the
+    units otherwise. Traced values pass."""
+    if not _is_concrete(x):
+        return x
+    size = float(np.max(np.abs(np.asarray(x)))) if np.size(x) else 0.0
+    lo, hi = MAGNITUDES
+    if size > hi or (0 < size < lo and not tiny):
+        raise ValueError(
+            f"`{name}`'s largest magnitude is {size:.3g}, outside [{lo:g}, {hi:g}]: express "
+            "it in other units (its squares would leave float64)."
+        )
+    return x
 
 
 def scalar(x, name):

@@ -1,0 +1,253 @@
+"""Replays hostile arguments through vojax's Python functions and counts clean outcomes.
+
+Each case is one public call with one argument replaced by a hostile value (None, text,
+a bool, NaN, ±inf, 0, negatives, 1e±300, empty, wrong shapes and dtypes, ragged lists,
+objects), the rest a small valid call. A case is clean when:
+
+- it raises vojax's own error (`vojax.io.DataError`), `ValueError` or `TypeError` (or
+  `ImportError` for a missing extra) with a message of one non-empty line; or
+- it returns, and every number of what it returns (the result's arrays) is finite;
+- within the time limit (no hang).
+
+Anything else — another exception type (IndexError, KeyError, LinAlgError, OverflowError,
+ZeroDivisionError, AttributeError…), a traceback-sized message, a NaN in a result that
+reports success, or a hang — is dirty, and listed.
+
+    python scripts/fuzz_api.py [--limit N] [--show-dirty] [--out results.txt]
+"""
+
+import argparse
+import contextlib
+import io
+import math
+import signal
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from _bench import publish
+
+jax.config.update("jax_enable_x64", True)
+import vojax  # noqa: E402
+import vojax.io  # noqa: E402
+
+N, DT = 40, 0.1
+T = DT * np.arange(N)
+U = np.minimum(T, 1.0) + 0.1
+Y = np.asarray(vojax.simulate(U, 0.4, 1.0, DT)) + 1e-3 * np.sin(7 * T)
+CASE_LIMIT_S = 120
+# a result's answer: these attributes must be finite where a call returns
+ANSWER = ("alpha", "alpha_lower", "alpha_upper", "p", "y_hat", "order", "order_lower",
+          "order_upper", "x0", "order_stderr", "covariance", "information")
+
+
+class _Hang(Exception):
+    pass
+
+
+def _arrays(good):
+    """Hostile replacements for an array argument shaped like `good`."""
+    good = np.asarray(good, float)
+    bad = [None, "abc", "0", b"0", True, object(), [], np.array([]), good[:2], good[:-1],
+           np.full_like(good, np.nan), np.full_like(good, np.inf), good.astype(complex),
+           good[..., None, None], np.array(["a"] * good.shape[0]), 1e300 * good,
+           1e-300 * good, np.zeros_like(good), -good, good.tolist(), [[1.0, 2.0], [3.0]]]
+    one_nan = good.copy()
+    one_nan.flat[good.size // 2] = np.nan
+    return bad + [one_nan]
+
+
+SCALARS = [None, "0", "x", b"1", True, math.nan, math.inf, -math.inf, -1.0, 0.0, 1e-300,
+           1e300, [1.0], np.array([1.0, 2.0]), 1 + 1j, object(), 2**63]
+TEXTS = [None, "", "unknown", 3, ["a"], b"x", "constant "]
+PAIRS = [None, (0.9, 0.1), (math.nan, 0.5), (0.0, 1.0), (-1.0, 2.0), "ab", (0.1,), 5,
+         (0.1, 0.2, 0.3), (math.inf, 1.0)]
+COUNTS = [None, -1, 0, 1, 2.5, True, "3", 10**9, math.nan]
+
+
+def _calls():
+    """``(name, thunk)`` for every case."""
+    cases = []
+
+    def vary(name, fn, base, hostile):
+        for key, values in hostile.items():
+            for k, value in enumerate(values):
+                kwargs = dict(base, **{key: value})
+                cases.append((f"{name}({key}=#{k})", lambda fn=fn, kw=kwargs: fn(**kw)))
+
+    two = np.column_stack([U, np.cos(T)])
+    vary("simulate", vojax.simulate, dict(u=U, order=0.4, p=1.0, dt=DT),
+         dict(u=_arrays(U), order=SCALARS + _arrays(U), p=SCALARS, dt=SCALARS,
+              x0=SCALARS, rule=TEXTS, memory=TEXTS))
+    vary("fractional_integral", vojax.fractional_integral, dict(u=U, order=0.4, dt=DT),
+         dict(u=_arrays(U), order=SCALARS, dt=SCALARS, t=_arrays(T), rule=TEXTS))
+    vary("order_sensitivity", vojax.order_sensitivity, dict(u=U, order=0.4, dt=DT),
+         dict(u=_arrays(U), order=SCALARS, dt=SCALARS))
+    law = dict(u=U, y=Y, dt=DT, method="gradient", gamma=0.5, warn=False)
+    vary("identify[law]", vojax.identify, law,
+         dict(y=_arrays(Y), gamma=SCALARS, lam=SCALARS, alpha0=SCALARS,
+              alpha_bounds=PAIRS, x0=SCALARS, r0=SCALARS, method=TEXTS))
+    tracker = dict(u=U, y=Y, dt=DT, warn=False)
+    vary("identify[tracker]", vojax.identify, tracker,
+         dict(u=_arrays(U), dt=SCALARS, t=_arrays(T), x0=SCALARS[:8],
+              parameters=TEXTS + [-1.0, math.nan], time_scale=SCALARS[:10],
+              max_points=COUNTS, mask=_arrays(U)[:12]))
+    vary("refit", vojax.refit, dict(u=U, y=Y, dt=DT, warn=False),
+         dict(u=_arrays(U), y=_arrays(Y), order=TEXTS + COUNTS, order_bounds=PAIRS,
+              order0=SCALARS, x0=SCALARS, window=PAIRS, weights=_arrays(U)[:12],
+              origin=SCALARS, p_signs=TEXTS, max_steps=COUNTS))
+    vary("compare", vojax.compare,
+         dict(stress=U, strain=Y, dt=DT, models=("springpot",)),
+         dict(stress=_arrays(U), strain=_arrays(Y), models=TEXTS + [("springpot", "x")],
+              knots=COUNTS, holdout=SCALARS, max_points=COUNTS))
+    vary("fisher_information", vojax.fisher_information,
+         dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01),
+         dict(u=_arrays(U), order=SCALARS, p=SCALARS, noise_std=SCALARS, knots=COUNTS,
+              order_range=PAIRS, order_drift=SCALARS, parameter_knots=COUNTS))
+    vary("settling_test", vojax.settling_test,
+         dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01, cycles=(5,), starts=(0.0,)),
+         dict(amplitude=SCALARS, cycles=[None, (), (0,), (-1,), ("a",), (1e9,), 5],
+              starts=[None, (), (1.5,), (-0.1,), (math.nan,), 0.2],
+              parameter_knots=COUNTS, noise_std=SCALARS))
+    vary("tune_gains", vojax.tune_gains, dict(u=U, y=Y, dt=DT),
+         dict(y=_arrays(Y), alpha0=SCALARS, alpha_bounds=PAIRS, lam=SCALARS,
+              burn_in=SCALARS, lag=SCALARS, num_gamma=COUNTS))
+    vary("simulate_study", vojax.simulate_study, dict(dt=0.05),
+         dict(dt=SCALARS, seed=COUNTS + ["a"], noise_std=SCALARS))
+
+    # methods of the results
+    fit = vojax.refit(two, np.asarray(vojax.simulate(two, 0.4, [1.0, 0.5], DT)), DT, warn=False)
+    res = vojax.identify(two, np.asarray(vojax.simulate(two, 0.4, [1.0, 0.5], DT)), DT,
+                         method="gradient", gamma=0.5, warn=False)
+    comparison = vojax.compare(U, Y, DT, models=("springpot", "maxwell"))
+    names = [None, "a", ["a"], ["a", "b", "c"], ["a", "a"], [1, 2], [None, "b"], 5, ["", "b"]]
+    for obj, label in ((fit, "Refit"), (res, "Identification")):
+        vary(f"{label}.summary", lambda obj=obj, **kw: obj.summary(**kw), {}, dict(names=names))
+        vary(f"{label}.to_dataframe", lambda obj=obj, **kw: obj.to_dataframe(**kw), {},
+             dict(t=_arrays(T)[:12]))
+        vary(f"{label}.plot", lambda obj=obj, **kw: _closed(obj.plot(**kw)), {},
+             dict(t=_arrays(T)[:12]))
+    vary("Identification.to_dataframe[names]", lambda **kw: res.to_dataframe(**kw), {},
+         dict(names=names))
+    vary("Comparison.bayes_factor", lambda **kw: comparison.bayes_factor(**kw),
+         dict(a="springpot", b="maxwell"), dict(a=TEXTS + ["zener"], b=TEXTS))
+
+    # files
+    tmp = Path(tempfile.mkdtemp(prefix="vojax-fuzz-api-"))
+    good = tmp / "r.csv"
+    good.write_text("time_s,stress,strain\n" + "".join(
+        f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(T.tolist(), U.tolist(), Y.tolist())))
+    vary("load_records", vojax.io.load_records,
+         dict(path=good, time="time_s", inputs=["stress"], output="strain"),
+         dict(path=[None, 3, tmp / "missing.csv", tmp, "", b"r.csv"],
+              time=TEXTS + ["stress"], inputs=TEXTS + [[], ["stress", "stress"], ["strain"]],
+              output=TEXTS + ["time_s"], group_by=TEXTS, resample=SCALARS,
+              delimiter=TEXTS + [";", "\t", ",,"], decimal=TEXTS + [","],
+              units=[None, 3, {"x": "s"}, {"stress": ""}, {"stress": "k" * 100}, "kPa"],
+              segments=[None, 3, [0], ["a"], "0"], tip=[None, "sphere", ("sphere",),
+                                                        ("cube", 1.0)]))
+    return cases
+
+
+def _closed(ax):
+    import matplotlib.pyplot as plt
+
+    plt.close(ax.figure)
+    return None
+
+
+def _numbers(value, depth=0):
+    """Every float array reachable in a result (its arrays and its public attributes)."""
+    if depth > 2 or value is None:
+        return
+    if isinstance(value, (float, np.floating)):
+        yield np.asarray(value)
+    elif isinstance(value, (np.ndarray, jax.Array)):
+        if np.issubdtype(np.asarray(value).dtype, np.inexact):
+            yield np.asarray(value)
+    elif isinstance(value, (tuple, list)):
+        for v in value:
+            yield from _numbers(v, depth + 1)
+    elif isinstance(value, dict):
+        for v in value.values():
+            yield from _numbers(v, depth + 1)
+    elif hasattr(value, "rows") and hasattr(value, "verdict"):  # a Comparison
+        for row in value.rows:
+            yield from _numbers({k: v for k, v in row.items() if k != "refit"}, depth + 1)
+    else:  # a result object: the numbers it reports as its answer (NaN elsewhere can mean
+        # "not measured", as a white noise's correlation)
+        for k in ANSWER:
+            v = getattr(value, k, None)
+            if v is not None and not callable(v):
+                yield from _numbers(v, depth + 1)
+
+
+def _run(thunk):
+    """``(clean, what)`` of one case."""
+    from vojax.io import DataError
+
+    def alarm(*_):
+        raise _Hang()
+
+    signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(CASE_LIMIT_S)
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")
+            result = thunk()
+    except _Hang:
+        return False, f"no answer within {CASE_LIMIT_S} s"
+    except (DataError, ValueError, TypeError, ImportError) as e:
+        text = str(e)
+        if not text.strip() or "\n" in text.strip():
+            return False, f"{type(e).__name__} not in one line: {text[:120]!r}"
+        return True, f"{type(e).__name__}: {text[:100]}"
+    except BaseException as e:  # noqa: BLE001 - the point: anything else is dirty
+        if isinstance(e, KeyboardInterrupt):
+            raise
+        return False, f"{type(e).__name__}: {str(e)[:160]}"
+    finally:
+        signal.alarm(0)
+    for arr in _numbers(result):
+        if not np.all(np.isfinite(arr)):
+            return False, "returned a non-finite number"
+    return True, "returned"
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--limit", type=int)
+    parser.add_argument("--show-dirty", action="store_true")
+    parser.add_argument("--out")
+    args = parser.parse_args()
+    cases = _calls()[: args.limit]
+    started = time.perf_counter()
+    dirty, by_function = [], {}
+    for name, thunk in cases:
+        clean, what = _run(thunk)
+        function = name.split("(")[0]
+        total, ok = by_function.get(function, (0, 0))
+        by_function[function] = (total + 1, ok + clean)
+        if not clean:
+            dirty.append((name, what))
+            if args.show_dirty:
+                print(f"DIRTY {name}: {what}", flush=True)
+    took = time.perf_counter() - started
+    lines = [f"# fuzz_api: {len(cases)} cases, {len(cases) - len(dirty)} clean, "
+             f"{len(dirty)} dirty, {took:.0f} s", "",
+             "| function | cases | clean |", "|---|---|---|"]
+    lines += [f"| {f} | {n} | {ok} |" for f, (n, ok) in by_function.items()]
+    if dirty:
+        lines += ["", "| dirty case | what happened |", "|---|---|"]
+        lines += [f"| {n} | {w.replace('|', '/')} |" for n, w in dirty]
+    publish(lines, args.out)
+    return 1 if dirty else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
