@@ -150,5 +150,9 @@ def test_signals_whose_squares_leave_float64_are_refused_by_every_estimator():
                 call(a, b)
         with pytest.raises(ValueError, match="`x0`'s largest magnitude is 1e\\+300"):
             call(u, y, x0=1e300)
+        for flat in (0 * y, 0 * y + 2.5):  # the refit's interval was NaN with success
+            with pytest.raises(ValueError, match="`y` is .* at every sample: there is no "
+                                                 "response to fit"):
+                call(u, flat)
     res = vojax.identify(u, y, dt, method="gradient", gamma=0.5, warn=False, x0=1e-200)
     assert np.all(np.isfinite(np.asarray(res.alpha)))

@@ -198,6 +198,10 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
         raise ValueError(f"`u` and `y` must hold at least 3 samples, got {u2.shape[0]}.")
     for name, arr in (("u", u2), ("y", y)):
         magnitude(arr, name)
+    if _is_concrete(y) and np.ptp(np.asarray(y)) == 0:
+        raise ValueError(
+            f"`y` is {float(np.asarray(y)[0]):g} at every sample: there is no response to fit."
+        )
     if _is_concrete(u2):
         silent = ~np.any(np.asarray(u2) != 0, axis=0)
         if np.any(silent):
