@@ -73,6 +73,16 @@ def _npz_header(path, shape, real=50):
             z.writestr(f"{name}.npy", out.getvalue())
 
 
+def _damaged_jpk(source, path):
+    """The JPK file with the force channel of its second segment cut at an odd byte."""
+    with zipfile.ZipFile(source) as z, zipfile.ZipFile(path, "w") as out:
+        for name in z.namelist():
+            data = z.read(name)
+            if name == "segments/1/channels/vDeflection.dat":
+                data = data[: len(data) // 2 + 1]
+            out.writestr(name, data)
+
+
 def make_files(folder: Path) -> list[str]:
     """The hostile (and a few good) input files; returns their names."""
     t, u, y = _good()
@@ -112,6 +122,23 @@ def make_files(folder: Path) -> list[str]:
     add("constant_output.csv", lambda p: _csv(p, t, u, [1.0] * len(t)))
     add("zero_input.csv", lambda p: _csv(p, t, [0.0] * len(t), y))
     add("irregular.csv", lambda p: _csv(p, list(np.cumsum(np.r_[0, np.linspace(0.05, 0.3, len(t) - 1)])), u, y))
+    # the newer surface's hostile inputs
+    add("quoted_names.csv", lambda p: p.write_text(
+        "specimen,time_s,stress,strain\n" + "".join(
+            f"{s},{a!r},{b!r},{c!r}\n" for s in ("'=1", "''x", "'") for a, b, c in zip(t, u, y)
+        )))
+    add("line_separators.csv", lambda p: _csv(
+        p, t, u, y, extra=lambda k: "x\u2028y" if k == 5 else ("a\fb" if k == 7 else "n")))
+    add("far_clock.csv", lambda p: _csv(p, list(np.linspace(0, 1e308, len(t))), u, y))
+    add("zero_stress.csv", lambda p: _csv(p, t, [0.0] * len(t), y))
+    add("same_series.csv", lambda p: _csv(p, t, y, y))
+    add("tiny_numbers.csv", lambda p: _csv(p, t, [1e-200 * v for v in u], [1e-200 * v for v in y]))
+    jpk = Path(__file__).resolve().parents[1] / "tests" / "data" / "afm" / "brain_creep.jpk-force"
+    if jpk.is_file():
+        raw = jpk.read_bytes()
+        add("good.jpk-force", lambda p: p.write_bytes(raw))
+        add("cut.jpk-force", lambda p: p.write_bytes(raw[: len(raw) // 2]))
+        add("channel.jpk-force", lambda p: _damaged_jpk(jpk, p))
     (folder / "folder.csv").mkdir()
     files["folder.csv"] = None
     # an output folder holding files of the user's named like vojax's outputs
@@ -199,6 +226,33 @@ def cases(files):
                  ["--order", "1.5"], ["--order", "a,b"], ["--max-samples", "-5"],
                  ["--lam", "0"], ["--memory", "bogus"]):
         out.append(["check", "good.csv", *COLUMNS, *opts])
+    # the newer surface: compare, AFM, the cluster options, the column roles, the CLI's
+    # spelling
+    for name in ("good.csv", "zero_stress.csv", "same_series.csv", "tiny_numbers.csv",
+                 "constant_output.csv", "huge_numbers.csv", "far_clock.csv"):
+        out.append(["compare", name, *COLUMNS, "--models", "springpot,maxwell", "--out", "out"])
+    for opts in (["--models", "bogus"], ["--knots", "0"], ["--knots", "99"],
+                 ["--model", "zener"]):
+        out.append(["compare", "good.csv", *COLUMNS, *opts, "--out", "out"])
+    afm = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
+    for name in ("good.jpk-force", "cut.jpk-force", "channel.jpk-force"):
+        for opts in ([], ["--tip", "sphere:1e-320"], ["--tip", "sphere:5"],
+                     ["--tip", "cone:95"], ["--tip", "cube:1"], ["--segments", "9"]):
+            out.append(["identify", name, *afm, "--method", "refit", *opts, "--out", "out"])
+        out.append(["batch", name, "good.csv", *afm, "--method", "refit", "--quiet",
+                    "--out", "out"])
+    for opts in (["--scheduler", "local", "--workers", "1000"],
+                 ["--scheduler", "local", "--workers", "0"], ["--workers", "2"],
+                 ["--scheduler", " "], ["--scheduler", "tcp://127.0.0.1:1"]):
+        out.append(["batch", "good.csv", *COLUMNS, "--method", "refit", *opts, "--out", "out"])
+    for columns in (["--time", "time_s", "--input", "strain", "--output", "strain"],
+                    ["--time", "time_s", "--input", "stress", "--input", "stress", "--output",
+                     "strain"],
+                    ["--time", "time_s", "--input", "stress", "--output", "time_s"]):
+        out.append(["identify", "good.csv", *columns, "--method", "refit", "--out", "out"])
+    out.append(["check", "good.csv", *COLUMNS, "--out", "out"])  # check takes no --out
+    out.append(["identify", "good.csv", "--tim", "time_s", "--input", "stress", "--output",
+                "strain", "--out", "out"])  # options only as spelled in full
     out.append(["example", "bogus"])
     out.append(["bogus-command"])
     out.append([])

@@ -104,14 +104,14 @@ def test_a_number_given_as_text_is_refused_not_parsed():
     u = np.ones(n)
     y = np.asarray(vojax.simulate(u, 0.4, 1.0, dt))
     for bad in ("0", b"0", True):
-        with pytest.raises(TypeError, match="`x0` must be a number, got"):
+        with pytest.raises(ValueError, match="`x0` must be a number, got"):
             vojax.identify(u, y, dt, x0=bad, warn=False)
-        with pytest.raises(TypeError, match="`x0` must be a number, got"):
+        with pytest.raises(ValueError, match="`x0` must be a number, got"):
             vojax.identify(u, y, dt, x0=bad, method="gradient", gamma=0.5, warn=False)
     rec = vojax.io.Record("r", "r.csv", np.arange(n) * dt, u[:, None], y, ("u",), "y", dt)
     from vojax._data._batch import run_batch  # the command line's route
 
-    with pytest.raises(TypeError, match="`x0` must be a number, got '0'"):
+    with pytest.raises(ValueError, match="`x0` must be a number, got '0'"):
         run_batch([rec], "never-written", model="springpot", method="kalman", gamma=None,
                   lam=None, x0="0")
 

@@ -285,7 +285,7 @@ def magnitude(x, name, tiny=False):
 
 def scalar(x, name):
     if isinstance(x, (str, bytes, bool)) or x is None:  # jnp.asarray("0") would take it
-        raise TypeError(f"`{name}` must be a number, got {x!r}.")
+        raise ValueError(f"`{name}` must be a number, got {x!r}.")
     try:
         arr = jnp.asarray(x, jnp.result_type(float))
     except (TypeError, ValueError):

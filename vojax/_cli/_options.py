@@ -254,14 +254,13 @@ def _law_options(args):
             "tracker do not take; add --method refit."
         )
     points = getattr(args, "max_points", None)
-    for name, value in (("--parameters", getattr(args, "parameters", None)),
-                        ("--max-points", points), ("--x0", getattr(args, "x0", None)),
-                        ("--time-scale", getattr(args, "time_scale", None))):
-        if value is not None and not args.method.startswith("kalman"):
-            raise CLIError(
-                f"{name} sets the tracker, which --method {args.method} does not run; add "
-                "--method kalman (or kalman+refit)."
-            )
+    from .._data._pipeline import check_parameters
+
+    try:  # the tracker's options, checked as the batch's Python route checks them
+        check_parameters(args.method, getattr(args, "parameters", None), points,
+                         getattr(args, "x0", None), getattr(args, "time_scale", None))
+    except ValueError as e:
+        raise CLIError(str(e)) from None
     if points is not None and not MIN_POINTS <= points <= TRACKER_MAX_POINTS:
         raise CLIError(
             f"--max-points must be from {MIN_POINTS:,} to {TRACKER_MAX_POINTS:,}, got {points:,}."

@@ -80,7 +80,8 @@ def check_parameters(method, parameters, max_points=None, x0=None, time_scale=No
                         ("--x0", x0), ("--time-scale", time_scale)):
         if value is not None:
             raise ValueError(
-                f"{name} sets the tracker; use --method kalman or kalman+refit, not {method}."
+                f"{name} sets the tracker, which --method {method} does not run; add "
+                "--method kalman (or kalman+refit)."
             )
 
 
