@@ -230,9 +230,11 @@ def test_a_hold_of_constant_output_is_not_a_confident_order():
 
 
 def test_an_undetermined_coefficient_has_an_infinite_error():
-    """An input that is zero over the record leaves its coefficient undetermined: its standard
-    error and variance are inf (not the 0 a pseudo-inverse gives), the other coefficient's is
-    the one-input fit's, and the delta method keeps quantities free of it finite."""
+    """An input that is zero over the fitted samples (it acts only in the masked end: the
+    memory carries nothing back) leaves its coefficient undetermined: its standard error and
+    variance are inf (not the 0 a pseudo-inverse gives), the other coefficient's is the
+    one-input fit's, and the delta method keeps quantities free of it finite. (An input that
+    is zero over the whole record is refused before the fit.)"""
     from vojax._stats import delta_stderr
 
     dt, n = 0.05, 300
@@ -240,8 +242,12 @@ def test_an_undetermined_coefficient_has_an_infinite_error():
     s = np.sin(0.9 * t) + 0.5
     y = np.asarray(vojax.simulate(s, 0.4, np.array([1.5]), dt))
     y = y + 1e-3 * np.random.default_rng(5).standard_normal(n)
-    fit = vojax.refit(np.stack([s, np.zeros(n)], 1), y, dt, x0=0.0)
-    one = vojax.refit(s, y, dt, x0=0.0)
+    late = (np.arange(n) >= n - 10).astype(float)
+    mask = 1.0 - late
+    fit = vojax.refit(np.stack([s, late], 1), y, dt, x0=0.0, mask=mask)
+    one = vojax.refit(s, y, dt, x0=0.0, mask=mask)
+    with pytest.raises(ValueError, match="input 2 of `u` is 0 at every sample"):
+        vojax.refit(np.stack([s, np.zeros(n)], 1), y, dt, x0=0.0)
     assert np.isinf(float(fit.p_stderr[1])) and np.isinf(float(fit.p_cov[1, 1]))
     np.testing.assert_allclose(fit.p_stderr[0], one.p_stderr[0], rtol=1e-6)
     np.testing.assert_allclose(fit.order_stderr, one.order_stderr, rtol=1e-6)
