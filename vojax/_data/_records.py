@@ -107,7 +107,8 @@ def _resample(label, t, columns, step, steps, spread):
     if not many <= RESAMPLE_LIMIT:
         raise DataError(
             f"{label}: --resample {step:g} makes "
-            f"{f'{int(many):,}' if many < 1e15 else f'{many:.3g}'} samples of a record {t[-1] - t[0]:g} "
+            f"{f'{int(many):,}' if many < 1e15 else f'{many:.3g}'} samples of a record "
+            f"{t[-1] - t[0]:g} "
             f"long (the limit is {RESAMPLE_LIMIT:,}); use a larger step, or leave --resample "
             "out: irregular clocks are used as recorded."
         )
