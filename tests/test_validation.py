@@ -156,3 +156,24 @@ def test_signals_whose_squares_leave_float64_are_refused_by_every_estimator():
                 call(u, flat)
     res = vojax.identify(u, y, dt, method="gradient", gamma=0.5, warn=False, x0=1e-200)
     assert np.all(np.isfinite(np.asarray(res.alpha)))
+
+
+def test_the_study_and_the_gain_search_refuse_what_they_cannot_run():
+    """`simulate_study` with a step of 0 (ZeroDivisionError before), 2**63 (OverflowError) or
+    a NaN noise (a NaN record returned), and `tune_gains` asked for a 10^9-point grid (a
+    60 GiB allocation), each refused in one sentence."""
+    for dt in (0.0, 2**63, -1.0, float("nan"), True):
+        with pytest.raises(ValueError, match="`dt` must be a step from 0.00015 to 10 s"):
+            vojax.simulate_study(dt)
+    for noise in (float("nan"), float("inf"), -1.0):
+        with pytest.raises(ValueError, match="`noise_std` must be a finite number ≥ 0"):
+            vojax.simulate_study(0.5, noise_std=noise)
+    with pytest.raises(ValueError, match="`seed` must be a whole number ≥ 0"):
+        vojax.simulate_study(0.5, seed=-1)
+    n, dt = 60, 0.1
+    u = np.sin(np.arange(n) * dt) + 1.2
+    y = np.asarray(vojax.simulate(u, 0.4, 1.0, dt))
+    with pytest.raises(ValueError, match="`num_gamma` must be from 2 to 200"):
+        vojax.tune_gains(u, y, dt, num_gamma=10**9)
+    with pytest.raises(TypeError, match="`num_lam` must be a whole number"):
+        vojax.tune_gains(u, y, dt, num_lam=2.5)

@@ -26,6 +26,17 @@ def simulate_study(
 
     **Returns:** a dict with ``t``, ``u``, ``alpha``, ``p``, ``x`` (noise-free) and ``y``.
     """
+    import math
+
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (
+            STUDY_DURATION / 2e6 <= dt <= 10.0):
+        raise ValueError(f"`dt` must be a step from {STUDY_DURATION / 2e6:g} to 10 s (at most "
+                         f"2e6 samples over the study's {STUDY_DURATION:g} s), got {dt!r}.")
+    if isinstance(noise_std, bool) or not isinstance(noise_std, (int, float)) or not (
+            0 <= noise_std < math.inf):
+        raise ValueError(f"`noise_std` must be a finite number ≥ 0, got {noise_std!r}.")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"`seed` must be a whole number ≥ 0, got {seed!r}.")
     t, u, alpha, p = study_signals(dt)
     x = simulate(
         u,

@@ -8,12 +8,14 @@ from jax import lax
 
 from ._adaptive._build import DEFAULT_BOUNDS, assemble_law
 from ._integral import make_memory
+from . import _validate as check
 from ._validate import check_options
 
 TRACES = {"tune": 0}
 # the refinement differentiates through the law in blocks of samples, each block checkpointed:
 # reverse mode keeps one law state per block and the states of one block, not one per sample
 BLOCK = 1024
+MAX_GRID = 200  # the most points of the γ or λ grid (each grid point is a run of the law)
 GAMMA_DECADES = (-2.0, 4.0)  # the γ grid: 10^-2…10^4 of 1/(mean((y−x0)²)·T), T the record's span
 
 
@@ -292,6 +294,8 @@ def _prepare(
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:
         raise ValueError(f"`lag` must be in [0, 0.5), got {lag}.")
+    num_gamma = check.count(num_gamma, "num_gamma", 2, MAX_GRID)
+    num_lam = check.count(num_lam, "num_lam", 2, MAX_GRID)
     u2, y, x0 = np.asarray(u2), np.asarray(y), float(x0)
     n = u2.shape[0]
     big_y = y - x0
