@@ -29,7 +29,6 @@ from pathlib import Path
 
 import jax
 import numpy as np
-
 from _bench import publish
 
 jax.config.update("jax_enable_x64", True)

@@ -1034,6 +1034,11 @@ MUTATIONS = {
           "    if False:")],
         ["tests/test_batch.py::test_workers_and_clients_that_cannot_work_are_refused"],
     ),
+    "a scheduler's loss fails every record instead of stopping the run": (
+        "vojax/_data/_dask.py",
+        [("                if _scheduler_lost(client, text):", "                if False:")],
+        ["tests/test_batch.py::test_a_scheduler_that_dies_mid_run_leaves_a_folder_that_resumes"],
+    ),
     "repeated parameter names taken": (
         "vojax/_results.py",
         [("    if len(set(names)) != count:", "    if False:")],

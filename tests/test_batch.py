@@ -666,3 +666,58 @@ def test_workers_and_clients_that_cannot_work_are_refused(tmp_path):
             with vojax.io.dask_client("local", many):
                 pass
     assert not (tmp_path / "out").exists() and not (tmp_path / "py").exists()
+
+
+@pytest.mark.slow
+def test_a_scheduler_that_dies_mid_run_leaves_a_folder_that_resumes(tmp_path):
+    """A running scheduler (``dask scheduler`` and one ``dask worker``, as a lab starts
+    them) killed once the first records are written: the command ends with exit 1 and one
+    line saying so (not distributed's tracebacks, not 100 failed records), summary.csv holds
+    what was finished, and a re-run computes the rest: one row per record."""
+    pytest.importorskip("distributed")
+    import signal
+    import socket
+
+    from .test_outputs import _long_csv
+
+    names = [f"s{k:03d}" for k in range(120)]
+    _long_csv(tmp_path / "long.csv", names, n=200)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    scheduler = subprocess.Popen(dask + ["--port", str(port), "--dashboard-address", ":0"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                               "--nworkers", "1", "--nthreads", "1"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        args = ["batch", "long.csv", "--time", "time_s", "--input", "stress", "--output",
+                "strain", "--group-by", "specimen", "--method", "refit", "--figures",
+                "overview", "--quiet", "--out", "out"]
+        batch = subprocess.Popen([sys.executable, "-m", "vojax", *args, "--scheduler", address],
+                                 cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True)
+        started = time.monotonic()
+        while not any((tmp_path / "out").glob("*/summary.json")):
+            assert batch.poll() is None and time.monotonic() - started < 240, batch.stderr
+            time.sleep(0.1)
+        scheduler.send_signal(signal.SIGKILL)
+        _, err = batch.communicate(timeout=120)
+        assert batch.returncode == 1, err
+        assert err.strip().splitlines() == [
+            "vojax: error: the Dask scheduler went away mid-run: the records finished so far "
+            "are written; run the same command again to compute the rest."
+        ]
+        with open(tmp_path / "out" / "summary.csv", newline="") as f:
+            done = [r["record"] for r in csv.DictReader(f)]
+        assert 0 < len(done) < len(names)
+    finally:
+        for proc in (scheduler, worker):
+            proc.kill()
+            proc.wait()
+    again = _cli(*args, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    with open(tmp_path / "out" / "summary.csv", newline="") as f:
+        assert [r["record"] for r in csv.DictReader(f)] == names

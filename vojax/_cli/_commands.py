@@ -241,6 +241,13 @@ def batch_command(args) -> int:
                 raise CLIError(
                     f"could not reach the Dask scheduler {args.scheduler!r}: {e}"
                 ) from None
+            import logging
+
+            # the command says a scheduler's loss in one line, not with distributed's own
+            # tracebacks (its loggers have their own levels, set when it was imported)
+            for name in list(logging.root.manager.loggerDict):
+                if name == "distributed" or name.startswith("distributed."):
+                    logging.getLogger(name).setLevel(logging.CRITICAL)
         try:
             report = run_batch(
                 records,
@@ -254,7 +261,7 @@ def batch_command(args) -> int:
                 record_figures=args.figures == "records",
                 client=client,
             )
-        except BatchBusy as e:
+        except (BatchBusy, ConnectionError) as e:  # busy, or the scheduler went away
             raise CLIError(str(e)) from None
     unidentified = (
         f", {report.unidentified} of them with the order not identified (see summary.csv)"

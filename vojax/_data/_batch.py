@@ -18,6 +18,7 @@ import numpy as np
 from .._progress import Bar, wanted
 from ._compute import _compute_group
 from ._dask import (
+    SchedulerLost,
     _on_dask,
     dask_client,  # noqa: F401
 )
@@ -284,9 +285,16 @@ def run_batch(
                 for r, state, result in _compute_group(group, num, dt, config, mesh):
                     settle(r, state, result)
         else:
-            for chunk, results in _on_dask(client, groups, config, bar):
-                for i, state, result in results:
-                    settle(chunk[i][0], state, result)
+            try:
+                for chunk, results in _on_dask(client, groups, config, bar):
+                    for i, state, result in results:
+                        settle(chunk[i][0], state, result)
+            except SchedulerLost:  # the table holds what was finished; a re-run resumes
+                bar.close()
+                _write_summary_table(
+                    out_dir, records, folders, provenance, rows_cache, failed, overwrite
+                )
+                raise
         for _ in figures.drain():
             settled()
         settled()

@@ -92,10 +92,24 @@ def _on_dask(client, groups, config, bar):
                 results = future.result()
             except Exception as e:  # noqa: BLE001 - a lost task fails its records only
                 text = str(e).splitlines()[0] if str(e) else type(e).__name__
+                if _scheduler_lost(client, text):  # every task is lost, not this one's
+                    raise SchedulerLost(
+                        "the Dask scheduler went away mid-run: the records finished so far "
+                        "are written; run the same command again to compute the rest."
+                    ) from None
                 results = [(i, state, RuntimeError(text)) for i, (_, state) in enumerate(chunk)]
             yield chunk, results
     finally:  # interrupted: nothing keeps computing for a run that is gone
         client.cancel(list(futures))
+
+
+class SchedulerLost(ConnectionError):
+    """The scheduler of a Dask batch went away mid-run (the batch's folder stays resumable)."""
+
+
+def _scheduler_lost(client, text) -> bool:
+    return "scheduler-connection-lost" in text or getattr(client, "status", "running") in (
+        "closing", "closed", "failed")
 
 
 @contextlib.contextmanager
@@ -144,7 +158,9 @@ def check_scheduler(address):
     scheduler with at least one worker, within `PROBE_S` seconds whatever the address
     does (the check runs in a child process, which is killed at the limit)."""
     if not isinstance(address, str) or not address.strip():
-        raise ValueError(f"a scheduler's address is a string like tcp://host:8786, got {address!r}.")
+        raise ValueError(
+            f"a scheduler's address is a string like tcp://host:8786, got {address!r}."
+        )
     import importlib.util
 
     if importlib.util.find_spec("distributed") is None:
