@@ -133,7 +133,8 @@ def main():
         "",
         f"{interrupted} of {len(kills)} kills interrupted a run (the others came after it had "
         f"finished); re-run exit {again.returncode}; records {len(per_record)} of "
-        f"{len(ref)}; rows per record {sorted(set(per_record.values()))}; largest relative difference from the "
+        f"{len(ref)}; rows per record {sorted(set(per_record.values()))}; largest relative "
+        f"difference from the "
         f"uninterrupted run {worst:.1e}; worker processes left after the kills: {len(left)}",
     ]
     publish(lines, args.out)
