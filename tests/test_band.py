@@ -188,3 +188,20 @@ def test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count():
     profile = ex("trade", 3.0, var=0.0, drift=0.4, evidence=np.nan, accepted=True)
     b = bands([tuned, far, profile], BOUNDS, N, np.inf, evidence_floor=200.0)
     assert b.breakdown_drift == pytest.approx(0.4)
+
+
+def test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty():
+    """`chi2_fits` is a 2σ test of χ² (mean dof, standard deviation √(2·dof)): on residuals
+    of a correct model (Gaussian, known σ) it rejects about 2.3 % of records at dof = 400
+    (the χ² distribution's right tail beyond 2σ: 2.6 % by its skew), by Monte Carlo over
+    20,000 draws. A test with √dof in place of √(2·dof) rejects 9 %."""
+    from scipy.stats import chi2 as chi2_dist
+
+    from vojax._tracker._mixture import chi2_fits
+
+    dof = 400
+    draws = np.random.default_rng(0).chisquare(dof, 20_000)
+    rate = 1.0 - np.mean(chi2_fits(draws, dof))
+    exact = chi2_dist.sf(dof + 2 * np.sqrt(2 * dof), dof)
+    assert exact == pytest.approx(0.0264, abs=0.0005)
+    assert rate == pytest.approx(exact, abs=0.004)
