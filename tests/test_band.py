@@ -192,9 +192,9 @@ def test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count():
 
 def test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty():
     """`chi2_fits` is a 2σ test of χ² (mean dof, standard deviation √(2·dof)): on residuals
-    of a correct model (Gaussian, known σ) it rejects about 2.3 % of records at dof = 400
+    of a correct model (Gaussian, known σ) it rejects 2.6 % of records at dof = 400
     (the χ² distribution's right tail beyond 2σ: 2.6 % by its skew), by Monte Carlo over
-    20,000 draws. A test with √dof in place of √(2·dof) rejects 9 %."""
+    20,000 draws. A test with √dof in place of √(2·dof) rejects 8.2 %."""
     from scipy.stats import chi2 as chi2_dist
 
     from vojax._tracker._mixture import chi2_fits
