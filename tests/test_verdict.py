@@ -195,3 +195,20 @@ def test_the_command_line_states_the_parameters_in_a_unit_of_time(tmp_path):
         assert bad.returncode != 0 and said in bad.stderr, bad.stderr
         assert len(bad.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "p").exists()
+
+
+def test_the_verdict_reads_the_band_over_the_second_half_of_the_record():
+    """The tracker starts knowing nothing: its band is wide at first and narrows as the
+    record speaks. The verdict reads the band's half-width as its median over the second
+    half: a band ±0.3 over the first half and ±0.02 over the second is identified with
+    half-width 0.02; the reverse is refused as wide."""
+    from vojax._diagnostics import diagnose
+
+    n = 200
+    alpha = np.full(n, 0.5)
+    early = np.arange(n) < n // 2
+    for first, second, identified in ((0.3, 0.02, True), (0.02, 0.3, False)):
+        half = np.where(early, first, second)
+        d = diagnose(alpha, alpha - half, alpha + half, (0.01, 0.99), True, ())
+        assert d.band_halfwidth == pytest.approx(second, rel=1e-12)
+        assert d.identified is identified
