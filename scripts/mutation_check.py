@@ -1044,6 +1044,12 @@ MUTATIONS = {
         [("    return chi2 <= dof + 2 * np.sqrt(2 * dof)", "    return chi2 <= dof + 2 * np.sqrt(dof)")],
         ["tests/test_band.py::test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty"],
     ),
+    "the verdict's half-width over the first half of the record": (
+        "vojax/_diagnostics.py",
+        [("    width = float(np.median((upper - lower)[half:]) / 2)",
+          "    width = float(np.median((upper - lower)[:half]) / 2)")],
+        ["tests/test_verdict.py::test_the_verdict_reads_the_band_over_the_second_half_of_the_record"],
+    ),
     "repeated parameter names taken": (
         "vojax/_results.py",
         [("    if len(set(names)) != count:", "    if False:")],
