@@ -177,3 +177,14 @@ def test_the_study_and_the_gain_search_refuse_what_they_cannot_run():
         vojax.tune_gains(u, y, dt, num_gamma=10**9)
     with pytest.raises(TypeError, match="`num_lam` must be a whole number"):
         vojax.tune_gains(u, y, dt, num_lam=2.5)
+
+
+def test_the_tracker_refuses_more_inputs_than_it_can_carry():
+    """Fifty input columns ran for more than 20 minutes without a word: above 16 the tracker
+    refuses in one sentence naming the count and the refit, before any computation."""
+    n, dt = 40, 0.1
+    u = 1.0 + np.sin(np.outer(np.arange(n) * dt, np.arange(1, 18) * 0.3))
+    y = np.asarray(vojax.simulate(u, 0.4, np.ones(17), dt))
+    with pytest.raises(ValueError, match="the tracker takes at most 16 inputs .* got 17: use "
+                                         "vojax.refit"):
+        vojax.identify(u, y, dt, warn=False)

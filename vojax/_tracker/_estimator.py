@@ -22,6 +22,9 @@ KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
 # minutes at this many on a 2-core CPU)
 TRACKER_MAX_POINTS = 50_000
 MIN_POINTS = 100  # the fewest points `max_points` may ask for
+# the most inputs the tracker takes: 400 samples on 2 cores took 17 s with 1 input, 36 s
+# with 4 and about 2 minutes with 8 or 16 (other work beside it); 50 did not finish in 20 min
+MAX_INPUTS = 16
 NOISE_KEYS = frozenset({"order_drift", "parameter_drift", "noise_std"})
 
 
@@ -111,6 +114,12 @@ class Tracker:
             u, y, dt, None, sum(self.alpha_bounds) / 2, self.alpha_bounds, self.memory,
             self.rule, None, None, t=t,
         )
+        if u2.shape[1] > MAX_INPUTS:
+            raise ValueError(
+                f"the tracker takes at most {MAX_INPUTS} inputs (its state holds one parameter "
+                f"per input, and its cost grows as the cube of the state), got {u2.shape[1]}: "
+                "use vojax.refit, or fewer inputs."
+            )
         if mask is not None:
             mask = check.check_mask(mask, u2.shape[0], u2.shape[1])
         s = self.settings
