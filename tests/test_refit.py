@@ -64,7 +64,7 @@ def test_fixed_order_is_linear_least_squares():
 )
 def test_refit_validation(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        vojax.refit(U, np.zeros(T.size), DT, **kwargs)
+        vojax.refit(U, np.linspace(0.0, 1.0, T.size), DT, **kwargs)
 
 
 @pytest.mark.slow

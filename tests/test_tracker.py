@@ -470,9 +470,16 @@ def test_an_intensity_is_at_the_edge_of_the_box_searched_not_of_the_full_box():
 
 
 def test_constant_output_is_refused(ramp):
+    """An output that never changes, over the record or over its fitted samples (the rest
+    masked), is refused: there is nothing to identify."""
     t, u, y, *_, dt = ramp
-    with pytest.raises(ValueError, match="`y` is constant"):
+    with pytest.raises(ValueError, match="`y` is 1 at every sample: there is no response"):
         vojax.identify(u, np.ones_like(y), dt, method="kalman")
+    flat = np.ones_like(y)
+    flat[-5:] = 2.0
+    mask = np.r_[np.ones(y.size - 5), np.zeros(5)]
+    with pytest.raises(ValueError, match="`y` is constant over the fitted samples"):
+        vojax.identify(u, flat, dt, method="kalman", mask=mask)
 
 
 def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
