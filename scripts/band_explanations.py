@@ -13,7 +13,7 @@ the conditional answer, how often its promise is false (the band misses the trut
 breakdown drift exceeds the true drift).
 
     python scripts/band_explanations.py --dump DIR [--first 0] [--per-family 12]
-        [--settings free constant constant-x0] [--families ...] [--workers 2]
+        [--settings free constant constant-x0] [--families ...] [--workers 2] [--data DIR]
     python scripts/band_explanations.py --evaluate DIR [DIR ...] [--out FILE]
 """
 
@@ -159,11 +159,12 @@ def main(argv=None):
     parser.add_argument("--settings", nargs="*", default=["free", "constant", "constant-x0"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None)
+    parser.add_argument("--data", default=None, help="the recordings (default ../shared/data)")
     args = parser.parse_args(argv)
     import bench_calibration as bench
 
     if args.dump:
-        dump(args.dump, args.first, args.per_family, args.workers, str(bench.DATA),
+        dump(args.dump, args.first, args.per_family, args.workers, args.data or str(bench.DATA),
              args.families, args.settings)
     if args.evaluate:
         from band_scores import report

@@ -109,11 +109,27 @@ def test_integrated_alternatives_are_weighed_not_unioned():
     free = bands([tuned, far], BOUNDS, N, np.inf)
     assert halfwidth(free.conditional) == pytest.approx(alone, rel=1e-12)
     np.testing.assert_allclose(free.stated[2], order_of_np(3.2, BOUNDS)[0])
-    # a held scale 2 units of χ² above the tuned run: weights 1 : e^−1
-    level = ex("level", 0.5, var=0.02, chi2=42.0, evidence=-5.0)
+    # a held scale 2 units of χ² above the tuned run, both above the noise's dof: 1 : e^−1
+    above = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF + 3.0)
+    level = ex("level", 0.5, var=0.02, chi2=DOF + 5.0, evidence=-5.0)
     w = np.exp(-1.0) / (1.0 + np.exp(-1.0))
     want = (1 - w) * 0.01 + w * (0.02 + 0.25)
+    np.testing.assert_allclose(reference_variance([above, level], above, N), want)
+
+
+def test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile():
+    """A χ² below its degrees of freedom fits the noise, not the signal: the tuned run's and
+    a held scale's χ² count as no better than dof, so two runs below the noise weigh alike
+    (exp(−Δχ²/2) on the raw χ², 40 against 10 below dof, would give the held scale e^−15);
+    one below and one 4 above weigh 1 : e^−2."""
+    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF - 40.0)
+    level = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=-5.0)
+    want = 0.5 * 0.01 + 0.5 * (0.02 + 0.25)
     np.testing.assert_allclose(reference_variance([tuned, level], tuned, N), want)
+    worse = ex("level", 0.5, var=0.02, chi2=DOF + 4.0, evidence=-5.0)
+    w = np.exp(-2.0) / (1.0 + np.exp(-2.0))
+    want = (1 - w) * 0.01 + w * (0.02 + 0.25)
+    np.testing.assert_allclose(reference_variance([tuned, worse], tuned, N), want)
 
 
 def test_relative_drift():

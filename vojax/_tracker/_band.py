@@ -51,7 +51,9 @@ def _orders(beta, var, bounds, scale, floor=0.0):
 def reference_variance(explanations, tuned, span):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
-    integrated over it (each held scale weighted by exp(−Δχ²/2) from the best)."""
+    integrated over it (each held scale weighted by exp(−Δχ²/2) from the best, a χ² below its
+    degrees of freedom counted as dof: a run that fits below the noise has fitted noise, and
+    that earns it no weight over a held scale that fits as well as the noise allows)."""
     mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
@@ -59,7 +61,7 @@ def reference_variance(explanations, tuned, span):
     if not levels:
         return var
     members = [tuned] + levels
-    chi2 = np.array([e.chi2 for e in members])
+    chi2 = np.array([max(e.chi2, e.dof) for e in members])
     w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
     spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))
