@@ -212,3 +212,43 @@ def test_the_verdict_reads_the_band_over_the_second_half_of_the_record():
         d = diagnose(alpha, alpha - half, alpha + half, (0.01, 0.99), True, ())
         assert d.band_halfwidth == pytest.approx(second, rel=1e-12)
         assert d.identified is identified
+
+
+def _log_spaced_record(tmp_path):
+    t = np.geomspace(0.01, 10.0, 120)
+    u = np.minimum(t, 1.0)
+    y = np.asarray(vojax.fractional_integral(u, 0.4, t=t))
+    y = y + 0.005 * np.ptp(y) * np.random.default_rng(1).standard_normal(t.size)
+    path = tmp_path / "creep.csv"
+    path.write_text("time_s,stress,strain\n" + "".join(
+        f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
+    (rec,) = vojax.load_records(path, time="time_s", inputs=["stress"], output="strain")
+    return rec
+
+
+def test_a_record_carries_its_clock_into_refit_and_compare(tmp_path):
+    """`refit(record)` and `compare(record)` fit on the record's own (log-spaced) clock: the
+    same numbers as the arrays with `t=record.time`, and different ones from a uniform step
+    of the same length (what passing `dt` would silently have done); `dt`, `t` or a second
+    series given with a record are refused."""
+    rec = _log_spaced_record(tmp_path)
+    got = vojax.refit(rec, warn=False)
+    want = vojax.refit(rec.inputs, rec.output, t=rec.time, warn=False)
+    np.testing.assert_array_equal(np.asarray(got.order), np.asarray(want.order))
+    assert float(got.order[0]) == pytest.approx(0.4, abs=0.02)
+    uniform = vojax.refit(rec.inputs, rec.output, dt=float(rec.time[-1]) / rec.time.size,
+                          warn=False)
+    assert abs(float(uniform.order[0]) - float(got.order[0])) > 0.05
+    with pytest.raises(ValueError, match="a Record carries its own output and clock: leave out dt"):
+        vojax.refit(rec, dt=0.1)
+    with pytest.raises(ValueError, match="leave out y"):
+        vojax.refit(rec, rec.output)
+    with pytest.raises(TypeError, match="`y` .* is missing"):
+        vojax.refit(rec.inputs)
+    c = vojax.compare(rec, models=("springpot", "kelvin-voigt"))
+    d = vojax.compare(rec.inputs, rec.output, t=rec.time, models=("springpot", "kelvin-voigt"))
+    assert [r["log_evidence"] for r in c.rows] == [r["log_evidence"] for r in d.rows]
+    with pytest.raises(ValueError, match="leave out t"):
+        vojax.compare(rec, t=rec.time)
+    with pytest.raises(TypeError, match="`strain` .* is missing"):
+        vojax.compare(rec.inputs)

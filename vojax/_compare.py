@@ -108,10 +108,12 @@ def _at_least_nested(fit, early, nested, nested_early, strain, tail):
     return fit, early, note
 
 
-def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
+def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int = 3,
             holdout: float = 0.25, max_points: int = MAX_POINTS) -> Comparison:
     """Fits each of `models` to one record (the strain as output, the stress as input, as
-    in ``σ = η D^{q} ε``) and ranks them by evidence.
+    in ``σ = η D^{q} ε``) and ranks them by evidence. The samples lie at ``k·dt`` or at the
+    times `t`; or `stress` is a `Record` (`vojax.load_records`, one input) given alone,
+    ``compare(record)``: its input, output and own clock.
 
     - `models`: any of ``"springpot"``, ``"kelvin-voigt"``, ``"maxwell"``, ``"zener"`` (the
       constant-order laws of `vojax.Springpot` … `vojax.FractionalZener`, with their sign
@@ -131,6 +133,8 @@ def compare(stress, strain, dt=None, *, t=None, models=MODELS, knots: int = 3,
     those of the block means. Each law's refit costs about 1.5 s per 1,000 points on two
     cores (64,000 points: about 5 minutes for the five laws).
     """
+    stress, strain, dt, t = check.record_arguments(
+        stress, strain, dt, t, output="strain", call="compare")
     stress = np.asarray(check.samples(stress, "stress"), float)
     strain = np.asarray(check.samples(strain, "strain"), float)
     if stress.ndim == 2 and stress.shape[1] == 1:  # one input column, as a Record holds it

@@ -80,7 +80,7 @@ def _signs(p_signs, count):
 
 def refit(
     u,
-    y,
+    y=None,
     dt=None,
     *,
     t=None,
@@ -106,7 +106,8 @@ def refit(
     """Fits ``y = x0 + pᵀ φ(β, t) + cᵀ v`` over a record by Levenberg–Marquardt.
 
     The samples lie at ``t_k = k·dt`` or at the strictly increasing times `t` (log-spaced,
-    irregular; exactly one of the two). ``φ`` integrates the inputs `u` (N, n) from the start of
+    irregular; exactly one of the two). Or `u` is a `Record` (`vojax.load_records`) given
+    alone, ``refit(record)``: its inputs, output and own clock. ``φ`` integrates the inputs `u` (N, n) from the start of
     the test; the optional `direct` regressors ``v`` (N, m) enter as they are (order 0: the
     spring of a fractional Maxwell model, `vojax.FractionalMaxwell`).
 
@@ -148,6 +149,7 @@ def refit(
 
     **Returns:** a `Refit`; ``p`` holds the coefficients of `u` then of `direct`.
     """
+    u, y, dt, t = check.record_arguments(u, y, dt, t, call="refit")
     bounds = check.interval(order_bounds, "order_bounds")
     estimate = isinstance(x0, str)
     if estimate and x0 != "estimate":

@@ -306,21 +306,25 @@ def first_bad(*arrays):
     return int(np.argmax(bad)) if bad.any() else None
 
 
-def record_arguments(u, y, dt, t):
+def record_arguments(u, y, dt, t, *, output="y", call="identify"):
     """``(u, y, dt, t)``, a `Record` in `u` unpacked onto its own clock: its inputs, its
     output, and its step or its times. A `Record` carries its clock: `y`, `dt` or `t` given
-    with it is an error (a step would lose a non-uniform clock without a word)."""
+    with it is an error (a step would lose a non-uniform clock without a word). `output`
+    names `y` in the messages, `call` the function."""
     from ._data._records import Record
 
     if not isinstance(u, Record):
         if y is None:
-            raise TypeError("`y` (the measured output) is missing; or pass a Record alone.")
+            raise TypeError(
+                f"`{output}` (the measured output) is missing; or pass a Record alone, "
+                f"{call}(record)."
+            )
         return u, y, dt, t
-    given = [name for name, v in (("y", y), ("dt", dt), ("t", t)) if v is not None]
+    given = [name for name, v in ((output, y), ("dt", dt), ("t", t)) if v is not None]
     if given:
         raise ValueError(
             f"a Record carries its own output and clock: leave out {', '.join(given)} "
-            f"(identify(record)), or pass record.inputs and record.output with its grid."
+            f"({call}(record)), or pass record.inputs and record.output with its grid."
         )
     grid = u.grid
     return u.inputs, u.output, grid.get("dt"), grid.get("t")
