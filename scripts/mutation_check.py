@@ -672,6 +672,28 @@ MUTATIONS = {
         [("jnp.where(accepted, jnp.full_like(nu, 2.0), 2.0 * nu)", "2.0 * nu")],
         ["tests/test_tracker.py::test_damping_follows_nielsens_rule"],
     ),
+    "a heavily damped step's tiny decrease ends the smoother's iteration": (
+        "vojax/_tracker/_smoother.py",
+        [("jnp.where(accepted & (mu <= MU_START), dec,", "jnp.where(accepted, dec,")],
+        ["tests/test_tracker.py::test_only_a_barely_damped_step_can_end_the_iteration"],
+    ),
+    "trade-off's finer drift pays 2 per knot, not per coefficient of every input": (
+        "vojax/_tracker/_trade.py",
+        [("> 2 * n * (s.trade_knots_fine - s.trade_knots)",
+          "> 2 * (s.trade_knots_fine - s.trade_knots)")],
+        ["tests/test_tracker.py::test_the_trade_offs_finer_drift_pays_two_per_coefficient_of_every_input"],
+    ),
+    "the widened band's σ is half its width (every widened band doubled)": (
+        "vojax/_tracker/_band.py",
+        [("hi) - np.minimum(lower, lo)) / 4)", "hi) - np.minimum(lower, lo)) / 2)")],
+        ["tests/test_band.py::test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits"],
+    ),
+    "the level profile rewards a fit below the noise": (
+        "vojax/_tracker/_band.py",
+        [("np.array([max(e.chi2, e.dof) for e in members])",
+          "np.array([e.chi2 for e in members])")],
+        ["tests/test_band.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
+    ),
     "posterior cost ignores the mask (unfitted samples counted)": (
         "vojax/_tracker/_model.py",
         [("    data = jnp.sum(mask * residuals * residuals) / r",

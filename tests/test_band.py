@@ -56,6 +56,8 @@ def test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits():
     lo, hi = order_of_np(np.array([-0.2, 0.15 + 0.2]), BOUNDS)[0]
     np.testing.assert_allclose(b.conditional[1], lo)
     np.testing.assert_allclose(b.conditional[2], hi)
+    # its σ: a quarter of the widened ±2σ band (0.034), above the tuned one's 0.025
+    np.testing.assert_allclose(b.conditional[3], (hi - lo) / 4)
     # free: every explanation that fits; a stated bound of 0.2 admits only the one inside
     assert halfwidth(b.stated) == pytest.approx(
         (order_of_np(2.0, BOUNDS)[0] - order_of_np(-2.0, BOUNDS)[0]) / 2)

@@ -187,6 +187,23 @@ def test_damping_follows_nielsens_rule():
     assert step(MU_MIN, 2.0, True, 10.0, 9.0, 9.0) == pytest.approx((MU_MIN, 2.0))  # floor
 
 
+def test_only_a_barely_damped_step_can_end_the_iteration():
+    """The convergence test reads the relative decrease of an accepted step taken at the
+    starting damping or below; a heavily damped step's small decrease (damping raised
+    after rejections, far from the minimum) must not end the iteration, and a rejected step
+    leaves what was read before."""
+    from vojax._tracker._smoother import MU_START, REL_TOL, progress
+
+    def read(ok, mu, value, new, rel=0.5):
+        return float(progress(*(jnp.asarray(v) for v in (ok, mu, value, new, rel))))
+
+    assert read(True, MU_START, 1000.0, 999.99) == pytest.approx(0.01 / 999.99)
+    assert read(True, 0.1 * MU_START, 0.5, 0.25) == pytest.approx(0.25)  # ÷ max(|v|, 1)
+    tiny = read(True, 1e3 * MU_START, 1000.0, 1000.0 - 1e-9)  # damped hard: keeps going
+    assert tiny == np.inf and read(True, MU_START, 1000.0, 1000.0 - 1e-9) <= REL_TOL
+    assert read(False, MU_START, 1000.0, 1200.0) == 0.5  # rejected: unchanged
+
+
 @pytest.mark.parametrize("coloured", [False, True])
 def test_damped_step_minimises_the_linearised_posterior_it_predicts(coloured):
     """The cost the damping rule compares with (`posterior_cost` of the model linearised at
@@ -1142,6 +1159,37 @@ def test_trade_interval_against_an_independent_profile(width, noise, fine):
             assert end == pytest.approx(want, abs=0.01)
     assert got[0] <= 0.45 <= got[1]
     assert trade_interval(problem, 1e-4 * sd**2) == (None, [])
+
+
+@pytest.mark.parametrize("inputs, fine", [(1, True), (2, False)])
+def test_the_trade_offs_finer_drift_pays_two_per_coefficient_of_every_input(
+        monkeypatch, inputs, fine):
+    """Akaike's rule for the trade-off's drift: 15 knots instead of 8 add 7 coefficients per
+    input, so they are taken where they lower the best χ² by more than 2·7·n. A profile
+    whose finer drift gains 20 takes 15 knots with one input (20 > 14) and keeps 8 with two
+    (20 < 28); the explanations' degrees of freedom, N − n·knots − 1, say which ran, and the
+    interval is where the profile (20 |α − 0.5| above its best) stays within Δχ² ≤ 4."""
+    from vojax._integral import make_memory
+    from vojax._tracker import _trade
+
+    num = 200
+    t = np.linspace(0.0, 1.0, num)
+    u = np.column_stack([np.sin(3 * t) + 1.5, np.cos(2 * t) + 2.0][:inputs])
+    problem = make_problem(make_memory("exponential", t[1], num, order_range=(0.01, 0.99)),
+                           u, np.sin(5 * t), times=t, bounds=(0.01, 0.99))
+
+    def profile(problem, alphas, fine, whiten=None, offset=True):
+        chi2 = np.full((alphas.size, 2, 2), np.inf)
+        chi2[:, 0, 0] = 175.0 + 20 * abs(alphas - 0.5)  # linear: the crossing is exact
+        chi2[:, 1, 0] = chi2[:, 0, 0] - 20.0
+        return chi2, [[[None, None]] * 2] * alphas.size
+
+    monkeypatch.setattr(_trade, "drift_profile", profile)
+    monkeypatch.setattr(_trade, "least_drift", lambda *a, **k: 0.0)
+    interval, explanations = _trade.trade_interval(problem, 1.0)
+    knots = 15 if fine else 8
+    assert {e.dof for e in explanations} == {num - inputs * knots - 1.0}
+    assert interval == pytest.approx((0.3, 0.7), abs=1e-12)
 
 
 @pytest.mark.slow

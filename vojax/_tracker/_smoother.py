@@ -238,6 +238,16 @@ def score(sm):
     return jnp.where(ok, sm.log_likelihood, -jnp.inf)
 
 
+def progress(accepted, mu, value, new_value, rel):
+    """The relative decrease that the iteration's convergence test (``≤ REL_TOL``) reads after
+    a step: an accepted step's ``(value − new_value)/max(|new_value|, 1)`` where it was
+    barely damped (μ ≤ `MU_START`); after an accepted, heavily damped step ∞ (its small
+    decrease says the damping is heavy, not that the minimum is near); after a rejected
+    step, `rel` unchanged."""
+    dec = (value - new_value) / jnp.maximum(jnp.abs(new_value), 1.0)
+    return jnp.where(accepted & (mu <= MU_START), dec, jnp.where(accepted, jnp.inf, rel))
+
+
 def damping(mu, nu, accepted, value, new_value, predicted):
     """Nielsen's update of the Levenberg–Marquardt damping μ and its growth factor ν after a
     step from cost `value` to `new_value`, where the linearised model predicted the cost
@@ -297,9 +307,7 @@ def _iterate(
         # the cost the linearised model predicts for the step
         linear = posterior_cost(ms, z - jnp.sum(jac * ms, -1), mask, r, q, m0, p0_inv, f)
         pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
-        # a small decrease counts towards convergence only when the step was barely damped
-        dec = (value - valc) / jnp.maximum(jnp.abs(valc), 1.0)
-        new_rel = jnp.where(ok & (mu <= MU_START), dec, jnp.where(ok, jnp.inf, rel))
+        new_rel = progress(ok, mu, value, valc, rel)
         new_mu, new_nu = damping(mu, nu, ok, value, valc, linear)
         return (
             pick(ms, theta),
