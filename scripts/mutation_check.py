@@ -3,7 +3,7 @@ time, to a temporary copy of the repository; the tests that should catch it are 
 table says which bugs survived. Run it before closing an issue that changes the law, the
 refit, the models, the tracker or the batch, and report the count.
 
-    python scripts/mutation_check.py [--only NAME ...] [--list]
+    python scripts/mutation_check.py [--only NAME ...] [--list] [--workers N]
 
 A mutation whose text is no longer found in the code is reported as STALE (update it with the
 code). Exit status: the number of survivors (0 = every planted bug was caught).
@@ -1090,52 +1090,65 @@ def _copy(dst: Path):
     shutil.copytree(ROOT, dst, ignore=ignore, dirs_exist_ok=True)
 
 
+def _run_one(tmp: Path, index: int, name: str, path: str, edits, tests, timeout: int):
+    """Plants one bug in a fresh copy of the repository and runs its tests: (status, s)."""
+    work = tmp / f"repo{index}"
+    _copy(work)
+    try:
+        target = work / path
+        text = target.read_text()
+        stale = [old for old, _ in edits if text.count(old) != 1]
+        if stale:
+            print(f"STALE     {name}: {stale[0][:60]!r} not found exactly once", flush=True)
+            return "STALE", 0.0
+        for old, new in edits:
+            text = text.replace(old, new)
+        target.write_text(text)
+        # the copy's package must be the one imported (cwd first on sys.path)
+        env = dict(os.environ, PYTHONPATH=str(work))
+        env.pop("XLA_FLAGS", None)
+        started = time.perf_counter()
+        try:
+            proc = subprocess.run(
+                [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider",
+                 "-m", "slow or not slow", *tests],  # both tiers
+                cwd=work, env=env, capture_output=True, text=True, timeout=timeout,
+            )
+            status = "caught" if proc.returncode != 0 else "SURVIVED"
+        except subprocess.TimeoutExpired:
+            status = "timeout"
+        took = time.perf_counter() - started
+        print(f"{status:9s} {name} ({took:.0f} s)", flush=True)
+        return status, took
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--only", nargs="*")
     parser.add_argument("--list", action="store_true")
     parser.add_argument("--timeout", type=int, default=900)
+    parser.add_argument("--workers", type=int, default=1,
+                        help="planted bugs tested at once, each in its own copy")
     args = parser.parse_args()
     chosen = {k: v for k, v in MUTATIONS.items() if not args.only or k in args.only}
     if args.list:
         print("\n".join(chosen))
         return 0
-    rows = []
+    from concurrent.futures import ThreadPoolExecutor
+
     with tempfile.TemporaryDirectory() as tmp:
-        work = Path(tmp) / "repo"
-        shared = ROOT.parent / "shared"
-        if shared.is_dir():  # the recorded inputs, where tests look for them (../shared)
-            (Path(tmp) / "shared").symlink_to(shared)
-        for name, (path, edits, tests) in chosen.items():
-            if work.exists():
-                shutil.rmtree(work)
-            _copy(work)
-            target = work / path
-            text = target.read_text()
-            stale = [old for old, _ in edits if text.count(old) != 1]
-            if stale:
-                rows.append((name, "STALE", 0.0))
-                print(f"STALE     {name}: {stale[0][:60]!r} not found exactly once", flush=True)
-                continue
-            for old, new in edits:
-                text = text.replace(old, new)
-            target.write_text(text)
-            # the copy's package must be the one imported (cwd first on sys.path)
-            env = dict(os.environ, PYTHONPATH=str(work))
-            env.pop("XLA_FLAGS", None)
-            started = time.perf_counter()
-            try:
-                proc = subprocess.run(
-                    [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider",
-                     "-m", "slow or not slow", *tests],  # both tiers
-                    cwd=work, env=env, capture_output=True, text=True, timeout=args.timeout,
-                )
-                status = "caught" if proc.returncode != 0 else "SURVIVED"
-            except subprocess.TimeoutExpired:
-                status = "timeout"
-            took = time.perf_counter() - started
-            rows.append((name, status, took))
-            print(f"{status:9s} {name} ({took:.0f} s)", flush=True)
+        tmp = Path(tmp)
+        # the recorded inputs, where tests look for them (../shared), or the checkout's copy
+        for shared in (ROOT.parent / "shared", ROOT / "shared"):
+            if (shared / "data").is_dir():
+                (tmp / "shared").symlink_to(shared)
+                break
+        with ThreadPoolExecutor(max(args.workers, 1)) as pool:
+            futures = [pool.submit(_run_one, tmp, i, name, *entry, args.timeout)
+                       for i, (name, entry) in enumerate(chosen.items())]
+            rows = [(name, *f.result()) for name, f in zip(chosen, futures)]
     survived = [r for r in rows if r[1] in ("SURVIVED", "STALE")]
     print(f"\n{len(rows) - len(survived)} of {len(rows)} planted bugs caught")
     print("| planted bug | result | s |\n|---|---|---|")
