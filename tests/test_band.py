@@ -64,6 +64,11 @@ def test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits():
     bounded = bands([tuned, inside, outside, misfit, farther], BOUNDS, N, 0.2)
     for got, want in zip(bounded.stated[1:3], b.conditional[1:3]):
         np.testing.assert_allclose(got, want)
+    # a bound of 0.4, past the breakdown: the one outside (drift 0.3) joins, the farther one
+    # (0.6) does not: the band runs from the tuned one's lower end to β = 2 (profiled: var 0)
+    wide = bands([tuned, inside, outside, misfit, farther], BOUNDS, N, 0.4)
+    np.testing.assert_allclose(wide.stated[1], order_of_np(-0.2, BOUNDS)[0])
+    np.testing.assert_allclose(wide.stated[2], order_of_np(2.0, BOUNDS)[0])
     # nothing outside fits: no breakdown, the conditional band is the whole union
     b = bands([tuned, inside, misfit], BOUNDS, N, np.inf)
     assert b.breakdown_drift == np.inf
@@ -177,6 +182,10 @@ def test_least_drift_against_a_brute_force_search():
         if float(np.sum((y - cols @ trial) ** 2)) * scale <= limit:
             found.append(relative_drift(basis @ trial[:-1], y.size))
     assert found and got <= min(found) * 1.02
+    # a tighter limit needs more drift, a looser one less (a fit that misses the limit
+    # would give a drift near 0 whatever the limit)
+    tight, loose = (least_drift(x, y, mask, basis, y.size, best + d, scale) for d in (5.0, 100.0))
+    assert tight > got * 1.01 and got > loose * 1.01
 
 
 def test_outside_is_judged_over_the_second_half():

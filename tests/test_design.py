@@ -257,6 +257,9 @@ def test_settling_test_picks_the_narrowest_band_its_sampling_allows():
     assert test.band == pytest.approx(bands[best], rel=1e-10)
     assert test.band < test.band_without
     assert (0.0, 40) not in bands  # 40 cycles over 240 samples: 6 a cycle, too few
+    # only cycles too fast for the sampling from every start: no test, said so
+    with pytest.raises(ValueError, match="8 samples a cycle"):
+        vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, cycles=(40,))
 
 
 def test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half():
