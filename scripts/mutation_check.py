@@ -523,12 +523,12 @@ MUTATIONS = {
             ('    explanations = tuple(explanations + ([] if held is None else [held]) + traded)',
              '    explanations = tuple(explanations + ([] if held is None else [held]))'),
         ],
-        ['tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade'],
+        ['tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_band'],
     ),
     "parameters='constant' still lets them drift": (
         "vojax/_tracker/_fit.py",
         [('    hold = parameters == "constant"', "    hold = False")],
-        ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_skips_the_trade"],
+        ["tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_band"],
     ),
     "autocorrelation limit ignores the record's length": (
         "vojax/_stats.py",
@@ -651,7 +651,8 @@ MUTATIONS = {
             ('    if hold or tuning.parameter_drift <= s.held_ratio * s.constant_drift:\n        explanations += level_profile(',
              '    if False:\n        explanations += level_profile('),
         ],
-        ['tests/test_calibration.py::test_constant_parameters_band_covers_the_level_another_scale_allows'],
+        ['tests/test_calibration.py::test_constant_parameters_band_covers_the_level_another_scale_allows',
+         'tests/test_tracker.py::test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_band'],
     ),
     'level profile keeps a run that did not converge': (
         'vojax/_tracker/_level.py',
