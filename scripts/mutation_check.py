@@ -289,7 +289,7 @@ MUTATIONS = {
     "diagnostics ignore the order's trade-off with the parameters' drift": (
         "vojax/_diagnostics.py",
         [("    traded = held_shift is not None and held_shift > width\n", "    traded = False\n")],
-        ["tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused"],
+        ["tests/test_tracker.py::test_diagnostics_refuse_unconverged_or_noise_at_its_floor"],
     ),
     'held smoothing keeps the tuned parameter drift': (
         'vojax/_tracker/_mixture.py',
