@@ -305,7 +305,8 @@ MUTATIONS = {
             ('    if misfit >= s.misfit_ratio * noise0:\n',
              '    if False:\n'),
         ],
-        ['tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves'],
+        ['tests/test_tracker.py::test_output_smoother_than_the_model_converges_with_the_noise_it_leaves',
+         'tests/test_tracker.py::test_first_pass_noise_levels_follow_the_data_and_the_constant_fits_misfit'],
     ),
     "first pass noise taken from the constant fit's misfit always": (
         'vojax/_tracker/_fit.py',

@@ -111,6 +111,18 @@ def test_the_profile_bisects_to_a_fitting_scale_between_its_ratios(monkeypatch):
     assert [round(float(e.beta[0]), 2) for e in out if e.fits] == [1.19]
 
 
+def test_a_run_that_did_not_converge_ends_the_profile_on_its_side(monkeypatch):
+    """The held scale 2 fits by its residuals but its smoothing did not converge (evidence
+    −∞): it counts as not fitting, so the profile does not step past it (to 2√2); the
+    bisections then stay between 1.41 and 2."""
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 1)
+    calls = _fake_modes(monkeypatch, fits_at=(0.71, 1.41, 2.0), diverges_at=(2.0,))
+    _profile(settings=TrackerSettings())
+    above = [c["ratio"] for c in calls if c["ratio"] > 1.0]
+    assert max(above) == 2.0 and all(1.41 <= r <= 2.0 for r in above)
+    assert any(1.41 < r < 2.0 for r in above)  # bisected towards the run that failed
+
+
 # ------------------------------------------------ the mixture's explanations
 
 

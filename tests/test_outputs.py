@@ -513,3 +513,15 @@ def test_a_batch_whose_out_is_its_input_folder_says_so(tmp_path):
         assert f"the output folder '{out}' holds the input 'in/a.csv'" in proc.stderr
         assert proc.stderr.count("\n") == 1
     assert sorted(p.name for p in work.rglob("*")) == ["a.csv", "in", "link"]
+
+
+def test_records_are_listed_in_natural_order():
+    """Tables list records as a person counts: the numbers inside a name compared as numbers
+    (P002-2 before P002-10), letters without regard to case, the exact name breaking ties."""
+    from vojax._data._tables import natural_key
+
+    names = ["P002-10", "p002-3", "P002-2", "P002-1b", "P002-1", "a10", "A9", "a9", "x", "x0",
+             "007", "7", "0.5", "0.10"]
+    got = sorted(names, key=natural_key)
+    assert got == ["0.5", "0.10", "007", "7", "A9", "a9", "a10", "P002-1", "P002-1b", "P002-2",
+                   "p002-3", "P002-10", "x", "x0"]

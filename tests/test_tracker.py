@@ -850,6 +850,45 @@ def test_output_smoother_than_the_model_converges_with_the_noise_it_leaves():
     assert np.all(np.asarray(res.alpha_std) > 1e-3)  # a band, not ±0.000
 
 
+def test_first_pass_noise_levels_follow_the_data_and_the_constant_fits_misfit():
+    """The first pass's noise levels, tried in turn: the data's own (second differences)
+    where the constant order fits about as well as that noise allows; the data's, then the
+    constant fit's misfit, where the misfit is `misfit_ratio` times larger; the misfit first
+    where the output shows no noise at all (a controlled signal, as in the test above)."""
+    import jax.numpy as jnp
+
+    from vojax import reference
+    from vojax._integral import make_memory
+    from vojax._tracker._fit import start
+
+    s = vojax.TrackerSettings()
+    dt, num = 0.1, 165
+    t = dt * np.arange(num)
+    y = np.minimum(t, 6.0)
+    relax = np.where(t < 6.0, 1.0, 0.6 + 0.4 * np.exp(-(t - 6.0) / 2.0))
+    force = (0.02 + 0.05 * y + 0.01 * y**2) * relax
+    memory = make_memory("exponential", dt, num, order_range=(0.01, 0.99))
+    rng = np.random.default_rng(0)
+    spring = np.asarray(reference.fractional_integral(force[:, None], 0.4, dt))[:, 0]
+
+    def first(u, out):
+        st = start(memory, jnp.asarray(u[:, None]), jnp.asarray(out), dt, (0.01, 0.99), s,
+                   None, None, None, False)
+        noise0 = float(np.clip(st.noise_data, s.noise_min, st.misfit))
+        return st, noise0
+
+    st, noise0 = first(force, y)  # no noise, a misfit the model cannot remove
+    assert st.noise_data < s.noise_min <= noise0 and st.misfit >= s.misfit_ratio * noise0
+    assert st.noises == (st.misfit, noise0)
+    noisy = y + 1e-4 * rng.standard_normal(num)  # the same misfit, with some noise
+    st, noise0 = first(force, noisy)
+    assert st.noise_data >= s.noise_min and st.misfit >= s.misfit_ratio * noise0
+    assert st.noises == (noise0, st.misfit)
+    fits = spring + 0.01 * np.ptp(spring) * rng.standard_normal(num)  # the model, 1 % noise
+    st, noise0 = first(force, fits)
+    assert st.misfit < s.misfit_ratio * noise0 and st.noises == (noise0,)
+
+
 @pytest.mark.slow
 def test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch():
     """Semi-synthetic: the shipped myocardium stretch (a measured ramp–hold) on 600 samples

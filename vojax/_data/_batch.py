@@ -40,6 +40,7 @@ from ._pipeline import (
 from ._tables import (
     _write_summary_table,
     _write_table,  # noqa: F401
+    natural_key,
     strict_json,
 )
 
@@ -311,7 +312,7 @@ def run_batch(
             overview_figure(rows, out_dir / f"overview.{figure_format}", failed=len(failed))
         path = out_dir / "failures.csv"
         if failed:
-            rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (x[1], x[0]))]
+            rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (natural_key(x[1]), x[0]))]
             _write_table(path, rows)
         else:
             with contextlib.suppress(FileNotFoundError):

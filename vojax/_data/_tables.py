@@ -5,6 +5,7 @@ written safely (no cell a spreadsheet would run as a formula)."""
 import csv
 import io
 import json
+import re
 
 from .._io import atomic_path
 from ._paths import record_folder
@@ -18,6 +19,13 @@ def strict_json(text):
         raise ValueError(f"a non-standard JSON number: {constant}")
 
     return json.loads(text, parse_constant=refuse)
+
+
+def natural_key(name):
+    """The order in which tables list records: runs of digits compared as numbers (P002-2
+    before P002-10), the rest without regard to case, the exact name breaking ties."""
+    parts = re.split(r"(\d+)", name)
+    return [int(p) if i % 2 else p.casefold() for i, p in enumerate(parts)], name
 
 
 def _summary_row(summary):
@@ -64,7 +72,7 @@ def _write_summary_table(
     rows = []
     cache = {} if cache is None else cache
     lost = {name for _, name, _ in failed}
-    for r in sorted(records, key=lambda r: r.name):
+    for r in sorted(records, key=lambda r: natural_key(r.name)):
         if r.name in lost:
             continue
         path = folders[r.name] / "summary.json"
@@ -81,7 +89,7 @@ def _write_summary_table(
     if not overwrite:  # a row of the table already there stays unless this run replaced it
         new = {row["record"] for row in rows}
         kept = [row for row in _read_table(out_dir / "summary.csv") if row["record"] not in new]
-        rows = sorted(rows + kept, key=lambda row: row["record"])
+        rows = sorted(rows + kept, key=lambda row: natural_key(row["record"]))
     _write_table(out_dir / "summary.csv", rows)
     return rows
 
