@@ -297,7 +297,7 @@ MUTATIONS = {
             ('    held = Hyper(hyper.log_q_order,\n                 jnp.log(to_device(np.asarray(problem.settings.constant_drift, dtype))),',
              '    held = Hyper(hyper.log_q_order,\n                 hyper.log_q_params,'),
         ],
-        ['tests/test_tracker.py::test_order_traded_against_drifting_parameters_is_refused'],
+        ['tests/test_tracker.py::test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift'],
     ),
     "first pass never tried at the constant fit's misfit": (
         'vojax/_tracker/_fit.py',
