@@ -271,7 +271,8 @@ MUTATIONS = {
     "first pass forgets which run was best": (
         "vojax/_tracker/_smoother.py",
         [("            best, i_best, s_best = sm, b, s\n", "            best, s_best = sm, s\n")],
-        ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget"],
+        ["tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget",
+         "tests/test_tracker.py::test_a_batch_of_runs_keeps_the_best_by_evidence_and_by_objective"],
     ),
     'first pass never retried with the full budget': (
         'vojax/_tracker/_tuning.py',
@@ -279,7 +280,8 @@ MUTATIONS = {
             ('    passes = [*((noise, s.grid_max_iter) for noise in noises), (noises[0], s.max_iter)]',
              '    passes = [(noise, s.grid_max_iter) for noise in noises]'),
         ],
-        ['tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget'],
+        ['tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget',
+         'tests/test_tracker.py::test_tune_tries_each_noise_level_then_the_full_budget'],
     ),
     "golden section keeps the wrong side": (
         "vojax/_tracker/_start.py",

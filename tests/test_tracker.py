@@ -187,6 +187,60 @@ def test_damping_follows_nielsens_rule():
     assert step(MU_MIN, 2.0, True, 10.0, 9.0, 9.0) == pytest.approx((MU_MIN, 2.0))  # floor
 
 
+def test_a_batch_of_runs_keeps_the_best_by_evidence_and_by_objective(monkeypatch):
+    """`smoother_batch` keeps the run of highest evidence among those that converged to a
+    finite mode (the first of equal ones), and the index of the lowest objective of any run:
+    here run 2 (evidence 5) over run 1 (3) and run 3 (9, not converged), run 3 by
+    objective; the scores of the runs that do not qualify are −∞."""
+    from typing import NamedTuple
+
+    from vojax._tracker import _smoother
+
+    class Run(NamedTuple):
+        log_likelihood: float
+        objective: float
+        converged: bool
+        iterations: int
+
+    runs = [Run(np.nan, 10.0, True, 4), Run(3.0, 8.0, True, 5), Run(5.0, 7.0, True, 6),
+            Run(9.0, 1.0, False, 7), Run(5.0, 9.0, True, 8)]
+    monkeypatch.setattr(_smoother, "_runs", lambda *a, **k: iter(runs))
+    best, i_best, i_alt, scores, iterations, alts = _smoother.smoother_batch(
+        *([None] * 12))
+    assert (i_best, i_alt) == (2, 3) and float(best.log_likelihood) == 5.0
+    np.testing.assert_array_equal(scores, [-np.inf, 3.0, 5.0, -np.inf, 5.0])
+    np.testing.assert_array_equal(iterations, [4, 5, 6, 7, 8])
+    np.testing.assert_array_equal(alts, [-10.0, -8.0, -7.0, -1.0, -9.0])
+
+
+def test_tune_tries_each_noise_level_then_the_full_budget(monkeypatch):
+    """The first pass of `tune`: every start × order drift at each noise level of `noises`
+    in turn with `grid_max_iter` iterations while none converges, then at the first level
+    with `max_iter`; it stops at the first pass where a run converges and climbs from that
+    run's intensities."""
+    from types import SimpleNamespace
+
+    from vojax._tracker import _tuning
+
+    s = vojax.TrackerSettings()
+    seen = []
+
+    def batch(problem, rows, first, budget):
+        seen.append((rows[0][2], budget))
+        converged = budget == s.max_iter
+        scores = np.full(len(rows), 1.0 if converged else -np.inf)
+        return "smoothed", 1 if converged else -1, 0, scores
+
+    monkeypatch.setattr(_tuning, "run_batch_shares", batch)
+    monkeypatch.setattr(_tuning, "climb", lambda problem, limits, hyper, sm, rounds: (hyper, sm))
+    problem = SimpleNamespace(settings=s)
+    hyper, sm = _tuning.tune(problem, np.zeros((2, 3)), (0.01, 0.5), 1e-6)
+    assert seen == [(0.01, s.grid_max_iter), (0.5, s.grid_max_iter), (0.01, s.max_iter)]
+    assert sm == "smoothed"
+    np.testing.assert_allclose(np.exp(float(hyper.log_q_order)), s.grid_order[1], rtol=1e-12)
+    np.testing.assert_allclose(np.exp(float(hyper.log_r)), 0.01, rtol=1e-12)
+
+
 def test_only_a_barely_damped_step_can_end_the_iteration():
     """The convergence test reads the relative decrease of an accepted step taken at the
     starting damping or below; a heavily damped step's small decrease (damping raised
