@@ -125,10 +125,7 @@ def test_the_verdict_line_states_the_answer_and_its_reach(drifting_gain):
     assert "alpha_conditional" in res.to_dataframe().columns
 
 
-def test_a_record_carries_its_clock_into_identify(tmp_path):
-    """`identify(record)` is `identify(record.inputs, record.output, **record.grid)`, on a
-    log-spaced record too; a step or an output given with a record is refused, since a step
-    would lose its clock without a word."""
+def _log_spaced_record(tmp_path):
     t = np.geomspace(0.01, 10.0, 120)
     u = np.minimum(t, 1.0)
     y = np.asarray(vojax.fractional_integral(u, 0.4, t=t))
@@ -137,6 +134,14 @@ def test_a_record_carries_its_clock_into_identify(tmp_path):
     path.write_text("time_s,stress,strain\n" + "".join(
         f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
     (rec,) = vojax.load_records(path, time="time_s", inputs=["stress"], output="strain")
+    return rec
+
+
+def test_a_record_carries_its_clock_into_identify(tmp_path):
+    """`identify(record)` is `identify(record.inputs, record.output, **record.grid)`, on a
+    log-spaced record too; a step or an output given with a record is refused, since a step
+    would lose its clock without a word."""
+    rec = _log_spaced_record(tmp_path)
     assert not rec.uniform
     got = vojax.identify(rec, parameters="constant", warn=False)
     want = vojax.identify(rec.inputs, rec.output, t=rec.time, parameters="constant", warn=False)
@@ -212,18 +217,6 @@ def test_the_verdict_reads_the_band_over_the_second_half_of_the_record():
         d = diagnose(alpha, alpha - half, alpha + half, (0.01, 0.99), True, ())
         assert d.band_halfwidth == pytest.approx(second, rel=1e-12)
         assert d.identified is identified
-
-
-def _log_spaced_record(tmp_path):
-    t = np.geomspace(0.01, 10.0, 120)
-    u = np.minimum(t, 1.0)
-    y = np.asarray(vojax.fractional_integral(u, 0.4, t=t))
-    y = y + 0.005 * np.ptp(y) * np.random.default_rng(1).standard_normal(t.size)
-    path = tmp_path / "creep.csv"
-    path.write_text("time_s,stress,strain\n" + "".join(
-        f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
-    (rec,) = vojax.load_records(path, time="time_s", inputs=["stress"], output="strain")
-    return rec
 
 
 def test_a_record_carries_its_clock_into_refit_and_compare(tmp_path):
