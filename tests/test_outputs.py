@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from vojax._data._paths import MAX_LEN, record_folder
+from vojax._data._tables import natural_key
 
 from .test_data_cli import _cli, _springpot_csv
 
@@ -82,7 +83,8 @@ def test_hostile_record_names_stay_inside_out(tmp_path):
     assert not (tmp_path / "escaped").exists() and not os.path.exists("/abs/path/x")
     with open(out / "summary.csv") as f:
         rows = list(csv.DictReader(f))
-    assert [r["record"] for r in rows] == sorted(names)  # one row each, original names, sorted
+    # one row each, original names, in natural order
+    assert [r["record"] for r in rows] == sorted(names, key=natural_key)
     for name in names:
         summary = json.loads((out / record_folder(name) / "summary.json").read_text())
         assert summary["record"] == name
@@ -518,8 +520,6 @@ def test_a_batch_whose_out_is_its_input_folder_says_so(tmp_path):
 def test_records_are_listed_in_natural_order():
     """Tables list records as a person counts: the numbers inside a name compared as numbers
     (P002-2 before P002-10), letters without regard to case, the exact name breaking ties."""
-    from vojax._data._tables import natural_key
-
     names = ["P002-10", "p002-3", "P002-2", "P002-1b", "P002-1", "a10", "A9", "a9", "x", "x0",
              "007", "7", "0.5", "0.10"]
     got = sorted(names, key=natural_key)
