@@ -107,9 +107,10 @@ def refit(
 
     The samples lie at ``t_k = k·dt`` or at the strictly increasing times `t` (log-spaced,
     irregular; exactly one of the two). Or `u` is a `Record` (`vojax.load_records`) given
-    alone, ``refit(record)``: its inputs, output and own clock. ``φ`` integrates the inputs `u` (N, n) from the start of
-    the test; the optional `direct` regressors ``v`` (N, m) enter as they are (order 0: the
-    spring of a fractional Maxwell model, `vojax.FractionalMaxwell`).
+    alone, ``refit(record)``: its inputs, output and own clock. ``φ`` integrates the inputs
+    `u` (N, n) from the start of the test; the optional `direct` regressors ``v`` (N, m)
+    enter as they are (order 0: the spring of a fractional Maxwell model,
+    `vojax.FractionalMaxwell`).
 
     The offset ``x0`` (the output at the start) is estimated with the rest (``x0="estimate"``,
     the default), taken as ``y[0]`` (``None``) or fixed (a number).

@@ -312,7 +312,8 @@ def run_batch(
             overview_figure(rows, out_dir / f"overview.{figure_format}", failed=len(failed))
         path = out_dir / "failures.csv"
         if failed:
-            rows = [dict(file=f, record=n, reason=m) for f, n, m in sorted(failed, key=lambda x: (natural_key(x[1]), x[0]))]
+            order = sorted(failed, key=lambda x: (natural_key(x[1]), x[0]))
+            rows = [dict(file=f, record=n, reason=m) for f, n, m in order]
             _write_table(path, rows)
         else:
             with contextlib.suppress(FileNotFoundError):
