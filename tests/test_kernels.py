@@ -176,12 +176,11 @@ def test_streaming_equals_batch():
 
 
 @pytest.mark.parametrize("rule", RULES)
-def test_order_free_history_equals_the_scan(rule, monkeypatch):
+def test_order_free_history_equals_the_scan(rule):
     """The exponential memory's history computed once for the record (an associative
     recurrence) and read out at any orders equals the sample-by-sample scan, Φ and ∂Φ/∂b; a
     record beyond the history limit falls back to the scan."""
     from vojax._integral import order_map
-    from vojax._kernels import _exponential
 
     n, dt = 700, 0.04
     _, u, alpha = paper_inputs(n, dt)
@@ -195,9 +194,9 @@ def test_order_free_history_equals_the_scan(rule, monkeypatch):
     assert rel_max(phi, scan_phi) < 1e-13 and rel_max(dphi, scan_dphi) < 1e-13
     h, previous = mem.histories(u)
     assert h.shape == (n, mem.num_modes, 2) and float(jnp.max(jnp.abs(h[:2]))) == 0.0
-    monkeypatch.setattr(_exponential, "HISTORY_LIMIT", n * mem.num_modes * 2 - 1)
-    assert not mem.history_fits(n, 2)
-    assert rel_max(order_map(mem, u)(alpha), scan_phi) == 0.0
+    limit = n * mem.num_modes * 2 - 1
+    assert mem.history_fits(n, 2, limit + 1) and not mem.history_fits(n, 2, limit)
+    assert rel_max(order_map(mem, u, history_limit=limit)(alpha), scan_phi) == 0.0
 
 
 def test_lemma3_integrals_and_the_misprint():

@@ -196,9 +196,11 @@ def test_knot_standard_errors_from_an_autodiff_jacobian(monkeypatch):
     the autodiff Jacobian of the model written afresh (direct memory, `jax.jacfwd`); and the
     fit is the same whether the order-free history is stored or the record is scanned at every
     evaluation."""
+    import functools
+
     import jax
 
-    from vojax._kernels import _exponential
+    from vojax import _refit_solve
 
     lo, hi = 0.01, 0.99
     y = _data(0.55, seed=4)[:600]
@@ -228,7 +230,8 @@ def test_knot_standard_errors_from_an_autodiff_jacobian(monkeypatch):
     assert [v["stderr"] for k, v in table.items() if k.startswith("order at knot")] == [
         float(v) for v in np.asarray(fit.knots_stderr)
     ]
-    monkeypatch.setattr(_exponential, "HISTORY_LIMIT", 0)
+    scan_always = functools.partial(_refit_solve.order_map, history_limit=0)
+    monkeypatch.setattr(_refit_solve, "order_map", scan_always)
     scanned = vojax.refit(u, y, DT, order=3, x0=0.0, max_steps=201)  # a new program
     for name in ("order", "order_stderr", "p", "p_stderr"):
         np.testing.assert_allclose(getattr(scanned, name), getattr(fit, name), rtol=1e-7)
@@ -273,6 +276,8 @@ def test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_f
     the Kelvin–Voigt and Zener fits (the laws without a spring in series padded with a zero
     direct regressor, held at 0); each equals its fit without the padding to the solver's
     tolerance, its coefficients' covariance included."""
+    import functools
+
     from vojax import _refit
     from vojax._refit import TRACES
 
@@ -292,7 +297,7 @@ def test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_f
         before = TRACES["fit"]
         padded.append(fit(m))
         assert TRACES["fit"] == before + (k % 2 == 0), m  # the second of each pair: no trace
-    monkeypatch.setattr(_refit, "PAD_DIRECT", 0)
+    monkeypatch.setattr(_refit, "_active_set", functools.partial(_refit._active_set, pad_direct=0))
     for m, a in zip(laws, padded):
         b = fit(m)
         assert a.p_at_bound == b.p_at_bound

@@ -1147,7 +1147,8 @@ def test_an_unstable_law_reports_an_infinite_band_with_its_reason(monkeypatch):
     assert not res.diagnostics.identified
     # renormalising at every step (a threshold of 1e-30) changes nothing but rounding
     short = vojax.identify(u[:3001], y[:3001], dt, gamma=0.05, lam=0.9, warn=False, method="gradient")
-    monkeypatch.setattr(_bands, "RESCALE", 1e-30)
+    every_step = functools.partial(_bands.law_covariance, rescale=1e-30)
+    monkeypatch.setattr(_bands, "law_covariance", every_step)
     again = vojax.identify(u[:3001], y[:3001], dt, gamma=0.05, lam=0.9, warn=False, method="gradient")
     np.testing.assert_allclose(again.alpha_std, short.alpha_std, rtol=1e-9)
     np.testing.assert_allclose(again.p_std, short.p_std, rtol=1e-9)

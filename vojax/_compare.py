@@ -130,28 +130,12 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     means of blocks of ``B`` consecutive samples, as `identify`'s tracker fits one (its
     first sample alone, then blocks: mean time, stress and strain, on that coarser clock);
     ``Comparison.block`` is ``B`` (1: every sample), and the rows' fits, N and evidence are
-    those of the block means. Each law's refit costs about 1.5 s per 1,000 points on two
-    cores (64,000 points: about 5 minutes for the five laws).
+    those of the block means (each law's refit costs time in proportion to its points:
+    `docs/benchmarks.md`).
     """
     stress, strain, dt, t = check.record_arguments(
         stress, strain, dt, t, output="strain", call="compare")
-    stress = np.asarray(check.samples(stress, "stress"), float)
-    strain = np.asarray(check.samples(strain, "strain"), float)
-    if stress.ndim == 2 and stress.shape[1] == 1:  # one input column, as a Record holds it
-        stress = stress[:, 0]
-    if stress.ndim != 1 or stress.shape != strain.shape:
-        raise ValueError(
-            f"`stress` and `strain` must both have shape (N,) (or the stress (N, 1)), got "
-            f"{stress.shape} and {strain.shape}."
-        )
-    unknown = [m for m in models if m not in MODELS]
-    if unknown or not models:
-        raise ValueError(f"`models` must be some of {', '.join(MODELS)}, got {models!r}.")
-    if not 0.05 <= holdout <= 0.5:
-        raise ValueError(f"`holdout` must lie in [0.05, 0.5], got {holdout!r}.")
-    if (dt is None) == (t is None):
-        raise ValueError("give exactly one of `dt` and `t`.")
-    _check_degenerate(stress, strain)
+    stress, strain = _checked_arrays(stress, strain, models, holdout, dt, t)
     max_points = check.count(max_points, "max_points", 100, 1_000_000)
     num = stress.size
     times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
@@ -182,24 +166,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
             fit, early, nested = _at_least_nested(
                 fit, early, fitted("maxwell"), fitted("maxwell", part), strain, tail
             )
-        res = np.asarray(strain - fit.y_hat)
-        rss = float(res @ res)
-        loglik = -0.5 * num * (math.log(2 * math.pi * max(rss, 1e-300) / num) + 1.0)
-        miss = np.asarray(strain - early.y_hat)[tail]
-        span = float(np.ptp(strain)) or 1.0
-        e = res - res.mean()
-        lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else 0.0  # an exact fit: none
-        order = np.asarray(fit.order)
-        rows.append(dict(
-            model=model, quantities=int(k), log_likelihood=loglik,
-            aic=-2 * loglik + 2 * k, bic=-2 * loglik + k * math.log(num),
-            log_evidence=loglik - 0.5 * k * math.log(num),
-            holdout_nrmse=float(np.sqrt(np.mean(miss**2)) / span), lag1=lag1,
-            order=(f"{order[0]:.3f}" if np.all(order == order[0])
-                   else f"{order.min():.3f}–{order.max():.3f}"),
-            refit=fit,
-            **({"note": nested} if nested else {}),
-        ))
+        rows.append(_row(model, int(k), fit, early, strain, tail, nested))
     for r in rows:
         bad = [k for k, v in r.items() if isinstance(v, float) and not math.isfinite(v)]
         if bad:
@@ -213,6 +180,52 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     for r, w in zip(rows, weights / weights.sum()):
         r["weight"] = float(w)
     return Comparison(rows, verdict_of(rows, num), block)
+
+
+def _row(model, k, fit, early, strain, tail, nested):
+    """One law's row: its likelihood and criteria, the held-out prediction's error, the
+    residuals' lag-1 correlation, the order (a range where it moves) and its refit."""
+    num = strain.size
+    res = np.asarray(strain - fit.y_hat)
+    rss = float(res @ res)
+    loglik = -0.5 * num * (math.log(2 * math.pi * max(rss, 1e-300) / num) + 1.0)
+    miss = np.asarray(strain - early.y_hat)[tail]
+    span = float(np.ptp(strain)) or 1.0
+    e = res - res.mean()
+    lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else 0.0  # an exact fit: none
+    order = np.asarray(fit.order)
+    return dict(
+        model=model, quantities=k, log_likelihood=loglik,
+        aic=-2 * loglik + 2 * k, bic=-2 * loglik + k * math.log(num),
+        log_evidence=loglik - 0.5 * k * math.log(num),
+        holdout_nrmse=float(np.sqrt(np.mean(miss**2)) / span), lag1=lag1,
+        order=(f"{order[0]:.3f}" if np.all(order == order[0])
+               else f"{order.min():.3f}–{order.max():.3f}"),
+        refit=fit,
+        **({"note": nested} if nested else {}),
+    )
+
+
+def _checked_arrays(stress, strain, models, holdout, dt, t):
+    """The stress and strain as (N,) float arrays, each argument checked."""
+    stress = np.asarray(check.samples(stress, "stress"), float)
+    strain = np.asarray(check.samples(strain, "strain"), float)
+    if stress.ndim == 2 and stress.shape[1] == 1:  # one input column, as a Record holds it
+        stress = stress[:, 0]
+    if stress.ndim != 1 or stress.shape != strain.shape:
+        raise ValueError(
+            f"`stress` and `strain` must both have shape (N,) (or the stress (N, 1)), got "
+            f"{stress.shape} and {strain.shape}."
+        )
+    unknown = [m for m in models if m not in MODELS]
+    if unknown or not models:
+        raise ValueError(f"`models` must be some of {', '.join(MODELS)}, got {models!r}.")
+    if not 0.05 <= holdout <= 0.5:
+        raise ValueError(f"`holdout` must lie in [0.05, 0.5], got {holdout!r}.")
+    if (dt is None) == (t is None):
+        raise ValueError("give exactly one of `dt` and `t`.")
+    _check_degenerate(stress, strain)
+    return stress, strain
 
 
 def _check_degenerate(stress, strain):

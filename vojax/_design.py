@@ -128,28 +128,7 @@ def fisher_information(
     u2 = check.samples(u, "u")
     u2 = np.asarray(u2).reshape(u2.shape[0], -1)
     num, n = u2.shape
-    p = np.atleast_1d(np.asarray(p, float))
-    if p.shape != (n,) or not np.all(np.isfinite(p)):
-        raise ValueError(f"`p` must be {n} finite number(s), one per input, got {p!r}.")
-    if not (isinstance(noise_std, (int, float)) and not isinstance(noise_std, bool)
-            and 0 < noise_std < math.inf):
-        raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
-    if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
-        raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
-    if order_drift is not None:
-        order_drift = float(check.positive(order_drift, "order_drift"))
-        if knots != 1:
-            raise ValueError("give either `knots` or `order_drift`, not both.")
-        if num > MAX_DRIFT_SAMPLES:
-            raise ValueError(
-                f"`order_drift` takes at most {MAX_DRIFT_SAMPLES} samples (a dense covariance "
-                f"of the order at every sample), got {num}: plan on a coarser grid."
-            )
-    if parameter_knots is not None and (
-            isinstance(parameter_knots, bool) or not isinstance(parameter_knots, (int, np.integer))
-            or not 2 <= parameter_knots <= num // 2):
-        raise ValueError(f"`parameter_knots` must be an integer from 2 to {num // 2}, got "
-                         f"{parameter_knots!r}.")
+    p, order_drift = _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots)
     order_range = check.interval(order_range, "order_range")
     check.order(order, num, bounds=order_range)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
@@ -172,14 +151,7 @@ def fisher_information(
     if drift_hats is not None:
         names += [f"drift_{j + 1}_{k + 2}" for j in range(n)
                   for k in range(drift_hats.shape[1])]
-    # in units of the noise's variance until the end, so that no noise level a float64
-    # holds overflows on the way (1e-300 squared does)
-    variance = np.float64(noise_std) ** 2 if 1e-150 < noise_std < 1e150 else None
-    if variance is None:
-        raise ValueError(
-            f"`noise_std` must lie in (1e-150, 1e150) (its square is taken), got {noise_std!r}: "
-            "express the output in other units."
-        )
+    variance = np.float64(noise_std) ** 2
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
         information = jac.T @ jac / variance
     if order_drift is not None:
@@ -189,8 +161,52 @@ def fisher_information(
             f"the information overflows float64 at `noise_std` = {noise_std!r} and these "
             "inputs: express the output and the inputs in other units."
         )
-    # inverted in the columns' own scales (the units of p and of the order differ by orders
-    # of magnitude); a direction below 1e-12 of the largest is not determined by the test
+    covariance = _inverse(information, names)
+    k = hats.shape[1]
+    order_cov = covariance[:k, :k]
+    order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
+    return Design(names, information, covariance, times, order, order_stderr, places)
+
+
+def _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots):
+    """`fisher_information`'s arguments checked; returns `p` (n,) and `order_drift` (a float
+    or None)."""
+    p = np.atleast_1d(np.asarray(p, float))
+    if p.shape != (n,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"`p` must be {n} finite number(s), one per input, got {p!r}.")
+    if not (isinstance(noise_std, (int, float)) and not isinstance(noise_std, bool)
+            and 0 < noise_std < math.inf):
+        raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
+    if isinstance(knots, bool) or not isinstance(knots, (int, np.integer)) or not 1 <= knots <= num // 2:
+        raise ValueError(f"`knots` must be an integer from 1 to {num // 2}, got {knots!r}.")
+    if order_drift is not None:
+        order_drift = float(check.positive(order_drift, "order_drift"))
+        if knots != 1:
+            raise ValueError("give either `knots` or `order_drift`, not both.")
+        if num > MAX_DRIFT_SAMPLES:
+            raise ValueError(
+                f"`order_drift` takes at most {MAX_DRIFT_SAMPLES} samples (a dense covariance "
+                f"of the order at every sample), got {num}: plan on a coarser grid."
+            )
+    if parameter_knots is not None and (
+            isinstance(parameter_knots, bool) or not isinstance(parameter_knots, (int, np.integer))
+            or not 2 <= parameter_knots <= num // 2):
+        raise ValueError(f"`parameter_knots` must be an integer from 2 to {num // 2}, got "
+                         f"{parameter_knots!r}.")
+    # in units of the noise's variance until the end, so that no noise level a float64
+    # holds overflows on the way (1e-300 squared does)
+    if not 1e-150 < noise_std < 1e150:
+        raise ValueError(
+            f"`noise_std` must lie in (1e-150, 1e150) (its square is taken), got {noise_std!r}: "
+            "express the output in other units."
+        )
+    return p, order_drift
+
+
+def _inverse(information, names):
+    """The covariance, the information inverted in the columns' own scales (the units of p and
+    of the order differ by orders of magnitude); a direction below 1e-12 of the largest is
+    not determined by the test, and is refused naming the quantity it mostly moves."""
     scale = np.sqrt(np.diag(information))
     if np.any(scale == 0):
         zero = ", ".join(name for name, s in zip(names, scale) if s == 0)
@@ -207,10 +223,7 @@ def fisher_information(
             "1e-12): fewer knots, another input, or a longer test."
         )
     covariance = (vectors / values) @ vectors.T / np.outer(scale, scale)
-    k = hats.shape[1]
-    order_cov = covariance[:k, :k]
-    order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
-    return Design(names, information, covariance, times, order, order_stderr, places)
+    return covariance
 
 
 def _drift_precision(times, order, order_range, order_drift):

@@ -97,11 +97,9 @@ def identify(
       (default ``y[0]``). The tracker estimates it unless given (None, the default); given,
       the tracker holds it there. A known offset removes a trade-off that one input leaves:
       a lower order with larger parameters and a shifted offset can fit a record almost as
-      well. On the calibration suite, with the parameters stated constant as well, it
-      identifies more records with narrower bands and the order closer to the truth; with
-      the parameters free to drift, 3 of the 69 records it then identified had the truth
-      outside the band (`docs/identifiability.md`). Give it only where it is measured: a
-      wrong offset moves the order.
+      well; with the parameters stated constant as well, it narrows the band most
+      (`docs/identifiability.md`). Give it only where it is measured: a wrong offset moves
+      the order.
     - `r0`: the law's initial information ``R_0``: ``"auto"`` (the default, None: one sample's worth at
       α̂(0), scaled to the inputs), or an ``(n, n)`` matrix taken literally (the paper's
       ``P(0) = I`` is ``np.eye(n)``).
@@ -135,9 +133,7 @@ def identify(
       one memory run over the whole record at that order), and `diagnostics` gives ``B`` and
       the coarse clock's model error against the noise of a block mean (above 0.5 the order
       is not reported identified). The tracker's cost grows with its points, not the
-      record's length: about 1.7 s for 1,000 points on a 2-core CPU after its first call
-      (0.4 s with `use_fast_cpu_loops`), and a few µs a sample for the averaging and the two
-      memory runs over the record.
+      record's length (`docs/benchmarks.md`).
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
     - `time_scale`: ``method="kalman"`` only: the unit of time in which `parameters`
       states the parameters constant or drift-bounded (None: the record's span). The order
@@ -168,26 +164,35 @@ def identify(
             settings=TrackerSettings() if settings is None else settings,
         )
         return tracker._fit(u, y, dt, t, mask, warn, stacklevel=3)
-    for name, value in (("settings", settings), ("time_scale", time_scale)):
+    tracker_only = dict(
+        settings=settings, time_scale=time_scale, max_points=max_points, parameters=parameters,
+        noise=noise,
+    )
+    _check_law_arguments(tracker_only, mask, smooth)
+    return _identify_law(
+        u, y, dt, t, lam=lam, gamma=gamma, alpha0=alpha0, alpha_bounds=alpha_bounds,
+        memory=memory, rule=rule, x0=x0, r0=r0, tol=tol, warn=warn,
+    )
+
+
+def _check_law_arguments(tracker_only, mask, smooth):
+    """The tracker's arguments given with ``method="gradient"``: an error, never ignored."""
+    for name, value in tracker_only.items():
         if value is not None:
             raise ValueError(
                 f"`{name}` sets the tracker (method='kalman'); the paper's law does not use it."
             )
-    if max_points is not None:
-        raise ValueError(
-            "`max_points` sets the tracker (method='kalman'); the paper's law does not use it."
-        )
-    if parameters is not None:
-        raise ValueError(
-            "`parameters` sets the tracker (method='kalman'); the paper's law does not use it."
-        )
     if mask is not None:
         raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
-    if noise is not None or not smooth:
-        name = "`noise`" if noise is not None else "`smooth=False`"
+    if not smooth:
         raise ValueError(
-            f"{name} sets the tracker (method='kalman'); the paper's law does not use it."
+            "`smooth=False` sets the tracker (method='kalman'); the paper's law does not use it."
         )
+
+
+def _identify_law(u, y, dt, t, *, lam, gamma, alpha0, alpha_bounds, memory, rule, x0, r0, tol,
+                  warn):
+    """`identify` with ``method="gradient"``: the paper's law, its gains tuned unless given."""
     gamma = "auto" if gamma is None else gamma
     alpha0 = 0.5 if alpha0 is None else alpha0
     r0 = "auto" if r0 is None else r0
@@ -231,6 +236,6 @@ def identify(
     )
     if warn and res.diagnostics.message:
         warnings.warn(
-            f"vojax.identify: {res.diagnostics.message}.", IdentifiabilityWarning, stacklevel=2
+            f"vojax.identify: {res.diagnostics.message}.", IdentifiabilityWarning, stacklevel=3
         )
     return res

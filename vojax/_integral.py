@@ -96,17 +96,17 @@ def scan_memory_orders(memory: AbstractMemory, u, orders, unroll: int = 1):
     return jax.vmap(lambda order: memory.run(u, order, False, unroll))(orders)
 
 
-def order_map(memory: AbstractMemory, u):
+def order_map(memory: AbstractMemory, u, history_limit: int | None = None):
     """The function ``(order, sensitivity=False) ↦ Φ`` (or ``(Φ, ∂Φ/∂b)``) of a fixed record
     ``u`` (N, n), for evaluating at many order trajectories (an optimisation loop).
 
     With the exponential memory, the order-free modal history is computed here, once, and each
     evaluation is a vectorised readout (`ExponentialMemory.histories`); records whose history
-    would exceed `HISTORY_LIMIT` numbers, and the direct memory, scan the record per evaluation
-    (bounded memory). Call it inside the traced function that loops, so that the history is a
+    would exceed `history_limit` numbers (default `HISTORY_LIMIT`), and the direct memory, scan
+    the record per evaluation (bounded memory). Call it inside the traced function that loops, so that the history is a
     constant of the loop.
     """
-    if isinstance(memory, ExponentialMemory) and memory.history_fits(*u.shape):
+    if isinstance(memory, ExponentialMemory) and memory.history_fits(*u.shape, history_limit):
         h, previous = memory.histories(u)
 
         def phi(order):

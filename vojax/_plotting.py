@@ -233,7 +233,23 @@ def record_figure(columns, summary, inputs, path) -> None:
     ax.set(title="identified order", xlabel=time_label, ylabel="order α (dimensionless)")
     if ax.get_legend_handles_labels()[0]:
         ax.legend()
-    ax = axes[1, 1]
+    _parameter_panel(axes[1, 1], t, columns, summary, time_label)
+    verdict = []
+    part = summary.get(tracker) if tracker else None
+    if part is not None and "identified" in part:
+        verdict.append("order identified" if part["identified"] else "order not identified")
+    if summary.get("disagreement"):
+        verdict.append("the estimators' bands are disjoint")
+    title = f"{summary['record']} — {summary['model']}"
+    title += f" ({'; '.join(verdict)})" if verdict else ""
+    reason = first_sentence(part.get("message", "")) if part and not part.get("identified", True) else ""
+    fig.suptitle(title + (f"\n{reason}" if reason else ""))
+    _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
+
+
+def _parameter_panel(ax, t, columns, summary, time_label):
+    """The tracker's or the law's parameters over time, and the refit's constants with their
+    ±2 SE bands; y-limits robust to the start's transient."""
     shown = [name for name in summary["parameter_names"] if name in columns]
     series = [columns[name] for name in shown]
     for i, name in enumerate(shown):
@@ -262,17 +278,6 @@ def record_figure(columns, summary, inputs, path) -> None:
     )
     if ax.get_legend_handles_labels()[0]:
         ax.legend()
-    verdict = []
-    part = summary.get(tracker) if tracker else None
-    if part is not None and "identified" in part:
-        verdict.append("order identified" if part["identified"] else "order not identified")
-    if summary.get("disagreement"):
-        verdict.append("the estimators' bands are disjoint")
-    title = f"{summary['record']} — {summary['model']}"
-    title += f" ({'; '.join(verdict)})" if verdict else ""
-    reason = first_sentence(part.get("message", "")) if part and not part.get("identified", True) else ""
-    fig.suptitle(title + (f"\n{reason}" if reason else ""))
-    _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level
 
 
 def overview_figure(rows, path, failed=0) -> None:

@@ -8,6 +8,14 @@ import numpy as np
 
 from . import _validate as check
 from ._integral import make_memory, scan_memory
+from ._refit_inputs import (
+    _check_x0,
+    _direct_regressors,
+    _from_origin,
+    _num_knots,
+    _signs,
+    _weights,
+)
 from ._validate import check_options
 
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
@@ -31,51 +39,34 @@ from ._refit_solve import _zero_rounding as _zero_rounding
 PAD_DIRECT = 1
 
 
-def _weights(num, mask, weights, window, relative, times, y):
-    """The weight of each sample's squared residual (NumPy): the product of the mask, the
-    user's weights, the fit window and, for relative residuals, ``1/y²``."""
-    from ._validate import check_mask
+def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None):
+    """The nonlinear fit with the sign constraints as an active set: a coefficient whose free
+    fit breaks its sign is held at 0 and the rest refitted, one at a time. Returns the fit's
+    dictionary and the active flags (0 where held).
 
-    w = np.ones(num)
-    if mask is not None:
-        w = w * check_mask(mask, num, 0)
-    if weights is not None:
-        arr = np.asarray(check.float_array(weights, "weights"))
-        if arr.shape != (num,):
-            raise ValueError(f"`weights` must have shape ({num},), got shape {arr.shape}.")
-        if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-            raise ValueError("`weights` must be finite and non-negative.")
-        w = w * arr
-    if window is not None:
-        try:
-            lo, hi = (float(v) for v in window)
-        except (TypeError, ValueError):
-            raise TypeError(f"`window` must be a pair of times (from, to), got {window!r}.") from None
-        if not lo < hi:
-            raise ValueError(f"`window` must satisfy from < to, got ({lo}, {hi}).")
-        w = w * ((times >= lo) & (times <= hi))
-    if relative:
-        y = np.asarray(y)
-        zero = (w > 0) & (y == 0)
-        if np.any(zero):
-            raise ValueError(
-                f"relative residuals divide by y, which is 0 at fitted sample {int(np.argmax(zero))}; "
-                "leave that sample out (`window`, `mask`) or use absolute residuals."
-            )
-        w = w / np.where(w > 0, y, 1.0) ** 2
-    return w
-
-
-def _signs(p_signs, count):
-    if p_signs is None:
-        return np.zeros(count)
-    arr = np.asarray(p_signs, dtype=float)
-    if arr.shape != (count,) or not np.all(np.isin(arr, (-1.0, 0.0, 1.0))):
-        raise ValueError(
-            f"`p_signs` must hold {count} values of +1 (≥ 0), −1 (≤ 0) or 0 (free), one per "
-            f"coefficient, got {p_signs!r}."
+    A constant-order fit with fewer direct regressors than `pad_direct` (default `PAD_DIRECT`)
+    is padded with zero columns whose coefficients are held at 0 (they cost no scan of the
+    memory): the springpot shares the Maxwell law's compiled program, the Kelvin–Voigt law the
+    Zener's (`compare` fits all four); a fit on knots is a program of its own anyway."""
+    pad_direct = PAD_DIRECT if pad_direct is None else pad_direct
+    n_all, width = u2.shape
+    deep = max(v.shape[1], pad_direct) if num_knots == 1 else v.shape[1]
+    v_pad = jnp.concatenate([v, jnp.zeros((n_all, deep - v.shape[1]), v.dtype)], axis=1)
+    count = signs.size  # the coefficients that are not padding come first
+    active = np.ones(count)
+    dtype = big_y.dtype
+    while True:
+        out = _fit(
+            mem, u2, v_pad, big_y, sw, jnp.asarray(np.pad(active, (0, width + deep - count))),
+            jnp.asarray(solver["order0"], dtype), num_knots, solver["bounds"],
+            solver["estimate"], jnp.asarray(solver["rtol"], dtype),
+            jnp.asarray(solver["atol"], dtype), solver["max_steps"], solver["throw"],
         )
-    return arr
+        out["p"], out["p_stderr"] = out["p"][:count], out["p_stderr"][:count]
+        out["p_cov"] = out["p_cov"][:count, :count]
+        se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
+        if not _hold_worst(active, signs, np.asarray(out["p"]), se):
+            return out, active
 
 
 def refit(
@@ -152,11 +143,7 @@ def refit(
     """
     u, y, dt, t = check.record_arguments(u, y, dt, t, call="refit")
     bounds = check.interval(order_bounds, "order_bounds")
-    estimate = isinstance(x0, str)
-    if estimate and x0 != "estimate":
-        raise ValueError(f"`x0` must be 'estimate', None (y[0]) or a number, got {x0!r}.")
-    if origin is not None and x0 is None:
-        raise ValueError("with `origin`, `x0` is the output at the origin: 'estimate' it or give it.")
+    estimate = _check_x0(x0, origin)
     u2, y, _, x0, _ = check_options(
         u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None, t=t
     )
@@ -170,19 +157,7 @@ def refit(
             f"{np.count_nonzero(w)} samples have a non-zero weight; the fit needs at least "
             f"{width + v.shape[1] + 3}."
         )
-    grid = t
-    if origin is not None:
-        origin = float(np.asarray(check.float_array(origin, "origin")))
-        if not np.isfinite(origin) or origin >= times[0]:
-            raise ValueError(
-                f"`origin` must be a finite time before the first sample ({times[0]:g}), got {origin}."
-            )
-        # the step load: one more sample at the origin, the inputs held at their first values
-        grid = np.concatenate([[origin], times])
-        u2 = jnp.concatenate([u2[:1], u2])
-        v = np.concatenate([v[:1], v])
-        y = jnp.concatenate([y[:1], y])
-        w = np.concatenate([[0.0], w])
+    grid, u2, v, y, w = _from_origin(origin, t, times, u2, v, y, w)
     n_all = u2.shape[0]
     mem = make_memory(
         memory, dt if grid is None else None, n_all, rule=rule, order_range=bounds, times=grid
@@ -192,19 +167,8 @@ def refit(
     v = jnp.asarray(v, u2.dtype)
     trim = slice(1, None) if origin is not None else slice(None)
 
-    if isinstance(order, str):
-        if order != "constant":
-            raise ValueError(
-                f"`order` must be 'constant', a number of knots ≥ 2, or an (N,) array, got {order!r}."
-            )
-        num_knots = 1
-    elif isinstance(order, (int, np.integer)) and not isinstance(order, bool):
-        if order < 1 or order > num // 2:
-            raise ValueError(
-                f"`order` as a number of knots must be in [1, {num // 2}], got {order}."
-            )
-        num_knots = int(order)
-    else:
+    num_knots = _num_knots(order, num)
+    if num_knots is None:
         fixed = check.order(order, num, bounds=bounds, closed=True)
         if origin is not None:
             fixed = jnp.concatenate([fixed[:1], fixed])
@@ -214,35 +178,27 @@ def refit(
             lambda a: a[trim] if getattr(a, "shape", ()) and a.shape[0] == n_all else a, fit
         )
 
-    # a constant-order fit with fewer direct regressors than PAD_DIRECT is padded with zero
-    # columns whose coefficients are held at 0 (they cost no scan of the memory): the
-    # springpot shares the Maxwell law's compiled program, the Kelvin–Voigt law the Zener's
-    # (`compare` fits all four); a fit on knots is a program of its own anyway, not padded
-    deep = max(v.shape[1], PAD_DIRECT) if num_knots == 1 else v.shape[1]
-    v_pad = jnp.concatenate([v, jnp.zeros((n_all, deep - v.shape[1]), v.dtype)], axis=1)
-    count = signs.size  # the coefficients that are not padding come first
-    active = np.ones(count)
-    while True:
-        out = _fit(
-            mem, u2, v_pad, big_y, sw, jnp.asarray(np.pad(active, (0, width + deep - count))),
-            jnp.asarray(order0, big_y.dtype), num_knots, bounds, estimate,
-            jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,
-        )
-        out["p"], out["p_stderr"] = out["p"][:count], out["p_stderr"][:count]
-        out["p_cov"] = out["p_cov"][:count, :count]
-        se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
-        if not _hold_worst(active, signs, np.asarray(out["p"]), se):
-            break
+    solver = dict(order0=order0, bounds=bounds, estimate=estimate, rtol=rtol, atol=atol,
+                  max_steps=max_steps, throw=throw)
+    out, active = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
+    all_times = times if grid is None or origin is None else np.asarray(grid)
+    return _result(out, active, x0, estimate, trim, np.asarray(sw), bounds, all_times, warn)
+
+
+
+def _result(out, active, x0, estimate, trim, sw, bounds, all_times, warn):
+    """The `Refit` from the solver's dictionary: the samples before the origin trimmed, the
+    errors inflated for correlated residuals, the knots' times, the warnings."""
     offset = out.pop("offset")
     fit = out.pop("fit")
     span = float(out.pop("span"))
     knots = out["knots"]
     margin = 1e-3 * (bounds[1] - bounds[0])
+    num_knots = knots.shape[0]
     places = np.asarray(_knot_places(num_knots)) * (span - 1)
-    all_times = times if grid is None or origin is None else np.asarray(grid)
     out = {k: (a[trim] if k in ("order", "order_stderr", "order_lower", "order_upper",
                                 "residuals") else a) for k, a in out.items()}
-    rho, inflation = _residual_inflation(np.asarray(out["residuals"]), np.asarray(sw)[trim])
+    rho, inflation = _residual_inflation(np.asarray(out["residuals"]), sw[trim])
     out = _inflated(out, inflation, bounds)
     at_bound = bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin)))
     if warn:
@@ -253,7 +209,7 @@ def refit(
         error_inflation=inflation,
         x0=x0 + offset if estimate else x0,
         knot_times=(
-            jnp.asarray(np.interp(places, np.arange(n_all), all_times))
+            jnp.asarray(np.interp(places, np.arange(all_times.size), all_times))
             if num_knots > 1 else jnp.zeros(1)
         ),
         y_hat=(fit + x0)[trim],
@@ -324,18 +280,6 @@ def _warn(result, at_bound, rho):
                         "--model); the errors are inflated for it")
     if problems:
         warnings.warn(f"vojax.refit: {'; '.join(problems)}.", RefitWarning, stacklevel=3)
-
-
-def _direct_regressors(direct, num):
-    if direct is None:
-        return np.zeros((num, 0))
-    v = np.asarray(check.samples(direct, "direct"))
-    v = v[:, None] if v.ndim == 1 else v
-    if v.shape[0] != num:
-        raise ValueError(
-            f"`direct` must have {num} samples like `u`, got shape {v.shape}."
-        )
-    return v
 
 
 def refit_lbfgsb(

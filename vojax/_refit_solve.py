@@ -106,15 +106,7 @@ def _fit(
     # a start for p: linear least squares at the initial order (0 for held coefficients)
     phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
     p0 = jnp.linalg.lstsq(phi0 * sw[:, None], big_y * sw)[0]
-    # the solver sees the residuals in units of the data's RMS and each coefficient in units
-    # of (that RMS / its regressor's RMS), so that its tolerances mean the same in any units
-    # (in metres and newtons an AFM record's residuals are ~1e-10: below an absolute
-    # tolerance of 1e-10 the solver stopped at its start)
-    fitted = jnp.maximum(jnp.sum(sw > 0), 1).astype(sw.dtype)
-    y_scale = jnp.sqrt(jnp.sum((sw * big_y) ** 2) / fitted)
-    y_scale = jnp.where(y_scale > 0, y_scale, 1.0)
-    col = jnp.sqrt(jnp.sum((phi0 * sw[:, None]) ** 2, axis=0) / fitted)
-    p_unit = y_scale / jnp.where(col > 0, col, y_scale)
+    y_scale, p_unit = _solver_units(sw, big_y, phi0)
     sol = optx.least_squares(
         lambda th, _: (model(jnp.concatenate([th[:num_knots], th[num_knots:] * p_unit])) - big_y)
         * sw / y_scale,
@@ -131,25 +123,20 @@ def _fit(
     raw_t, p_t = theta[:num_knots], theta[num_knots:]
     phi_t, dphi_t = phi_of(_order_curve(raw_t, num, bounds, span), True)
     dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw_t)
-    jac = jnp.concatenate(
-        [(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1
-    ) * sw[:, None]
+    by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta
+    jac = jnp.concatenate([by_order, design(phi_t)], axis=1) * sw[:, None]
     free = jnp.concatenate([jnp.ones((num_knots,), sw.dtype), keep])
     inverse, loose = _gauss_newton(jac, free)
     determined = jnp.sum(free) - jnp.sum(loose, dtype=sw.dtype)
     dof = jnp.maximum(jnp.sum(sw > 0, dtype=sw.dtype) - determined, 1.0)
     sigma2 = jnp.sum((sw * residuals) ** 2) / dof
     cov = sigma2 * inverse
-    raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
-    graw = jax.jacfwd(raw_of)(theta)
-    finite = jnp.where(loose[:, None] | loose[None, :], 0.0, cov)
-    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, finite, graw), 0.0))
-    # a sample whose order depends on an undetermined knot: an infinite error, the band the range
-    raw_sd = jnp.where(jnp.any((jnp.abs(graw) > 0) & loose[None, :], axis=1), jnp.inf, raw_sd)
-    raw = raw_of(theta)
+    raw, raw_sd = _raw_order_errors(theta, cov, loose, num_knots, num, span)
     slope = (hi - lo) * jax.nn.sigmoid(raw) * (1 - jax.nn.sigmoid(raw))
     pc = cov[num_knots : num_knots + count, num_knots : num_knots + count]
     theta = theta.at[num_knots:].set(_zero_rounding(theta[num_knots:], design(phi_t), big_y, sw))
+    knot_z = jax.nn.sigmoid(theta[:num_knots])
+    knots_sd = (hi - lo) * knot_z * (1 - knot_z) * jnp.sqrt(jnp.maximum(jnp.diag(cov)[:num_knots], 0))
     return dict(
         order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
@@ -160,13 +147,8 @@ def _fit(
         p_cov=pc,
         offset=theta[-1] if estimate else jnp.zeros((), theta.dtype),
         x0_stderr=jnp.sqrt(jnp.maximum(cov[-1, -1], 0.0)) if estimate else jnp.zeros(()),
-        knots=lo + (hi - lo) * jax.nn.sigmoid(theta[:num_knots]),
-        knots_stderr=jnp.where(
-            loose[:num_knots],
-            jnp.inf,
-            (hi - lo) * jax.nn.sigmoid(theta[:num_knots]) * (1 - jax.nn.sigmoid(theta[:num_knots]))
-            * jnp.sqrt(jnp.maximum(jnp.diag(cov)[:num_knots], 0.0)),
-        ),
+        knots=lo + (hi - lo) * knot_z,
+        knots_stderr=jnp.where(loose[:num_knots], jnp.inf, knots_sd),
         fit=fit,
         residuals=residuals,
         sigma=jnp.sqrt(sigma2),
@@ -174,6 +156,30 @@ def _fit(
         steps=sol.stats["num_steps"],
         span=span,
     )
+
+
+def _solver_units(sw, big_y, phi0):
+    """The solver sees the residuals in units of the data's RMS and each coefficient in units
+    of (that RMS / its regressor's RMS), so that its tolerances mean the same in any units (in
+    metres and newtons an AFM record's residuals are ~1e-10: below an absolute tolerance of
+    1e-10 the solver stopped at its start). Returns the two units."""
+    fitted = jnp.maximum(jnp.sum(sw > 0), 1).astype(sw.dtype)
+    y_scale = jnp.sqrt(jnp.sum((sw * big_y) ** 2) / fitted)
+    y_scale = jnp.where(y_scale > 0, y_scale, 1.0)
+    col = jnp.sqrt(jnp.sum((phi0 * sw[:, None]) ** 2, axis=0) / fitted)
+    return y_scale, y_scale / jnp.where(col > 0, col, y_scale)
+
+
+def _raw_order_errors(theta, cov, loose, num_knots, num, span):
+    """The unbounded order at every sample and its standard error by the delta method; a
+    sample whose order depends on an undetermined knot gets an infinite error (its band: the
+    range)."""
+    raw_of = lambda th: _raw_curve(th[:num_knots], num, span)  # noqa: E731
+    graw = jax.jacfwd(raw_of)(theta)
+    finite = jnp.where(loose[:, None] | loose[None, :], 0.0, cov)
+    raw_sd = jnp.sqrt(jnp.maximum(jnp.einsum("ni,ij,nj->n", graw, finite, graw), 0.0))
+    raw_sd = jnp.where(jnp.any((jnp.abs(graw) > 0) & loose[None, :], axis=1), jnp.inf, raw_sd)
+    return raw_of(theta), raw_sd
 
 
 def _linear(phi, v, big_y, fixed, x0, width, estimate, sw, signs):

@@ -30,8 +30,9 @@ RESCALE = 1e100  # Σ̃ is renormalised when its largest entry passes this
 
 
 @eqx.filter_jit
-def law_covariance(law, u, big_y, sigma2):
-    """Variances of α̂ (N,) and p̂ (N, n) of ``law`` run over ``u`` (N, n), ``big_y`` (N,)."""
+def law_covariance(law, u, big_y, sigma2, rescale=RESCALE):
+    """Variances of α̂ (N,) and p̂ (N, n) of ``law`` run over ``u`` (N, n), ``big_y`` (N,);
+    Σ̃ is renormalised when its largest entry passes `rescale`."""
     state0 = law.init(u.shape[1])
     free0 = (state0.lsff, state0.lsff_tangent, state0.alpha, state0.p)
     flat0, unravel = ravel_pytree(free0)
@@ -63,7 +64,7 @@ def law_covariance(law, u, big_y, sigma2):
         var_alpha = unscaled(cov[alpha_index, alpha_index], log_scale)
         cov_new = 0.5 * (cov_new + cov_new.T)
         big = jnp.max(jnp.abs(cov_new))
-        renorm = jnp.isfinite(big) & (big > RESCALE)
+        renorm = jnp.isfinite(big) & (big > rescale)
         cov_new = jnp.where(renorm, cov_new / jnp.where(renorm, big, 1.0), cov_new)
         log_scale = log_scale + jnp.where(renorm, jnp.log(jnp.where(renorm, big, 1.0)), 0.0)
         return (flat_new, memory_new, cov_new, log_scale), (var_alpha, var_p)

@@ -6,7 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-from ._options import _law_options, _load, _loader, _select, _settings
+from ._args import _load, _loader, _select, _settings
+from ._options import _law_options
 from ._types import CLIError
 
 
@@ -181,21 +182,10 @@ def compare_command(args) -> int:
 
 
 def batch_command(args) -> int:
-    from .._data import DataError
-    from .._data._batch import run_batch
+    from .._data._batch import BatchBusy, run_batch
 
     _law_options(args)
-    if args.workers is not None and args.scheduler != "local":
-        raise CLIError("--workers sets the worker processes of --scheduler local; use it with that.")
-    if args.workers is not None and args.workers < 1:
-        raise CLIError(f"--workers must be at least 1, got {args.workers}.")
-    if args.workers is not None and args.workers > (os.cpu_count() or 1):
-        raise CLIError(f"--workers is {args.workers}, more than this machine's "
-                       f"{os.cpu_count() or 1} cores; use at most one worker per core.")
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise CLIError("--scheduler needs 'local' or a scheduler's address (tcp://host:8786).")
-    import dataclasses
-
+    _check_workers(args)
     if args.pattern is not None and not any(Path(f).is_dir() for f in args.files):
         raise CLIError("--pattern chooses the files of a folder: give a folder as input.")
     found = _expand(args.files, args.pattern, args.out)
@@ -209,6 +199,48 @@ def batch_command(args) -> int:
         except (ImportError, ConnectionError) as e:
             raise CLIError(str(e)) from None
     out = _new_dir(args.out)
+    records, failures = _load_all(found, args)
+    with contextlib.ExitStack() as stack:
+        client = _dask(stack, args)
+        try:
+            report = run_batch(
+                records,
+                out,
+                **_settings(args),
+                failures=failures,
+                progress=False if args.quiet else (True if args.progress else None),
+                loader=_loader(args),
+                overwrite=not args.no_overwrite,
+                figure_format=args.format,
+                record_figures=args.figures == "records",
+                client=client,
+            )
+        except (BatchBusy, ConnectionError) as e:  # busy, or the scheduler went away
+            raise CLIError(str(e)) from None
+    return _said(report, out)
+
+
+def _check_workers(args):
+    """--workers and --scheduler, checked before anything is read."""
+    if args.workers is not None and args.scheduler != "local":
+        raise CLIError("--workers sets the worker processes of --scheduler local; use it with that.")
+    if args.workers is not None and args.workers < 1:
+        raise CLIError(f"--workers must be at least 1, got {args.workers}.")
+    if args.workers is not None and args.workers > (os.cpu_count() or 1):
+        raise CLIError(f"--workers is {args.workers}, more than this machine's "
+                       f"{os.cpu_count() or 1} cores; use at most one worker per core.")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise CLIError("--scheduler needs 'local' or a scheduler's address (tcp://host:8786).")
+
+
+def _load_all(found, args):
+    """The records of every file found, named with their subfolder's prefix, and the files
+    that could not be read (a failure each, the batch goes on); refuses two records of one
+    name."""
+    import dataclasses
+
+    from .._data import DataError
+
     records, failures = [], []
     for path, prefix in found:
         try:
@@ -225,44 +257,33 @@ def batch_command(args) -> int:
         raise CLIError(
             f"two records share the name {duplicated[0]!r}; rename a file or use --group-by."
         )
-    from .._data._batch import BatchBusy, dask_client
+    return records, failures
 
 
-    with contextlib.ExitStack() as stack:
-        client = None
-        if args.scheduler is not None:
-            try:
-                client = stack.enter_context(
-                    dask_client(args.scheduler, args.workers, check=False)
-                )
-            except (ImportError, ConnectionError) as e:
-                raise CLIError(str(e)) from None
-            except (OSError, TimeoutError) as e:
-                raise CLIError(
-                    f"could not reach the Dask scheduler {args.scheduler!r}: {e}"
-                ) from None
-            import logging
+def _dask(stack, args):
+    """The Dask client of --scheduler, entered on `stack` (None without one)."""
+    if args.scheduler is None:
+        return None
+    from .._data._batch import dask_client
 
-            # the command says a scheduler's loss in one line, not with distributed's own
-            # tracebacks (its loggers have their own levels, set when it was imported)
-            for name in list(logging.root.manager.loggerDict):
-                if name == "distributed" or name.startswith("distributed."):
-                    logging.getLogger(name).setLevel(logging.CRITICAL)
-        try:
-            report = run_batch(
-                records,
-                out,
-                **_settings(args),
-                failures=failures,
-                progress=False if args.quiet else (True if args.progress else None),
-                loader=_loader(args),
-                overwrite=not args.no_overwrite,
-                figure_format=args.format,
-                record_figures=args.figures == "records",
-                client=client,
-            )
-        except (BatchBusy, ConnectionError) as e:  # busy, or the scheduler went away
-            raise CLIError(str(e)) from None
+    try:
+        client = stack.enter_context(dask_client(args.scheduler, args.workers, check=False))
+    except (ImportError, ConnectionError) as e:
+        raise CLIError(str(e)) from None
+    except (OSError, TimeoutError) as e:
+        raise CLIError(f"could not reach the Dask scheduler {args.scheduler!r}: {e}") from None
+    import logging
+
+    # the command says a scheduler's loss in one line, not with distributed's own tracebacks
+    # (its loggers have their own levels, set when it was imported)
+    for name in list(logging.root.manager.loggerDict):
+        if name == "distributed" or name.startswith("distributed."):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+    return client
+
+
+def _said(report, out) -> int:
+    """The batch's last line, the failures' file named on stderr; the exit code."""
     unidentified = (
         f", {report.unidentified} of them with the order not identified (see summary.csv)"
         if report.unidentified else ""

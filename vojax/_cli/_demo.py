@@ -43,17 +43,7 @@ def demo(args) -> int:
     identified = time.perf_counter()
     errors = study_errors(data["t"], data["alpha"], data["p"], result)
     law_band = band_coverage(data["t"], data["alpha"], result)
-    tracker, tracked = None, {}
-    if args.tracker:  # vojax's default estimator on the same record, with its band
-        tracker = identify(data["u"], data["y"], args.dt, warn=False)
-        tracker.alpha.block_until_ready()
-        tracked = {
-            **study_errors(data["t"], data["alpha"], data["p"], tracker),
-            **band_coverage(data["t"], data["alpha"], tracker),
-            "identified": bool(tracker.diagnostics.identified),
-            "message": tracker.diagnostics.message,
-            "time_identify_s": time.perf_counter() - identified,
-        }
+    tracker, tracked = _tracker(data, args) if args.tracker else (None, {})
     figures = study_figures(
         data["t"], data["alpha"], data["p"], data["x"], data["y"], result, out, tracker
     )
@@ -80,6 +70,18 @@ def demo(args) -> int:
         "versions": versions(),
     }
     write_json(out / "summary.json", summary)
+    rows = _table(errors, law_band, tracked, result, data, args, identified - simulated,
+                  simulated - started)
+    width = max(len(r[0]) for r in rows)
+    print(f"vojax demo: the simulation study (34) of the paper → {out}/")
+    for name, value in rows:
+        print(f"  {name:<{width}}  {value}")
+    print(f"  wrote {', '.join(figures)}, summary.json")
+    return 0
+
+
+def _table(errors, law_band, tracked, result, data, args, identify_s, simulate_s):
+    """The demo's printed summary: (name, value) rows."""
     rows = [
         ("order RMS error, t > 50 s", f"{errors['order_rms_t_gt_50']:.4f}"),
         ("order RMS error, last 100 s", f"{errors['order_rms_last_100s']:.4f}"),
@@ -93,7 +95,7 @@ def demo(args) -> int:
         ),
         (
             "time: simulate, identify",
-            f"{simulated - started:.2f} s, {identified - simulated:.2f} s (incl. compile)",
+            f"{simulate_s:.2f} s, {identify_s:.2f} s (incl. compile)",
         ),
     ]
     if tracked:
@@ -107,9 +109,22 @@ def demo(args) -> int:
             ("tracker: identified, time", f"{'yes' if tracked['identified'] else 'no'}, "
              f"{tracked['time_identify_s']:.1f} s (incl. compile)"),
         ]
-    width = max(len(r[0]) for r in rows)
-    print(f"vojax demo: the simulation study (34) of the paper → {out}/")
-    for name, value in rows:
-        print(f"  {name:<{width}}  {value}")
-    print(f"  wrote {', '.join(figures)}, summary.json")
-    return 0
+    return rows
+
+
+def _tracker(data, args):
+    """vojax's default estimator on the same record, with its band: the result and its row
+    of the summary."""
+    from .._identify import identify
+    from .._study import band_coverage, study_errors
+
+    started = time.perf_counter()
+    tracker = identify(data["u"], data["y"], args.dt, warn=False)
+    tracker.alpha.block_until_ready()
+    return tracker, {
+        **study_errors(data["t"], data["alpha"], data["p"], tracker),
+        **band_coverage(data["t"], data["alpha"], tracker),
+        "identified": bool(tracker.diagnostics.identified),
+        "message": tracker.diagnostics.message,
+        "time_identify_s": time.perf_counter() - started,
+    }

@@ -31,6 +31,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"vojax {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
+    _demo_parser(sub)
+    _identify_parser(sub)
+    _check_parser(sub)
+    _compare_parser(sub)
+    _example_parser(sub)
+    _batch_parser(sub)
+    return parser
+
+
+def _demo_parser(sub) -> None:
+    """The ``demo`` command: the paper's simulation study."""
     d = sub.add_parser(
         "demo", help="simulate the paper's study (34), identify it with the paper's law and with "
         "vojax's tracker; write Figs. 2–4 with their bands and a summary"
@@ -65,6 +76,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="quadrature of the input between samples: trapezoid (O(h²), default) or rectangle",
     )
     d.set_defaults(run=demo)
+
+
+def _identify_parser(sub) -> None:
+    """The ``identify`` command: one recorded test."""
     i = sub.add_parser("identify", help="identify q(t) and the parameters of one recorded test")
     i.add_argument("file", help="CSV (header row, '#' comments) or NPZ file")
     _data_options(i, many=False)
@@ -73,6 +88,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --group-by: the record to identify (identify takes one; batch takes all)",
     )
     i.set_defaults(run=identify_command)
+
+
+def _check_parser(sub) -> None:
+    """The ``check`` command: the order sensitivities on the user's data."""
     c = sub.add_parser(
         "check",
         help="cross-check the order sensitivities on your data: autodiff vs the closed forms "
@@ -118,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="tolerance of central finite differences (order step 1e-5), relative (default 1e-6)",
     )
     c.set_defaults(run=check_command)
+
+
+def _compare_parser(sub) -> None:
+    """The ``compare`` command: the laws one record supports."""
     m = sub.add_parser(
         "compare",
         help="which law do the data of one recorded test support: springpot, Kelvin-Voigt, "
@@ -137,12 +160,20 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--knots", type=int, default=3,
                    help="knots of the variable order (default 3)")
     m.set_defaults(run=compare_command)
+
+
+def _example_parser(sub) -> None:
+    """The ``example`` command: a shipped recording copied here."""
     e = sub.add_parser(
         "example", help="copy a real recording shipped with vojax into the current folder"
     )
     e.add_argument("name", choices=("adhesive", "myocardium"), help="which recording")
     e.add_argument("--out", help="file to write (default: the example's own name, here)")
     e.set_defaults(run=example_command)
+
+
+def _batch_parser(sub) -> None:
+    """The ``batch`` command: many recorded tests into one folder."""
     b = sub.add_parser(
         "batch", help="identify many recorded tests (files, or groups of a long file)"
     )
@@ -199,7 +230,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="worker processes of --scheduler local (default: the cores, at most 8)",
     )
     b.set_defaults(run=batch_command)
-    return parser
 
 
 def main(argv=None) -> int:

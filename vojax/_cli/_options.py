@@ -6,8 +6,10 @@ import sys
 
 from .._settings import TrackerSettings
 from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
+from ._args import FIT_OPTIONS
 from ._types import (
     CLIError,
+    _bounds,
     _delimiter,
     _finite,
     _gain,
@@ -56,6 +58,12 @@ def _column_options(p):
         "--group-by",
         help="column naming the record in a long-format file (default: the file is one record)",
     )
+    _reading_options(p)
+    _afm_options(p)
+
+
+def _reading_options(p):
+    """How a file's samples are read: clock, resampling, trimming, separators."""
     p.add_argument(
         "--strict",
         action="store_true",
@@ -91,6 +99,10 @@ def _column_options(p):
         type=_finite,
         help="the threshold of --trim-column, in that column's unit",
     )
+
+
+def _afm_options(p):
+    """AFM files only: segments, the contact point, the contact strain's tip and sample."""
     p.add_argument(
         "--segments",
         type=_segments,
@@ -150,6 +162,20 @@ def _data_options(p, *, many: bool):
         "e.g. stress=kPa,strain=1,time=ms (a name such as stress_kPa already says it); "
         "changes no number",
     )
+    _tracker_options(p)
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument(
+        "--format",
+        choices=("png", "svg", "pdf"),
+        default="png",
+        help="format of the per-record figure (default png)",
+    )
+    _method_options(p)
+
+
+def _tracker_options(p):
+    """What the user states to the tracker: the parameters' drift, its time unit, the offset,
+    the points it fits."""
     p.add_argument(
         "--parameters",
         type=_parameters,
@@ -190,13 +216,10 @@ def _data_options(p, *, many: bool):
         "a longer record is fitted as the means of blocks of consecutive samples, and the "
         "estimates are given at every sample",
     )
-    p.add_argument("--out", required=True, help="output folder (created if missing)")
-    p.add_argument(
-        "--format",
-        choices=("png", "svg", "pdf"),
-        default="png",
-        help="format of the per-record figure (default png)",
-    )
+
+
+def _method_options(p):
+    """The estimator (--method), the order's range and the paper's law's gains."""
     p.add_argument(
         "--method",
         type=_method,
@@ -206,6 +229,15 @@ def _data_options(p, *, many: bool):
         "and a verdict; gradient: the paper's adaptive law (its band is not a confidence "
         "band); refit: constant-order least squares; kalman+refit, gradient+refit: one of "
         "the first two and the refit, with a warning where their bands are disjoint",
+    )
+    p.add_argument(
+        "--alpha-bounds",
+        type=_bounds,
+        default=None,
+        metavar="LO,HI",
+        help="the range the order is searched in, for every estimator run, 0 < LO < HI < 1 "
+        "(default: 0.01,0.99 for the tracker and the refit, 0.05,0.95 for the paper's law); "
+        "as vojax.identify(alpha_bounds=...) and vojax.refit(order_bounds=...)",
     )
     p.add_argument(
         "--gamma",
@@ -273,105 +305,3 @@ def _law_options(args):
         )
     if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
         raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
-
-
-FIT_OPTIONS = ("origin", "fit_from", "fit_to")
-
-
-def _load(path, args):
-    from .._data import load_records
-    from .._data._records import check_units
-
-    if (args.trim_column is None) != (args.trim_below is None):
-        raise CLIError("--trim-column and --trim-below go together.")
-    if args.decimal_comma and args.delimiter == ",":
-        raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
-    try:
-        check_units(getattr(args, "units", None), [args.time, *args.inputs, args.output])
-    except ValueError as e:
-        raise CLIError(str(e).replace("`units`", "--units")) from None
-    import warnings
-
-    # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        records = load_records(path, **_loader(args))
-    for w in caught:
-        print(f"vojax: warning: {w.message}", file=sys.stderr)
-    return records
-
-
-def _settings(args) -> dict:
-    """The options that set the identification."""
-    return dict(
-        model=args.model,
-        method=args.method,
-        gamma=args.gamma,
-        lam=args.lam,
-        area=args.area,
-        length=args.length,
-        **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
-        **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
-        **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
-        **({"x0": args.x0} if getattr(args, "x0", None) is not None else {}),
-        **({"time_scale": args.time_scale}
-           if getattr(args, "time_scale", None) is not None else {}),
-        **({"compare": True} if getattr(args, "compare", False) else {}),
-    )
-
-
-def _loader(args) -> dict:
-    """The options that set how records are read."""
-    return dict(
-        time=args.time,
-        inputs=list(args.inputs),
-        output=args.output,
-        group_by=args.group_by,
-        strict=args.strict,
-        resample=args.resample,
-        trim_column=args.trim_column,
-        trim_below=args.trim_below,
-        delimiter=args.delimiter,
-        decimal="," if args.decimal_comma else ".",
-        **_afm_loader(args),
-        **({"units": args.units} if getattr(args, "units", None) else {}),
-    )
-
-
-def _afm_loader(args) -> dict:
-    """The AFM options, only where given (a CSV's provenance is unchanged by them)."""
-    from .._data._afm import check_tip
-
-    try:
-        check_tip(args.tip, args.poisson)
-    except ValueError as e:
-        raise CLIError(str(e)) from None
-    out = {}
-    if args.segments is not None:
-        out["segments"] = list(args.segments)
-    if args.no_contact:
-        out["from_contact"] = False
-    if args.tip is not None:
-        out["tip"] = args.tip
-    if args.poisson != 0.5:
-        out["poisson"] = args.poisson
-    return out
-
-
-def _select(records, args):
-    """`identify` works on one record: with --group-by, --record names it."""
-    names = [r.name for r in records]
-    if args.record is not None:
-        if args.group_by is None:
-            raise CLIError("--record selects a record of a long-format file: give --group-by too.")
-        chosen = [r for r in records if r.name == args.record]
-        if not chosen:
-            shown = ", ".join(repr(n) for n in names[:5]) + (", …" if len(names) > 5 else "")
-            raise CLIError(f"no record {args.record!r} in {args.file} (records: {shown}).")
-        return chosen
-    if len(records) > 1:
-        raise CLIError(
-            f"{args.file} holds {len(records)} records (--group-by {args.group_by}); identify "
-            f"takes one: add --record NAME (e.g. --record {names[0]!r}), or use vojax batch."
-        )
-    return records

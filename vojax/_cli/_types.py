@@ -140,6 +140,19 @@ def _units(text: str):
     return out
 
 
+def _bounds(text: str):
+    """``--alpha-bounds LO,HI``: two orders with 0 < LO < HI < 1."""
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected two orders LO,HI such as 0.05,0.95, got {text!r}"
+        ) from None
+    if not 0 < lo < hi < 1:
+        raise argparse.ArgumentTypeError(f"expected 0 < LO < HI < 1, got {text!r}")
+    return lo, hi
+
+
 def _order_list(text: str):
     try:
         values = tuple(float(v) for v in text.split(","))

@@ -39,7 +39,7 @@ from ._pipeline import (
 )
 from ._tables import (
     _write_summary_table,
-    _write_table,  # noqa: F401
+    _write_table,
     natural_key,
     strict_json,
 )
@@ -104,6 +104,7 @@ def run_batch(
     max_points=None,
     x0=None,
     time_scale=None,
+    alpha_bounds=None,
     client=None,
     compare=False,
 ):
@@ -131,7 +132,7 @@ def run_batch(
     0 draws them in this process), off the computation's path; a record counts as done when its
     figure and summary are written. Records on irregular clocks run one at a time, on their own
     clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`, `max_points`, `x0` and
-    `time_scale`: the tracker's, as in `identify_record`.
+    `time_scale`: the tracker's, `alpha_bounds`: every estimator's, as in `identify_record`.
 
     `client`: a Dask ``distributed.Client`` (``pip install "vojax[dask]"``) to compute the
     records on its workers, in tasks of a few records of one length bucket each (see
@@ -154,6 +155,7 @@ def run_batch(
             origin=origin, fit_from=fit_from, fit_to=fit_to, parameters=parameters,
             max_points=max_points, x0=None if x0 is None else float(x0),
             time_scale=None if time_scale is None else float(time_scale),
+            alpha_bounds=None if alpha_bounds is None else [float(b) for b in alpha_bounds],
         ).items()
         if v is not None
     }
@@ -162,160 +164,202 @@ def run_batch(
         figure_format=figure_format, **(loader or {}), **fit,
         **({"compare": True} if compare else {}),
     )
+    config = dict(
+        model=model, method=method, gamma=gamma, lam=lam, area=area, length=length, fit=fit,
+        compare=bool(compare),
+    )
+    _check_table_paths(out_dir, figure_format)
+    with _locked(out_dir), contextlib.ExitStack() as cleanup:
+        _remove_orphans(out_dir)
+        run = _Run(out_dir, records, failures, settings, figure_format, overwrite)
+        todo = run.plan(record_figures)
+        run.figures = _Figures(figure_workers if record_figures else 0, len(todo))
+        cleanup.callback(run.figures.close)  # an interrupted run stops its workers too
+        run.bar = cleanup.enter_context(Bar(len(todo), wanted(progress)))
+        run.bar.update(0, failed=run.report.failed, skipped=run.report.skipped)
+        groups = _groups(todo, buckets)
+        if client is None:
+            run.compute_here(groups, config)
+        else:
+            run.compute_on_dask(client, groups, config)
+        for _ in run.figures.drain():
+            run.settled()
+        run.settled()
+        run.bar.close()
+        run.tabulate()
+    return run.report
+
+
+def _check_table_paths(out_dir, figure_format):
     for name in ("summary.csv", "failures.csv", f"overview.{figure_format}"):
         if (out_dir / name).is_dir() and not (out_dir / name).is_symlink():
             raise ValueError(
                 f"{out_dir / name} is a folder, where the batch writes its {name}: rename it "
                 "or choose another --out."
             )
-    with _locked(out_dir), contextlib.ExitStack() as cleanup:
-        _remove_orphans(out_dir)
-        report = BatchReport()
-        failed = list(failures)
-        report.failed = len(failed)
-        folders = {r.name: inside(out_dir, record_folder(r.name)) for r in records}
+
+
+def _step(r):
+    """A uniform record's step to 12 digits: a time column's rounding differs by file."""
+    return float(f"{r.dt:.12g}")
+
+
+def _groups(todo, buckets):
+    """The records to compute, grouped by (padded length, step); a record on an irregular
+    clock is a group of its own, keyed (None, its name), run at its length.
+
+    Records are padded to a few bucket lengths (m·2^k, neighbours merged where a compile costs
+    more than the padding: `plan_buckets`) and masked or cut back, so that a batch compiles a
+    few programs: the law runs a bucket's records together under vmap; the gain tuning, the
+    tracker and the refit run one record at a time."""
+    sizes = {}
+    for r, _ in todo:
+        if r.uniform:
+            sizes.setdefault(_step(r), []).append(r.time.size)
+    plans = {
+        dt: plan_buckets(n) if buckets else {k: k for k in n} for dt, n in sizes.items()
+    }
+    groups = {}
+    for r, state in todo:
+        key = (plans[_step(r)][r.time.size], _step(r)) if r.uniform else (None, r.name)
+        groups.setdefault(key, []).append((r, state))
+    return groups
+
+
+class _Run:
+    """One batch while it runs: its records' folders and provenance, the failures, the report,
+    the progress bar and the figure pool. Its methods are the stages: plan, compute (here or
+    on Dask), write each record (folder, then figure), tabulate."""
+
+    def __init__(self, out_dir, records, failures, settings, figure_format, overwrite):
+        self.out_dir, self.records = out_dir, records
+        self.figure_format, self.overwrite = figure_format, overwrite
+        self.failed = list(failures)
+        self.report = BatchReport(failed=len(self.failed))
+        self.folders = {r.name: inside(out_dir, record_folder(r.name)) for r in records}
         tables = ["summary.csv", "failures.csv", f"overview.{figure_format}"]
         own = ("identification.csv", "summary.json", f"identification.{figure_format}")
         claim_outputs(
             out_dir, tables + [f"{record_folder(r.name)}/{name}" for r in records for name in own]
         )
         hashes = {}
-        provenance = {r.name: make_provenance(r, settings, hashes) for r in records}
+        self.provenance = {r.name: make_provenance(r, settings, hashes) for r in records}
+        self.rows_cache = {}
+        self.last_table = time.perf_counter()
+        self.figures = self.bar = None
+        self.record_figures = True
+
+    def plan(self, record_figures):
+        """The records to compute, with their state ("missing" or "stale"); up-to-date records
+        are counted as skipped, stale ones under ``overwrite=False`` as failed."""
+        self.record_figures = record_figures
         todo = []
-        for r in records:
-            state = _state(folders[r.name], provenance[r.name], figure_format, record_figures)
+        for r in self.records:
+            state = _state(
+                self.folders[r.name], self.provenance[r.name], self.figure_format,
+                record_figures,
+            )
             if state == "current":
-                report.skipped += 1
-            elif state == "stale" and not overwrite:
-                failed.append((r.source, r.name, "outputs from other settings or inputs exist "
-                               "(--no-overwrite)"))
-                report.failed += 1
+                self.report.skipped += 1
+            elif state == "stale" and not self.overwrite:
+                self.failed.append((r.source, r.name, "outputs from other settings or inputs "
+                                    "exist (--no-overwrite)"))
+                self.report.failed += 1
             else:
                 todo.append((r, state))
-        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
-        rows_cache = {}
-        figures = _Figures(figure_workers if record_figures else 0, len(todo))
-        cleanup.callback(figures.close)  # an interrupted run stops its workers too
+        return todo
 
-        bar = cleanup.enter_context(Bar(len(todo), wanted(progress)))
-        bar.update(0, failed=report.failed, skipped=report.skipped)
-        last_table = [time.perf_counter()]
-
-        def finished(r, state, ok):
-            if ok:
-                if state == "stale":
-                    report.redone += 1
-                else:
-                    report.computed += 1
-                # the table is rebuilt at most once a second (each rebuild writes every row) and
-                # at the end; a killed run loses nothing: each record's summary.json is written
-                # before it counts as done, and the next run rebuilds the table from them
-                if time.perf_counter() - last_table[0] >= TABLE_EVERY_S:
-                    _write_summary_table(
-                        out_dir, records, folders, provenance, rows_cache, failed, overwrite
-                    )
-                    last_table[0] = time.perf_counter()
-            else:
-                report.failed += 1
-            bar.update(failed=report.failed, skipped=report.skipped)
-
-        def fail(r, e):
-            failed.append((r.source, r.name, str(e).splitlines()[0] if str(e) else type(e).__name__))
-
-        def settled():  # the records whose figure and summary are written, or failed to be
-            for (r, state), error in figures.collect():
-                if error is not None:  # a bad figure fails its record only
-                    fail(r, error)
-                finished(r, state, error is None)
-
-        def write(r, state, columns, summary):  # a computed record's folder, then its figure
-            try:
-                summary["provenance"] = provenance[r.name]
-                write_table(folders[r.name], columns, figure_format)
-                inputs = r.inputs if record_figures else None
-                figures.add((r, state), folders[r.name], columns, summary, inputs, figure_format)
-            except Exception as e:  # noqa: BLE001
-                fail(r, e)
-                finished(r, state, False)
-
-        config = dict(
-            model=model, method=method, gamma=gamma, lam=lam, area=area, length=length, fit=fit,
-            compare=bool(compare),
+    def table(self):
+        return _write_summary_table(
+            self.out_dir, self.records, self.folders, self.provenance, self.rows_cache,
+            self.failed, self.overwrite,
         )
-        # records are padded to a few bucket lengths (m·2^k, neighbours merged where a compile
-        # costs more than the padding: `plan_buckets`) and masked or cut back, so that a batch
-        # compiles a few programs: the law runs a bucket's records together under vmap; the
-        # gain tuning, the tracker and the refit run one record at a time. Steps equal to 12
-        # digits share a bucket (a time column's rounding differs by file); a record on an
-        # irregular clock is a bucket of its own, run at its length.
-        def step(r):
-            return float(f"{r.dt:.12g}")
 
-        plans = {}
-        for r, _ in todo:
-            if r.uniform:
-                plans.setdefault(step(r), []).append(r.time.size)
-        plans = {
-            dt: plan_buckets(sizes) if buckets else {n: n for n in sizes}
-            for dt, sizes in plans.items()
-        }
-
-        def pad(r):
-            return plans[step(r)][r.time.size]
-
-        groups = {}
-        for r, state in todo:
-            key = (pad(r), step(r)) if r.uniform else (None, r.name)
-            groups.setdefault(key, []).append((r, state))
-        def settle(r, state, result):
-            if isinstance(result, Exception):
-                fail(r, result)
-                finished(r, state, False)
+    def finished(self, r, state, ok):
+        if ok:
+            if state == "stale":
+                self.report.redone += 1
             else:
-                write(r, state, *result)
-            settled()
-
-        if client is None:
-            for b, ((num, dt), group) in enumerate(groups.items()):
-                # the first record of a bucket compiles its programs: say so
-                what = (
-                    f"{len(group)} record(s) padded to {num} samples" if num is not None
-                    else f"record {dt!r} on its own irregular clock"
-                )
-                bar.note(f"length bucket {b + 1}/{len(groups)} ({what}): compiling")
-                for r, state, result in _compute_group(group, num, dt, config, mesh):
-                    settle(r, state, result)
+                self.report.computed += 1
+            # the table is rebuilt at most once a second (each rebuild writes every row) and at
+            # the end; a killed run loses nothing: each record's summary.json is written before
+            # it counts as done, and the next run rebuilds the table from them
+            if time.perf_counter() - self.last_table >= TABLE_EVERY_S:
+                self.table()
+                self.last_table = time.perf_counter()
         else:
+            self.report.failed += 1
+        self.bar.update(failed=self.report.failed, skipped=self.report.skipped)
+
+    def fail(self, r, e):
+        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        self.failed.append((r.source, r.name, reason))
+
+    def settled(self):
+        """Counts the records whose figure and summary are written, or failed to be."""
+        for (r, state), error in self.figures.collect():
+            if error is not None:  # a bad figure fails its record only
+                self.fail(r, error)
+            self.finished(r, state, error is None)
+
+    def settle(self, r, state, result):
+        """A computed record (or its exception): its folder is written, its figure queued."""
+        if isinstance(result, Exception):
+            self.fail(r, result)
+            self.finished(r, state, False)
+        else:
+            columns, summary = result
             try:
-                for chunk, results in _on_dask(client, groups, config, bar):
-                    for i, state, result in results:
-                        settle(chunk[i][0], state, result)
-            except SchedulerLost:  # the table holds what was finished; a re-run resumes
-                bar.close()
-                _write_summary_table(
-                    out_dir, records, folders, provenance, rows_cache, failed, overwrite
+                summary["provenance"] = self.provenance[r.name]
+                write_table(self.folders[r.name], columns, self.figure_format)
+                inputs = r.inputs if self.record_figures else None
+                self.figures.add(
+                    (r, state), self.folders[r.name], columns, summary, inputs,
+                    self.figure_format,
                 )
-                raise
-        for _ in figures.drain():
-            settled()
-        settled()
-        bar.close()
-        rows = _write_summary_table(
-            out_dir, records, folders, provenance, rows_cache, failed, overwrite
-        )
-        report.unidentified = sum(
+            except Exception as e:  # noqa: BLE001
+                self.fail(r, e)
+                self.finished(r, state, False)
+        self.settled()
+
+    def compute_here(self, groups, config):
+        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
+        for b, ((num, dt), group) in enumerate(groups.items()):
+            # the first record of a bucket compiles its programs: say so
+            what = (
+                f"{len(group)} record(s) padded to {num} samples" if num is not None
+                else f"record {dt!r} on its own irregular clock"
+            )
+            self.bar.note(f"length bucket {b + 1}/{len(groups)} ({what}): compiling")
+            for r, state, result in _compute_group(group, num, dt, config, mesh):
+                self.settle(r, state, result)
+
+    def compute_on_dask(self, client, groups, config):
+        try:
+            for chunk, results in _on_dask(client, groups, config, self.bar):
+                for i, state, result in results:
+                    self.settle(chunk[i][0], state, result)
+        except SchedulerLost:  # the table holds what was finished; a re-run resumes
+            self.bar.close()
+            self.table()
+            raise
+
+    def tabulate(self):
+        """summary.csv, the overview figure and failures.csv (removed after a clean run)."""
+        rows = self.table()
+        self.report.unidentified = sum(
             str(row.get("kalman_identified")) == "False" for row in rows
         )
         if rows:
             from .._plotting import overview_figure
 
-            overview_figure(rows, out_dir / f"overview.{figure_format}", failed=len(failed))
-        path = out_dir / "failures.csv"
-        if failed:
-            order = sorted(failed, key=lambda x: (natural_key(x[1]), x[0]))
-            rows = [dict(file=f, record=n, reason=m) for f, n, m in order]
-            _write_table(path, rows)
+            overview_figure(
+                rows, self.out_dir / f"overview.{self.figure_format}", failed=len(self.failed)
+            )
+        path = self.out_dir / "failures.csv"
+        if self.failed:
+            order = sorted(self.failed, key=lambda x: (natural_key(x[1]), x[0]))
+            _write_table(path, [dict(file=f, record=n, reason=m) for f, n, m in order])
         else:
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()  # a clean run leaves no stale failures
-    return report

@@ -31,7 +31,8 @@ def _compute_group(group, num, dt, config, mesh=None):
 
     model, method, gamma, lam = (config[k] for k in ("model", "method", "gamma", "lam"))
     area, length, fit = config["area"], config["length"], config["fit"]
-    law = estimator(method) == "gradient"
+    # the law runs vmapped at its default order range; with --alpha-bounds, as identify_record
+    law = estimator(method) == "gradient" and "alpha_bounds" not in fit
     if mesh is None:
         mesh = jax.sharding.Mesh(np.array(jax.devices()), ("records",))
     prepared = []
@@ -93,9 +94,10 @@ def _compute_group(group, num, dt, config, mesh=None):
                         columns[k] = refit_cols[k]
                     summary["refit"] = refit_summary["refit"]
                     summary["disagreement"] = disagreement(columns, summary)
-            else:  # the tracker and/or the refit: one record at a time
+            else:  # the tracker and/or the refit (or the law): one record at a time
                 columns, summary = identify_record(
-                    r, model=model, method=method, area=area, length=length, pad_to=num, **fit,
+                    r, model=model, method=method, gamma=gamma, lam=lam, area=area,
+                    length=length, pad_to=num, **fit,
                 )
             if config.get("compare"):
                 summary["compare"] = compare_part(r, area, length)

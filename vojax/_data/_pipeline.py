@@ -92,7 +92,7 @@ def runs_refit(method) -> bool:
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
-    max_points=None, x0=None, threads=None, time_scale=None,
+    max_points=None, x0=None, threads=None, time_scale=None, alpha_bounds=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -104,12 +104,42 @@ def identify_record(
     tracker's, as in `vojax.identify` (its defaults when None); `x0`: the tracker's known
     offset of the output, in the unit of the file's output column (None: estimated);
     `time_scale`: the unit of time, in the file's, in which `parameters` holds (None: the
-    record's span, as in `vojax.identify`);
+    record's span, as in `vojax.identify`); `alpha_bounds` ``(lo, hi)``: the order's range
+    for every estimator run (None: each one's default);
     `threads`: the most threads the tracker's smoothings run in (None: its settings')."""
-    from .._identify import identify
-    from .._refit import refit
-
     method = canonical_method(method)
+    _check_record_options(record, model, method, origin, fit_from, fit_to)
+    check_parameters(method, parameters, max_points, x0, time_scale)
+    u, y, names, physical = regressors(record, model, area, length)
+    pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
+    columns = {"time": record.time}
+    summary = record_header(record, model, method, area, length)
+    tracker = estimator(method)
+    if tracker is not None:
+        settings = dict(
+            gamma=gamma, lam=lam, max_points=max_points, x0=x0, threads=threads,
+            time_scale=time_scale, parameters=parameters, alpha_bounds=alpha_bounds,
+        )
+        cols, summary[tracker] = _tracker_part(
+            record, tracker, u, y, physical, pad_to, model, length, settings
+        )
+        columns.update(cols)
+    columns["y"] = y  # between the tracker's columns and its fit, as the files have it
+    if tracker is not None:
+        columns["y_hat"] = columns.pop("y_hat")
+    if runs_refit(method):
+        options = refit_options(record, model, area, length, origin, fit_from, fit_to)
+        if alpha_bounds is not None:
+            options["order_bounds"] = tuple(alpha_bounds)
+        cols, summary["refit"] = _refit_part(record, u, y, physical, pad_to, options)
+        columns.update(cols)
+    summary["parameter_names"] = names
+    if tracker is not None and "refit" in summary:
+        summary["disagreement"] = disagreement(columns, summary)
+    return columns, summary
+
+
+def _check_record_options(record, model, method, origin, fit_from, fit_to):
     if model in REFIT_ONLY and estimator(method) is not None:
         raise ValueError(
             f"--model {model} has a spring (an order-0 term) that the adaptive law and the "
@@ -120,85 +150,87 @@ def identify_record(
             "--origin, --fit-from and --fit-to set the refit; use --method refit or "
             f"{method}+refit."
         )
-    check_parameters(method, parameters, max_points, x0, time_scale)
     silent = [n for n, col in zip(record.input_names, np.asarray(record.inputs).T) if not col.any()]
     if silent:
         raise ValueError(
             f"the input column {silent[0]!r} is 0 at every sample: nothing it drives can be "
             "identified (its coefficient is undetermined); leave it out of --input."
         )
-    u, y, names, physical = regressors(record, model, area, length)
-    grid = record.grid
-    pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
-    columns = {"time": record.time}
-    summary = record_header(record, model, method, area, length)
-    tracker = estimator(method)
+
+
+def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settings):
+    """The tracker's or the law's columns and summary for one record."""
+    from .._identify import identify
+
+    bounds = settings["alpha_bounds"]
+    extra = {} if bounds is None else {"alpha_bounds": tuple(bounds)}
     if tracker == "kalman":
-        extra = {} if max_points is None else {"max_points": max_points}
-        if x0 is not None:  # in the model's output, as the output column is
-            extra["x0"] = float(x0) / output_scale(model, length)
-        if time_scale is not None:
-            extra["time_scale"] = float(time_scale)
-        if threads is not None:
+        if settings["max_points"] is not None:
+            extra["max_points"] = settings["max_points"]
+        if settings["x0"] is not None:  # in the model's output, as the output column is
+            extra["x0"] = float(settings["x0"]) / output_scale(model, length)
+        if settings["time_scale"] is not None:
+            extra["time_scale"] = float(settings["time_scale"])
+        if settings["threads"] is not None:
             from .._settings import TrackerSettings
 
-            extra["settings"] = TrackerSettings(run_threads=threads)
+            extra["settings"] = TrackerSettings(run_threads=settings["threads"])
         res = _padded(
-            identify, u, y, pad_to, **grid, method="kalman", parameters=parameters, warn=False,
-            **extra,
+            identify, u, y, pad_to, **record.grid, method="kalman",
+            parameters=settings["parameters"], warn=False, **extra,
         )
-    elif tracker == "gradient":
-        res = identify(u, y, **grid, method="gradient", gamma=gamma, lam=lam, warn=False)
-    if tracker is not None:
-        cols, summary[tracker] = adaptive_part(res, y, physical)
-        columns.update(cols)
-    if tracker == "kalman" and "trade_off" in res.diagnostics.reasons:
-        summary["kalman"]["settling_test"] = settling_part(u, y, res, record.time,
-                                                           time_unit(record))
+    else:
+        res = identify(u, y, **record.grid, method="gradient", gamma=settings["gamma"],
+                       lam=settings["lam"], warn=False, **extra)
+    columns, summary = adaptive_part(res, y, physical)
+    columns["y_hat"] = np.asarray(res.y_hat)
     if tracker == "kalman":
-        summary["kalman"]["parameter_model"] = res.parameters
-        summary["kalman"]["offset_model"] = "estimated" if x0 is None else "known"
-    columns["y"] = y
-    if "alpha" in columns:
-        columns["y_hat"] = np.asarray(res.y_hat)
-    if runs_refit(method):
-        import optimistix as optx  # imported where it is used: 0.07 s of `import vojax`
+        if "trade_off" in res.diagnostics.reasons:
+            summary["settling_test"] = settling_part(u, y, res, record.time, time_unit(record))
+        summary["parameter_model"] = res.parameters
+        summary["offset_model"] = "estimated" if settings["x0"] is None else "known"
+    return columns, summary
 
-        options = refit_options(record, model, area, length, origin, fit_from, fit_to)
-        fit = _padded(refit, u, y, pad_to, **grid, **options, warn=False)
-        p = np.asarray(fit.p)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            phys = {k: float(v) for k, v in physical(p).items()}
-        # η = 1/p with p = 0 (held at its sign's bound, or 0 to rounding): the data bound the
-        # coefficient, not the parameter; written as null and named, not a failure
-        undetermined = [k for k, v in phys.items() if not np.isfinite(v)]
-        columns["refit_alpha"] = np.asarray(fit.order)
-        columns["refit_alpha_lower"] = np.asarray(fit.order_lower)
-        columns["refit_alpha_upper"] = np.asarray(fit.order_upper)
-        columns["refit_y_hat"] = np.asarray(fit.y_hat)
-        summary["refit"] = {
-            "order": float(fit.order[0]),
-            "order_stderr": float(fit.order_stderr[0]),
-            "order_lower": float(fit.order_lower[0]),
-            "order_upper": float(fit.order_upper[0]),
-            "at_bound": bool(fit.at_bound),
-            "p": p.tolist(),
-            "p_stderr": np.asarray(fit.p_stderr).tolist(),
-            "p_at_bound": list(fit.p_at_bound),
-            "parameters": phys,
-            "parameters_stderr": {
-                k: (float("inf") if k in undetermined else v)
-                for k, v in delta_stderr(physical, p, np.asarray(fit.p_cov)).items()
-            },
-            "parameters_undetermined": undetermined,
-            "x0": float(fit.x0),
-            "x0_stderr": float(fit.x0_stderr),
-            "nrmse": nrmse(y, fit.y_hat),
-            "converged": bool(fit.result == optx.RESULTS.successful),
-            "residual_correlation": float(fit.residual_correlation),
-            "error_inflation": float(fit.error_inflation),
-        }
-    summary["parameter_names"] = names
-    if tracker is not None and "refit" in summary:
-        summary["disagreement"] = disagreement(columns, summary)
+
+def _refit_part(record, u, y, physical, pad_to, options):
+    """The refit's columns and summary for one record."""
+    import optimistix as optx  # imported where it is used: 0.07 s of `import vojax`
+
+    from .._refit import refit
+
+    fit = _padded(refit, u, y, pad_to, **record.grid, **options, warn=False)
+    p = np.asarray(fit.p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phys = {k: float(v) for k, v in physical(p).items()}
+    # η = 1/p with p = 0 (held at its sign's bound, or 0 to rounding): the data bound the
+    # coefficient, not the parameter; written as null and named, not a failure
+    undetermined = [k for k, v in phys.items() if not np.isfinite(v)]
+    columns = {
+        "refit_alpha": np.asarray(fit.order),
+        "refit_alpha_lower": np.asarray(fit.order_lower),
+        "refit_alpha_upper": np.asarray(fit.order_upper),
+        "refit_y_hat": np.asarray(fit.y_hat),
+    }
+    summary = {
+        "order": float(fit.order[0]),
+        "order_stderr": float(fit.order_stderr[0]),
+        "order_lower": float(fit.order_lower[0]),
+        "order_upper": float(fit.order_upper[0]),
+        "at_bound": bool(fit.at_bound),
+        "p": p.tolist(),
+        "p_stderr": np.asarray(fit.p_stderr).tolist(),
+        "p_at_bound": list(fit.p_at_bound),
+        "parameters": phys,
+        "parameters_stderr": {
+            k: (float("inf") if k in undetermined else v)
+            for k, v in delta_stderr(physical, p, np.asarray(fit.p_cov)).items()
+        },
+        "parameters_undetermined": undetermined,
+        "x0": float(fit.x0),
+        "x0_stderr": float(fit.x0_stderr),
+        "nrmse": nrmse(y, fit.y_hat),
+        "converged": bool(fit.result == optx.RESULTS.successful),
+        "residual_correlation": float(fit.residual_correlation),
+        "error_inflation": float(fit.error_inflation),
+    }
     return columns, summary

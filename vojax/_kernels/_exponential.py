@@ -308,7 +308,7 @@ class ExponentialMemory(AbstractMemory):
         w_prev, w_cur = modal_weights(s, h[:, None], self.rule, jnp)
         return h, self.log_q[None, :] - s * h[:, None], jnp.exp(-s * h[:, None]), w_prev, w_cur
 
-    def history_fits(self, num: int, width: int) -> bool:
-        """Whether the whole order-free history of a record of this shape is stored (see
-        `HISTORY_LIMIT`)."""
-        return num * self.num_modes * width <= HISTORY_LIMIT
+    def history_fits(self, num: int, width: int, limit: int | None = None) -> bool:
+        """Whether the whole order-free history of a record of this shape is stored: at most
+        `limit` numbers (default `HISTORY_LIMIT`)."""
+        return num * self.num_modes * width <= (HISTORY_LIMIT if limit is None else limit)

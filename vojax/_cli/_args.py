@@ -1,0 +1,110 @@
+"""The parsed options turned into the library's calls: the records read, the settings of
+the identification, the record chosen."""
+
+import sys
+
+from ._types import CLIError
+
+# the refit's own options (a window and the test's start, in the file's time unit)
+FIT_OPTIONS = ("origin", "fit_from", "fit_to")
+
+
+def _load(path, args):
+    from .._data import load_records
+    from .._data._records import check_units
+
+    if (args.trim_column is None) != (args.trim_below is None):
+        raise CLIError("--trim-column and --trim-below go together.")
+    if args.decimal_comma and args.delimiter == ",":
+        raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
+    try:
+        check_units(getattr(args, "units", None), [args.time, *args.inputs, args.output])
+    except ValueError as e:
+        raise CLIError(str(e).replace("`units`", "--units")) from None
+    import warnings
+
+    # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        records = load_records(path, **_loader(args))
+    for w in caught:
+        print(f"vojax: warning: {w.message}", file=sys.stderr)
+    return records
+
+
+def _settings(args) -> dict:
+    """The options that set the identification."""
+    return dict(
+        model=args.model,
+        method=args.method,
+        gamma=args.gamma,
+        lam=args.lam,
+        area=args.area,
+        length=args.length,
+        **{k: getattr(args, k) for k in FIT_OPTIONS if getattr(args, k) is not None},
+        **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
+        **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
+        **({"x0": args.x0} if getattr(args, "x0", None) is not None else {}),
+        **({"time_scale": args.time_scale}
+           if getattr(args, "time_scale", None) is not None else {}),
+        **({"alpha_bounds": list(args.alpha_bounds)}
+           if getattr(args, "alpha_bounds", None) is not None else {}),
+        **({"compare": True} if getattr(args, "compare", False) else {}),
+    )
+
+
+def _loader(args) -> dict:
+    """The options that set how records are read."""
+    return dict(
+        time=args.time,
+        inputs=list(args.inputs),
+        output=args.output,
+        group_by=args.group_by,
+        strict=args.strict,
+        resample=args.resample,
+        trim_column=args.trim_column,
+        trim_below=args.trim_below,
+        delimiter=args.delimiter,
+        decimal="," if args.decimal_comma else ".",
+        **_afm_loader(args),
+        **({"units": args.units} if getattr(args, "units", None) else {}),
+    )
+
+
+def _afm_loader(args) -> dict:
+    """The AFM options, only where given (a CSV's provenance is unchanged by them)."""
+    from .._data._afm import check_tip
+
+    try:
+        check_tip(args.tip, args.poisson)
+    except ValueError as e:
+        raise CLIError(str(e)) from None
+    out = {}
+    if args.segments is not None:
+        out["segments"] = list(args.segments)
+    if args.no_contact:
+        out["from_contact"] = False
+    if args.tip is not None:
+        out["tip"] = args.tip
+    if args.poisson != 0.5:
+        out["poisson"] = args.poisson
+    return out
+
+
+def _select(records, args):
+    """`identify` works on one record: with --group-by, --record names it."""
+    names = [r.name for r in records]
+    if args.record is not None:
+        if args.group_by is None:
+            raise CLIError("--record selects a record of a long-format file: give --group-by too.")
+        chosen = [r for r in records if r.name == args.record]
+        if not chosen:
+            shown = ", ".join(repr(n) for n in names[:5]) + (", …" if len(names) > 5 else "")
+            raise CLIError(f"no record {args.record!r} in {args.file} (records: {shown}).")
+        return chosen
+    if len(records) > 1:
+        raise CLIError(
+            f"{args.file} holds {len(records)} records (--group-by {args.group_by}); identify "
+            f"takes one: add --record NAME (e.g. --record {names[0]!r}), or use vojax batch."
+        )
+    return records
