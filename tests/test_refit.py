@@ -392,3 +392,22 @@ def test_the_fit_does_not_depend_on_the_units_of_the_data(knots):
         np.testing.assert_allclose(np.asarray(b.p) * cu / cy, np.asarray(a.p), rtol=1e-6)
         assert float(b.x0) / cy == pytest.approx(float(a.x0), rel=1e-6, abs=1e-9 * np.ptp(y))
         assert float(b.sigma) / cy == pytest.approx(float(a.sigma), rel=1e-6)
+
+
+def test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_its_bound():
+    """The default start 0.5 on the lower bound of (0.5, 0.9): the fit starts just inside (its
+    logit would be −∞ there). Inside the range it finds the true 0.62 as from any start;
+    with the true order 0.35 below the range it ends at the bound, says so, and its band is
+    finite and within the range."""
+    y = _data(0.62, seed=0)
+    inside = vojax.refit(U, y, DT, x0=0.0, order_bounds=(0.5, 0.9))
+    free = vojax.refit(U, y, DT, x0=0.0)
+    assert inside.result == optx.RESULTS.successful and not inside.at_bound
+    assert float(inside.order[0]) == pytest.approx(float(free.order[0]), abs=1e-8)
+    low = _data(0.35, seed=0)
+    with pytest.warns(vojax.RefitWarning, match="sits at a bound"):
+        fit = vojax.refit(U, low, DT, x0=0.0, order_bounds=(0.5, 0.9))
+    assert fit.at_bound and float(fit.order[0]) == pytest.approx(0.5, abs=1e-4)
+    for name in ("order_lower", "order_upper", "order_stderr"):
+        assert np.all(np.isfinite(np.asarray(getattr(fit, name)))), name
+    assert 0.5 <= float(fit.order_lower[0]) <= float(fit.order[0]) <= float(fit.order_upper[0]) <= 0.9

@@ -178,6 +178,10 @@ def refit(
             lambda a: a[trim] if getattr(a, "shape", ()) and a.shape[0] == n_all else a, fit
         )
 
+    # the solver works on the order's logit: a start on a bound (the default 0.5 with
+    # order_bounds=(0.5, 0.9)) starts just inside it
+    margin = 1e-3 * (bounds[1] - bounds[0])
+    order0 = min(max(float(order0), bounds[0] + margin), bounds[1] - margin)
     solver = dict(order0=order0, bounds=bounds, estimate=estimate, rtol=rtol, atol=atol,
                   max_steps=max_steps, throw=throw)
     out, active = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
