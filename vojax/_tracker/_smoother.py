@@ -276,7 +276,7 @@ def _iterate(
     where it does not); after a step that does not, μ is scaled by ν, and ν doubles (ν = 2
     after an accepted step). A fixed tenfold fall and rise instead makes μ alternate between
     two values in a curved valley, every other step rejected and the accepted ones damped
-    too much (docs/identifiability.md, "Settings")."""
+    too much (docs/calibration.md, "The tracker's settings")."""
     TRACES["smoother"] += 1
     n = u.shape[1]
     q = hyper.process(steps, horizon, n)
