@@ -85,7 +85,8 @@ _MESSAGES = {
     ),
     Reason.AT_BOUND: lambda c: (
         f"the order sits at a bound of {c['bounds']} for {100 * c['at_bound']:.0f} % of samples "
-        "(widen `alpha_bounds`, or check that the model's inputs are the right ones)"
+        "(widen the range: alpha_bounds=, --alpha-bounds; or check that the model's inputs "
+        "are the right ones)"
     ),
     Reason.NOT_CONVERGED: lambda c: (
         "the estimation did not converge (look for steps or outliers in the data, or give "
