@@ -428,22 +428,39 @@ def test_identification_table_round_trips_floats_and_leaves_non_finite_blank(tmp
         write_table(tmp_path, columns, "jpg")
 
 
-def test_disjoint_bands_of_two_estimators_are_reported():
+def test_disjoint_bands_of_two_estimators_are_reported_with_what_the_data_support():
     """`disagreement`: the median bands over the second half, the tracker's against the
-    refit's interval: disjoint gives one sentence naming both, overlapping gives ""."""
+    refit's interval: overlapping gives "", disjoint one sentence naming both bands and
+    which the data support: the tracker's order where it is identified and the refit's
+    residuals are correlated, `compare` where they are white, neither where the tracker
+    does not identify the order or the paper's law ran."""
     from vojax._data._pipeline import disagreement
 
     n = 40
     lower = np.r_[np.full(n // 2, 0.1), np.full(n // 2, 0.30)]  # the first half does not count
     columns = {"alpha": np.full(n, 0.32), "alpha_lower": lower, "alpha_upper": lower + 0.04}
-    summary = {"kalman": {"method": "kalman"}, "refit": {"order_lower": 0.36, "order_upper": 0.4}}
+    refit = {"order_lower": 0.36, "order_upper": 0.4, "residual_correlation": 0.97}
+    summary = {"kalman": {"method": "kalman", "verdict": "identified"}, "refit": refit}
     text = disagreement(columns, summary)
     assert "the tracker ([0.3, 0.34]" in text and "refit ([0.36, 0.4])" in text
-    summary["refit"]["order_lower"] = 0.33
+    assert "the data support the tracker's order" in text and "lag-1 0.97" in text
+    refit["residual_correlation"] = 0.5  # at the warning's limit: not correlated
+    text = disagreement(columns, summary)
+    assert "residuals are white (lag-1 0.50)" in text and "vojax compare" in text
+    for verdict, said in (
+        ("not identified", "does not identify the order"),
+        ("conditional", "identifies the order only under a bound on the parameters' drift"),
+    ):
+        summary["kalman"]["verdict"] = verdict
+        text = disagreement(columns, summary)
+        assert f"report neither: the tracker {said}, and the refit's interval" in text, verdict
+    refit["order_lower"] = 0.33
     assert disagreement(columns, summary) == ""
     summary["gradient"] = summary.pop("kalman")
-    summary["refit"].update(order_lower=0.1, order_upper=0.29)
-    assert disagreement(columns, summary).startswith("the paper's law")
+    refit.update(order_lower=0.1, order_upper=0.29, residual_correlation=0.99)
+    text = disagreement(columns, summary)
+    assert text.startswith("the paper's law") and "report neither" in text
+    assert "no confidence band" in text and "the data support" not in text
 
 
 def test_tables_do_not_carry_spreadsheet_formulas(tmp_path):

@@ -115,19 +115,42 @@ def time_unit(record) -> str:
 def disagreement(columns, summary) -> str:
     """One sentence when the two estimators run on a record give disjoint order bands over
     the second half of the fitted samples (median of each bound), else ``""``: at most one of
-    them can be right, and neither band says so alone."""
+    them can be right, and the sentence says which the data support. The tracker's order is
+    the one to report where it is identified and the refit's residuals are correlated (a
+    constant order leaves part of the signal); neither where the tracker does not identify
+    the order (or the paper's law ran, whose band is no confidence band); and where the
+    refit's residuals are white, the residuals do not decide and `compare` ranks the laws."""
+    from .._refit import CORRELATED_RESIDUALS
+
     half = len(columns["alpha"]) // 2
     lo_a = float(np.median(columns["alpha_lower"][half:]))
     hi_a = float(np.median(columns["alpha_upper"][half:]))
-    lo_r, hi_r = summary["refit"]["order_lower"], summary["refit"]["order_upper"]
-    if hi_a < lo_r or hi_r < lo_a:
-        name = "the tracker" if "kalman" in summary else "the paper's law"
-        return (
-            f"{name} ([{lo_a:.3g}, {hi_a:.3g}] over the second half) and the constant-order "
-            f"refit ([{lo_r:.3g}, {hi_r:.3g}]) disagree: their bands are disjoint, so at least one "
-            "model is wrong for these data; compare both fits in the figure"
-        )
-    return ""
+    refit = summary["refit"]
+    lo_r, hi_r = refit["order_lower"], refit["order_upper"]
+    if not (hi_a < lo_r or hi_r < lo_a):
+        return ""
+    name = "the tracker" if "kalman" in summary else "the paper's law"
+    rho = refit.get("residual_correlation", float("nan"))
+    correlated = bool(np.isfinite(rho) and rho > CORRELATED_RESIDUALS)
+    lag = f"lag-1 {rho:.2f}" if np.isfinite(rho) else "lag-1 unknown"
+    verdict = summary.get("kalman", {}).get("verdict")
+    if verdict == "identified" and correlated:
+        support = (f"the data support the tracker's order: the refit's residuals are "
+                   f"correlated ({lag}), the part of the signal a constant order misses")
+    elif verdict == "identified":
+        support = (f"the refit's residuals are white ({lag}), so they do not decide between "
+                   "a moving and a constant order: rank the laws with vojax compare")
+    else:
+        said = {
+            None: "gives a band that is no confidence band",
+            "conditional": "identifies the order only under a bound on the parameters' drift",
+        }.get(verdict, "does not identify the order")
+        support = (f"report neither: {name} {said}, and the refit's interval holds only if "
+                   f"the order is constant ({lag})")
+    return (
+        f"{name} ([{lo_a:.3g}, {hi_a:.3g}] over the second half) and the constant-order "
+        f"refit ([{lo_r:.3g}, {hi_r:.3g}]) disagree, their bands disjoint; {support}"
+    )
 
 
 def _padded(fn, u, y, pad_to, **kwargs):
