@@ -489,8 +489,13 @@ MUTATIONS = {
     ),
     "disagreement reported for overlapping bands": (
         "vojax/_data/_parts.py",
-        [("    if hi_a < lo_r or hi_r < lo_a:", "    if True:")],
-        ["tests/test_outputs.py::test_disjoint_bands_of_two_estimators_are_reported"],
+        [("    if not (hi_a < lo_r or hi_r < lo_a):", "    if False:")],
+        ["tests/test_outputs.py::test_disjoint_bands_of_two_estimators_are_reported_with_what_the_data_support"],
+    ),
+    "disagreement credits the tracker without correlated refit residuals": (
+        "vojax/_data/_parts.py",
+        [('    if verdict == "identified" and correlated:', '    if verdict == "identified":')],
+        ["tests/test_outputs.py::test_disjoint_bands_of_two_estimators_are_reported_with_what_the_data_support"],
     ),
     "tables keep spreadsheet formulas": (
         "vojax/_data/_tables.py",
