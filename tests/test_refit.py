@@ -411,3 +411,35 @@ def test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_
     for name in ("order_lower", "order_upper", "order_stderr"):
         assert np.all(np.isfinite(np.asarray(getattr(fit, name)))), name
     assert 0.5 <= float(fit.order_lower[0]) <= float(fit.order[0]) <= float(fit.order_upper[0]) <= 0.9
+
+
+def test_the_second_opinion_also_starts_inside_a_bound():
+    """`refit_lbfgsb` from the default start 0.5 on the lower bound of (0.5, 0.9): its start's
+    logit would be −∞ and its coefficients NaN; started inside, it finds the same order and
+    coefficients as `refit` on the same record."""
+    pytest.importorskip("jaxopt")
+    from vojax._refit import refit_lbfgsb
+
+    n = 400
+    y = _data(0.62, seed=0)[:n]
+    lm = vojax.refit(U[:n], y, DT, x0=0.0, order_bounds=(0.5, 0.9))
+    beta, p = refit_lbfgsb(U[:n], y, DT, x0=0.0, order_bounds=(0.5, 0.9))
+    assert np.all(np.isfinite(np.asarray(p)))
+    assert abs(float(beta[0]) - float(lm.order[0])) < 0.1 * float(lm.order_stderr[0])
+    assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1
+
+
+@pytest.mark.parametrize("second_opinion", [False, True])
+def test_a_start_outside_the_range_is_named_in_the_refits_own_words(second_opinion):
+    """The message names `order0` and `order_bounds`, the arguments the caller gave (not the
+    tracker's `alpha0` and `alpha_bounds`)."""
+    if second_opinion:
+        pytest.importorskip("jaxopt")
+        from vojax._refit import refit_lbfgsb as fit
+    else:
+        fit = vojax.refit
+    y = _data(0.62, seed=0)
+    with pytest.raises(ValueError, match=r"`order0` must lie inside `order_bounds` \(0.1, 0.4\)"):
+        fit(U, y, DT, x0=0.0, order0=0.5, order_bounds=(0.1, 0.4))
+    with pytest.raises(ValueError, match="`order0` must be a positive finite number"):
+        fit(U, y, DT, x0=0.0, order0=float("nan"))

@@ -14,6 +14,7 @@ from ._refit_inputs import (
     _from_origin,
     _num_knots,
     _signs,
+    _start,
     _weights,
 )
 from ._validate import check_options
@@ -144,6 +145,7 @@ def refit(
     u, y, dt, t = check.record_arguments(u, y, dt, t, call="refit")
     bounds = check.interval(order_bounds, "order_bounds")
     estimate = _check_x0(x0, origin)
+    order0 = _start(order0, bounds)
     u2, y, _, x0, _ = check_options(
         u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None, t=t
     )
@@ -178,10 +180,6 @@ def refit(
             lambda a: a[trim] if getattr(a, "shape", ()) and a.shape[0] == n_all else a, fit
         )
 
-    # the solver works on the order's logit: a start on a bound (the default 0.5 with
-    # order_bounds=(0.5, 0.9)) starts just inside it
-    margin = 1e-3 * (bounds[1] - bounds[0])
-    order0 = min(max(float(order0), bounds[0] + margin), bounds[1] - margin)
     solver = dict(order0=order0, bounds=bounds, estimate=estimate, rtol=rtol, atol=atol,
                   max_steps=max_steps, throw=throw)
     out, active = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
@@ -315,6 +313,7 @@ def refit_lbfgsb(
     except ImportError:  # pragma: no cover - depends on the environment
         raise ImportError("refit_lbfgsb needs jaxopt: pip install 'vojax[jaxopt]'.") from None
     bounds = check.interval(order_bounds, "order_bounds")
+    order0 = _start(order0, bounds)
     u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)
     num, width = u2.shape
     if order == "constant":

@@ -17,6 +17,16 @@ def _check_x0(x0, origin) -> bool:
     return estimate
 
 
+def _start(order0, bounds) -> float:
+    """The solver's start: `order0` checked against `order_bounds` and, where it lies on a bound,
+    moved 1e-3 of the range inside (both solvers work where the order's logit is finite)."""
+    a0 = float(np.asarray(check.step(order0, "order0")))
+    if not bounds[0] <= a0 <= bounds[1]:
+        raise ValueError(f"`order0` must lie inside `order_bounds` {tuple(bounds)}, got {a0}.")
+    margin = 1e-3 * (bounds[1] - bounds[0])
+    return min(max(a0, bounds[0] + margin), bounds[1] - margin)
+
+
 def _num_knots(order, num):
     """The order's knots: 1 (``"constant"``), K, or None for a fixed (N,) order."""
     if isinstance(order, str):
