@@ -145,6 +145,18 @@ MUTATIONS = {
         [("qo = jnp.exp(self.log_q_order) * frac", "qo = jnp.exp(self.log_q_order) * frac * 2")],
         ["tests/test_tracker.py"],
     ),
+    "the second opinion starts on a bound of the order's range": (
+        "vojax/_refit.py",
+        [("    order0 = _start(order0, bounds)\n    u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)",
+          "    u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)")],
+        ["tests/test_refit.py::test_the_second_opinion_also_starts_inside_a_bound"],
+    ),
+    "a refit's start left on the bound (no margin)": (
+        "vojax/_refit_inputs.py",
+        [("margin = 1e-3 * (bounds[1] - bounds[0])\n    return", "margin = 0.0 * (bounds[1] - bounds[0])\n    return")],
+        ["tests/test_refit.py::test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_its_bound",
+         "tests/test_refit.py::test_the_second_opinion_also_starts_inside_a_bound"],
+    ),
     "refit mask ignored in the residuals": (
         "vojax/_refit_solve.py",
         [("        * sw / y_scale,\n        optx.LevenbergMarquardt(", "        / y_scale,\n        optx.LevenbergMarquardt(")],
