@@ -98,7 +98,7 @@ def identify(
       the tracker holds it there. A known offset removes a trade-off that one input leaves:
       a lower order with larger parameters and a shifted offset can fit a record almost as
       well; with the parameters stated constant as well, it narrows the band most
-      (`docs/identifiability.md`). Give it only where it is measured: a wrong offset moves
+      (`docs/tracker.md`). Give it only where it is measured: a wrong offset moves
       the order.
     - `r0`: the law's initial information ``R_0``: ``"auto"`` (the default, None: one sample's worth at
       α̂(0), scaled to the inputs), or an ``(n, n)`` matrix taken literally (the paper's
