@@ -157,6 +157,32 @@ MUTATIONS = {
         ["tests/test_refit.py::test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_its_bound",
          "tests/test_refit.py::test_the_second_opinion_also_starts_inside_a_bound"],
     ),
+    "a step the call already took suggested again": (
+        "vojax/_diagnostics.py",
+        [("for step in r.steps(**context) if step not in set(given)",
+          "for step in r.steps(**context) if True")],
+        ["tests/test_steps.py::test_steps_the_call_already_took_are_not_suggested_again"],
+    ),
+    "the same step said once per reason": (
+        "vojax/_diagnostics.py",
+        [("steps = tuple(dict.fromkeys(", "steps = tuple(list(")],
+        ["tests/test_steps.py::test_steps_of_several_reasons_are_said_once_each"],
+    ),
+    "a command-line step names an option the command does not have": (
+        "vojax/_steps.py",
+        [('"widen the order\'s range: --alpha-bounds LO,HI"', '"widen the order\'s range: --alpha-range LO,HI"')],
+        ["tests/test_steps.py"],
+    ),
+    "the command prints the next steps in Python's words": (
+        "vojax/_cli/_commands.py",
+        [('said = say(a["finding"], a["next_steps"], "cli")', 'said = a["message"]')],
+        ["tests/test_data_cli.py::test_cli_identify_end_to_end"],
+    ),
+    "the tracker forgets that the offset was given": (
+        "vojax/_tracker/_estimator.py",
+        [("(self.x0 is not None, Step.X0)", "(False, Step.X0)")],
+        ["tests/test_steps.py::test_the_tracker_names_what_its_options_already_said"],
+    ),
     "refit mask ignored in the residuals": (
         "vojax/_refit_solve.py",
         [("        * sw / y_scale,\n        optx.LevenbergMarquardt(", "        / y_scale,\n        optx.LevenbergMarquardt(")],

@@ -14,6 +14,7 @@ import pytest
 
 import vojax
 from vojax._data import DataError, load_records
+from vojax._steps import say
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 DT = 0.1
@@ -197,6 +198,17 @@ def test_cli_identify_end_to_end(tmp_path, method):
         # η = 1/p: its error by the delta method is p's relative error times η
         rel = r["p_stderr"][0] / r["p"][0]
         assert r["parameters_stderr"]["eta"] == pytest.approx(rel * r["parameters"]["eta"], rel=1e-9)
+    if method.startswith("gradient"):  # the law's band is never a confidence band
+        a = summary["gradient"]
+        assert "no_confidence" in a["reasons"] and "kalman" in a["next_steps"]
+    for key in set(summary) & {"kalman", "gradient"}:
+        a = summary[key]
+        if a["message"]:  # said on stderr in the command's words, its steps numbered
+            said = say(a["finding"], a["next_steps"], "cli")
+            assert said in proc.stderr, proc.stderr
+            assert "='" not in proc.stderr  # no Python keyword (method='kalman', …)
+    if method.startswith("gradient"):
+        assert "use --method kalman for an order with a confidence band" in proc.stderr
     if method.startswith("kalman"):
         a = summary["kalman"]
         assert a["method"] == "kalman" and a["converged"]
@@ -517,6 +529,8 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
         summary = json.loads((tmp_path / "out" / r["folder"] / "summary.json").read_text())
         assert r["verdict"] == summary["kalman"]["verdict"]
         assert r["reasons"] == ";".join(summary["kalman"]["reasons"])
+        assert r["next_steps"] == ";".join(summary["kalman"]["next_steps"])
+    assert rows["noise"]["next_steps"] and not rows["clean"]["next_steps"]
     # a drift bound on the command line is the tracker's statement, in its summary
     proc = _cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--out", "bounded", "--parameters", "0.2", cwd=tmp_path)

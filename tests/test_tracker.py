@@ -572,7 +572,7 @@ def test_diagnostics_refuse_unconverged_or_noise_at_its_floor():
     still = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("parameter_drift (lower edge)",))
     assert still.identified and still.message == ""
     gains = diagnose(alpha, lo, hi, (0.01, 0.99), True, ("gamma",))
-    assert "gamma at the edge of the search box (give the gains" in gains.message
+    assert "gamma at the edge of the search box. Next: (1) give the gains" in gains.message
     wide = diagnose(alpha, alpha - 0.3, alpha + 0.3, (0.01, 0.99), True, ())
     assert not wide.identified and "±0.3 wide" in wide.message
     stuck = diagnose(np.full(100, 0.99), lo, hi, (0.01, 0.99), True, ())

@@ -67,6 +67,7 @@ from ._results import Summary as Summary
 from ._settling import SettlingTest as SettlingTest
 from ._settling import settling_test as settling_test
 from ._simulate import simulate as simulate
+from ._steps import Step as Step
 from ._study import simulate_study as simulate_study
 from ._study import study_signals as study_signals
 from ._tracker import Tracker as Tracker

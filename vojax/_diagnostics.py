@@ -8,6 +8,7 @@ import numpy as np
 
 from ._settings import TrackerSettings
 from ._stats import correlation_limit
+from ._steps import Step, say
 
 # the tracker's measurement-noise intensities (white; or white and coloured parts): at an edge
 # of their search box (the lower edges of the two parts are named "… (lower edge)") the band
@@ -17,6 +18,12 @@ NOISE_EDGES = frozenset({"noise", "white_noise", "coloured_noise"})
 
 class IdentifiabilityWarning(UserWarning):
     """The data do not pin the order down: its band is wide, or the estimate sits at a bound."""
+
+
+LAW_BAND = (
+    "the paper's law gives no confidence band (its ±2σ is the spread over the measurement "
+    "noise, without its tracking error, and misses the truth on simulated records)"
+)
 
 
 class Reason(enum.StrEnum):
@@ -37,16 +44,21 @@ class Reason(enum.StrEnum):
     UNSTABLE = "unstable"  # the law's linearisation is unstable at these gains
     NO_CONFIDENCE = "no_confidence"  # the paper's law gives no confidence band
 
-    def render(self, **c) -> str:
-        """This reason's clause of the message, from its context `c` (see `diagnose`)."""
-        return _MESSAGES[self](c)
+    def render(self, interface: str = "python", **c) -> str:
+        """This reason's clause of the message from its context `c` (see `diagnose`): what
+        is wrong, then its numbered next steps in the words of `interface` ("python" or
+        "cli")."""
+        return say(self.finding(**c), self.steps(**c), interface)
 
+    def finding(self, **c) -> str:
+        """What is wrong, from the context `c`, without the next steps."""
+        return _FINDINGS[self](c)
 
-LAW_BAND = (
-    "the paper's law gives no confidence band (its ±2σ is the spread over the measurement "
-    "noise, without its tracking error, and misses the truth on simulated records): use "
-    "method='kalman' for an order with a confidence band"
-)
+    def steps(self, **c) -> tuple[Step, ...]:
+        """What would help, most useful first."""
+        if self is Reason.TRADE_OFF and c.get("conditional"):
+            return (Step.PARAMETERS_CONSTANT, Step.SETTLING_TEST)
+        return _STEPS[self]
 
 
 def _trade_off(c):
@@ -59,76 +71,71 @@ def _trade_off(c):
             f"the data as well{where}; with the parameters drifting less than "
             f"{100 * c['breakdown']:.0f} % over the record the band is ±{c['cond_width']:.2g} "
             "(the conditional answer: `conditional` of the result), and beyond that drift an "
-            "order outside it fits as well. Where the parameters are known not to drift, say "
-            "so (parameters='constant', --parameters constant); otherwise a test with an "
-            "oscillation superposed on the load would separate them (vojax.settling_test "
-            "gives its frequency and the band it would give)"
+            "order outside it fits as well"
         )
     return (
         f"the order band is ±{c['width']:.2g} wide because a drifting parameter explains the "
         f"data as well{where}: an order and a drifting parameter can trade off (with one "
-        "input they always do), and the band covers both; if the parameters are known not "
-        "to drift, say so (parameters='constant', --parameters constant), and the output's "
-        "offset where it is measured (x0=, --x0); otherwise a test with an oscillation "
-        "superposed on the load would separate them (vojax.settling_test gives its frequency "
-        "and the band it would give)"
+        "input they always do), and the band covers both"
     )
 
 
-_MESSAGES = {
+_FINDINGS = {
     Reason.TRADE_OFF: _trade_off,
     Reason.WIDE_BAND: lambda c: (
-        f"the order band is ±{c['width']:.2g} wide: these data do not determine the order "
-        "(a test with a longer hold or a second input would, or the output's offset where "
-        "it is measured (x0=, --x0), or a refit with fewer free parameters: a constant "
-        "order or a few knots)"
+        f"the order band is ±{c['width']:.2g} wide: these data do not determine the order"
     ),
     Reason.AT_BOUND: lambda c: (
-        f"the order sits at a bound of {c['bounds']} for {100 * c['at_bound']:.0f} % of samples "
-        "(widen the range: alpha_bounds=, --alpha-bounds; or check that the model's inputs "
-        "are the right ones)"
+        f"the order sits at a bound of {c['bounds']} for {100 * c['at_bound']:.0f} % of samples"
     ),
-    Reason.NOT_CONVERGED: lambda c: (
-        "the estimation did not converge (look for steps or outliers in the data, or give "
-        "`noise=` with the known noise level)"
-    ),
+    Reason.NOT_CONVERGED: lambda c: "the estimation did not converge",
     Reason.NOISE_AT_EDGE: lambda c: (
         "the measurement noise was tuned to the edge of its range (an output almost free "
         "of noise, or drifting states that absorb the misfit): the band is not a "
-        "statement about the data; give `noise=` with the instrument's noise level"
+        "statement about the data"
     ),
     Reason.HELD_SHIFT: lambda c: (
         f"the order trades off with the parameters' drift: with the parameters held it "
-        f"moves by {c['held_shift']:.2g}, more than its band (±{c['width']:.2g}); a second "
-        "input or a test with another loading would separate them"
+        f"moves by {c['held_shift']:.2g}, more than its band (±{c['width']:.2g})"
     ),
     Reason.DRIFT_AT_EDGE: lambda c: (
         f"{', '.join(c['drifts'])} at the upper edge of the search box: the states move as "
         "fast as the model allows, which suggests the model misses part of the physics "
-        "(another element, a nonlinearity; compare models with vojax.compare)"
+        "(another element, a nonlinearity)"
     ),
-    Reason.SETTING_AT_EDGE: lambda c: (
-        f"{', '.join(c['others'])} at the edge of the search box (give the gains yourself, or "
-        "use method='kalman')"
-    ),
+    Reason.SETTING_AT_EDGE: lambda c: f"{', '.join(c['others'])} at the edge of the search box",
     Reason.CORRELATED: lambda c: (
         f"the prediction errors are correlated (lag-1 autocorrelation {c['correlation']:.2f} "
         f"> {c['limit']:.2g}): the model misses part of the signal, or the measurement noise "
         "is coloured in a way that neither white noise nor white plus AR(1) noise explains, "
-        "and the band is too narrow; resample to a coarser clock, on which the noise "
-        "decorrelates between samples, or give `noise=` with the known noise level"
+        "and the band is too narrow"
     ),
     Reason.COARSE_BLOCKS: lambda c: (
         f"the record was averaged in blocks of {c['block']} samples, and the coarser clock "
         f"misrepresents it (its model error is {c['block_error']:.2g} times the noise of a "
-        "block mean): pass a larger `max_points` (--max-points) for finer blocks"
+        "block mean)"
     ),
     Reason.UNSTABLE: lambda c: (
         f"the law is unstable at these gains: from sample {c['unstable_from']} its spread over "
         "the measurement noise is wider than the order's range (a change of the data in their "
-        "last digits moves the order); use a smaller `gamma`"
+        "last digits moves the order)"
     ),
     Reason.NO_CONFIDENCE: lambda c: LAW_BAND,
+}
+
+_STEPS = {
+    Reason.TRADE_OFF: (Step.PARAMETERS_CONSTANT, Step.X0, Step.SETTLING_TEST),
+    Reason.WIDE_BAND: (Step.LONGER_TEST, Step.X0, Step.REFIT),
+    Reason.AT_BOUND: (Step.ALPHA_BOUNDS, Step.INPUTS),
+    Reason.NOT_CONVERGED: (Step.OUTLIERS, Step.NOISE),
+    Reason.NOISE_AT_EDGE: (Step.NOISE, Step.PARAMETERS_CONSTANT),
+    Reason.HELD_SHIFT: (Step.PARAMETERS_CONSTANT, Step.SETTLING_TEST),
+    Reason.DRIFT_AT_EDGE: (Step.COMPARE,),
+    Reason.SETTING_AT_EDGE: (Step.GAINS,),
+    Reason.CORRELATED: (Step.COMPARE, Step.COARSER_CLOCK, Step.NOISE),
+    Reason.COARSE_BLOCKS: (Step.MAX_POINTS,),
+    Reason.UNSTABLE: (Step.SMALLER_GAMMA,),
+    Reason.NO_CONFIDENCE: (Step.KALMAN,),
 }
 
 
@@ -149,8 +156,12 @@ class Diagnostics:
       is at a bound for < 5 % of samples, the estimation converged, and the measurement noise
       was not tuned to the edge of its range (where the band would not be a statement about
       the data).
-    - `message`: one sentence when something is wrong, else ``""``: the clauses of `reasons`.
+    - `message`: one sentence when something is wrong, else ``""``: `finding`, then the
+      numbered `next_steps` in Python's words (`say` gives them in the command line's).
     - `reasons`: the names (`Reason` values) of what is wrong, in the message's order.
+    - `finding`: the clauses of `reasons`, what is wrong, without the next steps.
+    - `next_steps`: the names (`Step` values) of what would help, most useful first, none
+      that the call already gave (its `parameters`, `x0` or `noise`).
     - `innovation_correlation`: lag-1 autocorrelation of the one-step prediction errors
       (innovations) over the fitted samples; white noise and a right model give about 0.
       Above `correlation_limit` (3/√n for n innovations, within 0.1–0.25) the tracker's
@@ -180,6 +191,13 @@ class Diagnostics:
     conditional_halfwidth: float = float("nan")
     breakdown_drift: float = float("nan")
     reference_drift: float = float("nan")
+    finding: str = ""
+    next_steps: tuple[str, ...] = ()
+
+    def say(self, interface: str = "python") -> str:
+        """The message in the words of `interface`: ``"python"`` (`message`) or ``"cli"``
+        (the ``vojax`` command's options)."""
+        return say(self.finding, self.next_steps, interface)
 
 
 def _nan_or(value):
@@ -190,7 +208,7 @@ def diagnose(
     alpha, lower, upper, bounds, converged, at_edge, held_shift=None, *, calibrated=True,
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
     drift_covered=False, block=1, block_error=None, noise_correlation=None, settings=None,
-    conditional=None, breakdown_drift=float("nan"), reference_drift=float("nan"),
+    conditional=None, breakdown_drift=float("nan"), reference_drift=float("nan"), given=(),
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -206,7 +224,9 @@ def diagnose(
     coloured noise part's correlation between samples, or None for white noise. `settings`:
     the thresholds (a `TrackerSettings`; its defaults where None). `conditional`: the
     conditional band ``(lower, upper)`` (while the parameters drift less than
-    `breakdown_drift`; the answer's own parameters drift by `reference_drift`), or None."""
+    `breakdown_drift`; the answer's own parameters drift by `reference_drift`), or None.
+    `given`: the `Step`s the call already took (its `parameters`, `x0`, `noise`), which the
+    message does not suggest again."""
     s = TrackerSettings() if settings is None else settings
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
@@ -263,9 +283,13 @@ def diagnose(
                else "not identified")
     context.update(conditional=conditional_answer, cond_width=cond_width,
                    breakdown=breakdown_drift)
+    finding = "; ".join(r.finding(**context) for r in reasons)
+    steps = tuple(dict.fromkeys(
+        step.value for r in reasons for step in r.steps(**context) if step not in set(given)
+    ))
     return Diagnostics(
         width, at_bound, bool(converged), tuple(at_edge), identified,
-        "; ".join(r.render(**context) for r in reasons), correlation, int(block),
-        _nan_or(block_error), _nan_or(noise_correlation), tuple(r.value for r in reasons),
-        verdict, cond_width, float(breakdown_drift), float(reference_drift),
+        say(finding, steps), correlation, int(block), _nan_or(block_error),
+        _nan_or(noise_correlation), tuple(r.value for r in reasons), verdict, cond_width,
+        float(breakdown_drift), float(reference_drift), finding, steps,
     )

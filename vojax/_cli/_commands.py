@@ -6,6 +6,7 @@ import sys
 import time
 from pathlib import Path
 
+from .._steps import say
 from ._args import _load, _loader, _select, _settings
 from ._options import _law_options
 from ._types import CLIError
@@ -117,7 +118,8 @@ def identify_command(args) -> int:
                 + (f"; {a['answer']}" if "answer" in a else "")
             )
             if a["message"]:
-                print(f"vojax: warning: {record.name}: {a['message']}.", file=sys.stderr)
+                said = say(a["finding"], a["next_steps"], "cli")
+                print(f"vojax: warning: {record.name}: {said}.", file=sys.stderr)
             if a.get("settling_test"):
                 print(f"vojax: {record.name}: the test that would settle the order: "
                       f"{a['settling_test']['sentence']} (vojax.settling_test).",

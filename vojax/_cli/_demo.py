@@ -125,6 +125,6 @@ def _tracker(data, args):
         **study_errors(data["t"], data["alpha"], data["p"], tracker),
         **band_coverage(data["t"], data["alpha"], tracker),
         "identified": bool(tracker.diagnostics.identified),
-        "message": tracker.diagnostics.message,
+        "message": tracker.diagnostics.say("cli"),
         "time_identify_s": time.perf_counter() - started,
     }

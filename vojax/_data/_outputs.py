@@ -17,6 +17,7 @@ def diagnostics_dict(d):
     out = dataclasses.asdict(d)
     out["at_edge"] = list(out["at_edge"])
     out["reasons"] = list(out["reasons"])
+    out["next_steps"] = list(out["next_steps"])
     return out
 
 

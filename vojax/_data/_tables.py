@@ -40,6 +40,7 @@ def _summary_row(summary):
         row["verdict"] = part.get("verdict")
         row["breakdown_drift"] = part.get("breakdown_drift")
         row["reasons"] = ";".join(part.get("reasons") or ())
+        row["next_steps"] = ";".join(part.get("next_steps") or ())
     if "disagreement" in summary:
         row["disagreement"] = summary["disagreement"]
     if "compare" in summary:

@@ -13,6 +13,7 @@ from .._identification import Conditional, Identification
 from .._integral import make_memory
 from .._settings import TrackerSettings
 from .._stats import prediction_error_correlation
+from .._steps import Step
 from .._xla import to_device
 from ._blocks import block_size, fit_blocks
 from ._fit import fit_points
@@ -198,5 +199,11 @@ class Tracker:
             drift_covered=res.drift_covered, block=size, block_error=fit.get("block_error"),
             noise_correlation=res.tuning.noise_correlation, settings=self.settings,
             conditional=conditional, breakdown_drift=res.breakdown_drift,
-            reference_drift=res.reference_drift,
+            reference_drift=res.reference_drift, given=self._given(),
         )
+
+    def _given(self):
+        """The next steps this tracker's options already took: not suggested again."""
+        taken = [(self.parameters != "free", Step.PARAMETERS_CONSTANT),
+                 (self.x0 is not None, Step.X0), (self.noise is not None, Step.NOISE)]
+        return tuple(step for done, step in taken if done)
