@@ -75,9 +75,9 @@ def _trade_off(**kw):
 def test_steps_the_call_already_took_are_not_suggested_again():
     free = _trade_off()
     assert free.reasons == ("trade_off",)
-    assert free.next_steps == ("parameters_constant", "x0", "settling_test")
+    assert free.next_steps == ("parameters_constant", "time_scale", "x0", "settling_test")
     told = _trade_off(given=(Step.PARAMETERS_CONSTANT, Step.X0))
-    assert told.next_steps == ("settling_test",)
+    assert told.next_steps == ("time_scale", "settling_test")
     assert told.message == told.finding + ". Next: (1) " + told.message.split("(1) ")[1]
     assert "parameters='constant'" not in told.message and "x0=" not in told.message
     assert free.say("cli") == say(free.finding, free.next_steps, "cli")
@@ -92,8 +92,8 @@ def test_steps_of_several_reasons_are_said_once_each():
     d = diagnose(alpha, alpha - 0.3, alpha + 0.3, (0.01, 0.99), True, (), held_shift=0.5,
                  trade=(0.1, 0.7), samples=n, correlation=0.9)
     assert d.reasons == ("trade_off", "held_shift", "correlated")
-    assert d.next_steps == ("parameters_constant", "x0", "settling_test", "compare",
-                            "coarser_clock", "noise")
+    assert d.next_steps == ("parameters_constant", "time_scale", "x0", "settling_test",
+                            "compare", "coarser_clock", "noise")
     assert d.message.count("parameters='constant'") == 1
 
 
@@ -104,3 +104,4 @@ def test_the_tracker_names_what_its_options_already_said():
     assert vojax.Tracker(parameters=0.2)._given() == (Step.PARAMETERS_CONSTANT,)
     noise = {"order_drift": 1.0, "parameter_drift": 1e-3, "noise_std": 0.01}
     assert vojax.Tracker(noise=noise)._given() == (Step.NOISE,)
+    assert vojax.Tracker(time_scale=1.0)._given() == (Step.TIME_SCALE,)

@@ -245,3 +245,46 @@ def test_a_record_carries_its_clock_into_refit_and_compare(tmp_path):
         vojax.compare(rec, t=rec.time)
     with pytest.raises(TypeError, match="`strain` .* is missing"):
         vojax.compare(rec.inputs)
+
+
+def _constant_in_seconds():
+    """A 1,000-s staircase whose order rises from 0.3 to 0.6 mid-record, its parameter
+    constant in seconds: on the tracker's default clock (time over the record's span) that
+    parameter drifts as 1000^α(t), by a factor of 8 over the record."""
+    n, span = 400, 1000.0
+    t = np.linspace(0.0, span, n)
+    u = 1.0 + 0.5 * np.floor(4 * t / span)
+    alpha = 0.3 + 0.3 / (1 + np.exp(-(t - span / 2) / (span / 40)))
+    x = np.asarray(vojax.simulate(u, alpha, np.array([1.0]), t[1] - t[0]))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(0).standard_normal(n)
+    return u, y, t[1] - t[0], alpha, t > span / 2
+
+
+def _second_half(res, alpha, half):
+    lower, upper = np.asarray(res.alpha_lower), np.asarray(res.alpha_upper)
+    covered = float(np.mean(((alpha >= lower) & (alpha <= upper))[half]))
+    rms = float(np.sqrt(np.mean((np.asarray(res.alpha) - alpha)[half] ** 2)))
+    return covered, rms
+
+
+@pytest.mark.slow
+def test_the_unit_in_which_the_parameter_is_constant_stated_finds_the_order():
+    """Stated (`time_scale=1`: constant in seconds), the tracker follows the rising order
+    within 0.01 over the second half and its band holds it at every sample there."""
+    u, y, dt, alpha, half = _constant_in_seconds()
+    covered, rms = _second_half(vojax.identify(u, y, dt, time_scale=1.0, warn=False), alpha,
+                                half)
+    assert covered == 1.0 and rms < 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "the default's band assumes the parameters constant on the record's span (unit-free); a "
+    "parameter constant in seconds drifts on that clock as span^alpha(t) when the order moves, "
+    "and the band misses the truth (coverage 0.41, order RMS 0.32 over the second half); no "
+    "explanation at another time scale is weighed into the band yet"))
+def test_the_default_band_holds_an_order_whose_parameter_is_constant_in_another_unit():
+    u, y, dt, alpha, half = _constant_in_seconds()
+    res = vojax.identify(u, y, dt, warn=False)
+    covered, _ = _second_half(res, alpha, half)
+    assert covered >= 0.9

@@ -57,7 +57,7 @@ class Reason(enum.StrEnum):
     def steps(self, **c) -> tuple[Step, ...]:
         """What would help, most useful first."""
         if self is Reason.TRADE_OFF and c.get("conditional"):
-            return (Step.PARAMETERS_CONSTANT, Step.SETTLING_TEST)
+            return (Step.PARAMETERS_CONSTANT, Step.TIME_SCALE, Step.SETTLING_TEST)
         return _STEPS[self]
 
 
@@ -124,12 +124,12 @@ _FINDINGS = {
 }
 
 _STEPS = {
-    Reason.TRADE_OFF: (Step.PARAMETERS_CONSTANT, Step.X0, Step.SETTLING_TEST),
-    Reason.WIDE_BAND: (Step.LONGER_TEST, Step.X0, Step.REFIT),
+    Reason.TRADE_OFF: (Step.PARAMETERS_CONSTANT, Step.TIME_SCALE, Step.X0, Step.SETTLING_TEST),
+    Reason.WIDE_BAND: (Step.LONGER_TEST, Step.TIME_SCALE, Step.X0, Step.REFIT),
     Reason.AT_BOUND: (Step.ALPHA_BOUNDS, Step.INPUTS),
     Reason.NOT_CONVERGED: (Step.OUTLIERS, Step.NOISE),
     Reason.NOISE_AT_EDGE: (Step.NOISE, Step.PARAMETERS_CONSTANT),
-    Reason.HELD_SHIFT: (Step.PARAMETERS_CONSTANT, Step.SETTLING_TEST),
+    Reason.HELD_SHIFT: (Step.PARAMETERS_CONSTANT, Step.TIME_SCALE, Step.SETTLING_TEST),
     Reason.DRIFT_AT_EDGE: (Step.COMPARE,),
     Reason.SETTING_AT_EDGE: (Step.GAINS,),
     Reason.CORRELATED: (Step.COMPARE, Step.COARSER_CLOCK, Step.NOISE),

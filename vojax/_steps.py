@@ -10,6 +10,7 @@ class Step(enum.StrEnum):
 
     PARAMETERS_CONSTANT = "parameters_constant"  # state that the parameters do not drift
     X0 = "x0"  # give the measured offset of the output
+    TIME_SCALE = "time_scale"  # state the unit of time in which the parameters are constant
     SETTLING_TEST = "settling_test"  # a test with an oscillation on the load
     LONGER_TEST = "longer_test"  # a longer hold or a second input
     REFIT = "refit"  # a refit with fewer free parameters
@@ -35,6 +36,12 @@ _WORDS = {
     Step.X0: (
         "give the output's offset where it is measured: x0=",
         "give the output's offset where it is measured: --x0",
+    ),
+    Step.TIME_SCALE: (
+        "where the parameters are constant in a known unit of time (not the record's span, "
+        "the default), state it: time_scale= (1 for seconds where t is in seconds)",
+        "where the parameters are constant in a known unit of time (not the record's span, "
+        "the default), state it: --time-scale SECONDS",
     ),
     Step.SETTLING_TEST: (
         "run a test with an oscillation superposed on the load, which separates the order "

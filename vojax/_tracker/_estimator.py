@@ -205,5 +205,6 @@ class Tracker:
     def _given(self):
         """The next steps this tracker's options already took: not suggested again."""
         taken = [(self.parameters != "free", Step.PARAMETERS_CONSTANT),
-                 (self.x0 is not None, Step.X0), (self.noise is not None, Step.NOISE)]
+                 (self.x0 is not None, Step.X0), (self.noise is not None, Step.NOISE),
+                 (self.time_scale is not None, Step.TIME_SCALE)]
         return tuple(step for done, step in taken if done)
