@@ -153,13 +153,13 @@ MUTATIONS = {
     ),
     "a refit's start left on the bound (no margin)": (
         "vojax/_refit_inputs.py",
-        [("margin = 1e-3 * (bounds[1] - bounds[0])\n    return", "margin = 0.0 * (bounds[1] - bounds[0])\n    return")],
+        [("margin = BOUND_MARGIN * (bounds[1] - bounds[0])\n    return", "margin = 0.0 * (bounds[1] - bounds[0])\n    return")],
         ["tests/test_refit.py::test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_its_bound",
          "tests/test_refit.py::test_the_second_opinion_also_starts_inside_a_bound"],
     ),
     "a step the call already took suggested again": (
         "vojax/_diagnostics.py",
-        [("for step in r.steps(**context) if step not in set(given)",
+        [("for step in r.steps(**context) if step not in taken",
           "for step in r.steps(**context) if True")],
         ["tests/test_steps.py::test_steps_the_call_already_took_are_not_suggested_again"],
     ),

@@ -56,8 +56,8 @@ class Reason(enum.StrEnum):
 
     def steps(self, **c) -> tuple[Step, ...]:
         """What would help, most useful first."""
-        if self is Reason.TRADE_OFF and c.get("conditional"):
-            return (Step.PARAMETERS_CONSTANT, Step.TIME_SCALE, Step.SETTLING_TEST)
+        if self is Reason.TRADE_OFF and c.get("conditional"):  # the offset is no help there
+            return tuple(step for step in _STEPS[self] if step is not Step.X0)
         return _STEPS[self]
 
 
@@ -284,8 +284,9 @@ def diagnose(
     context.update(conditional=conditional_answer, cond_width=cond_width,
                    breakdown=breakdown_drift)
     finding = "; ".join(r.finding(**context) for r in reasons)
+    taken = set(given)
     steps = tuple(dict.fromkeys(
-        step.value for r in reasons for step in r.steps(**context) if step not in set(given)
+        step.value for r in reasons for step in r.steps(**context) if step not in taken
     ))
     return Diagnostics(
         width, at_bound, bool(converged), tuple(at_edge), identified,

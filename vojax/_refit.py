@@ -9,6 +9,7 @@ import numpy as np
 from . import _validate as check
 from ._integral import make_memory, scan_memory
 from ._refit_inputs import (
+    BOUND_MARGIN,
     _check_x0,
     _direct_regressors,
     _from_origin,
@@ -195,7 +196,7 @@ def _result(out, active, x0, estimate, trim, sw, bounds, all_times, warn):
     fit = out.pop("fit")
     span = float(out.pop("span"))
     knots = out["knots"]
-    margin = 1e-3 * (bounds[1] - bounds[0])
+    margin = BOUND_MARGIN * (bounds[1] - bounds[0])
     num_knots = knots.shape[0]
     places = np.asarray(_knot_places(num_knots)) * (span - 1)
     out = {k: (a[trim] if k in ("order", "order_stderr", "order_lower", "order_upper",

@@ -6,6 +6,10 @@ import numpy as np
 
 from . import _validate as check
 
+# a knot this fraction of `order_bounds`' range from a bound is at it (`Refit.at_bound`); a
+# start on a bound is moved this far inside, where the order's logit is finite
+BOUND_MARGIN = 1e-3
+
 
 def _check_x0(x0, origin) -> bool:
     """Whether the offset is estimated; says what is wrong with `x0` and `origin`."""
@@ -19,11 +23,12 @@ def _check_x0(x0, origin) -> bool:
 
 def _start(order0, bounds) -> float:
     """The solver's start: `order0` checked against `order_bounds` and, where it lies on a bound,
-    moved 1e-3 of the range inside (both solvers work where the order's logit is finite)."""
+    moved `BOUND_MARGIN` of the range inside (both solvers work where the order's logit is
+    finite)."""
     a0 = float(np.asarray(check.step(order0, "order0")))
     if not bounds[0] <= a0 <= bounds[1]:
         raise ValueError(f"`order0` must lie inside `order_bounds` {tuple(bounds)}, got {a0}.")
-    margin = 1e-3 * (bounds[1] - bounds[0])
+    margin = BOUND_MARGIN * (bounds[1] - bounds[0])
     return min(max(a0, bounds[0] + margin), bounds[1] - margin)
 
 
