@@ -1129,6 +1129,33 @@ MUTATIONS = {
         [("    if times.shape != (num,) or not np.all(np.isfinite(times)):", "    if False:")],
         ["tests/test_results.py::test_names_and_times_given_to_a_result_are_checked_in_one_sentence"],
     ),
+    "the second clock's band never joins the span's": (
+        "vojax/_tracker/_clock.py",
+        [("    if not outside(o_alpha, lower, upper):", "    if True:")],
+        ["tests/test_clock.py"],
+    ),
+    "the second clock's union takes the span's band twice": (
+        "vojax/_tracker/_clock.py",
+        [("    lo, hi = union((lower, upper), (o_lower, o_upper))",
+          "    lo, hi = union((lower, upper), (lower, upper))")],
+        ["tests/test_clock.py"],
+    ),
+    "the clock's disagreement leaves the conditional answer standing": (
+        "vojax/_diagnostics.py",
+        [("    settled = sound and not clocked", "    settled = sound")],
+        ["tests/test_clock.py"],
+    ),
+    "the default fits only on the span's clock": (
+        "vojax/_tracker/_estimator.py",
+        [("        if self.time_scale is None and second_clock(scale):",
+          "        if False:")],
+        ["tests/test_verdict.py::test_the_default_band_holds_an_order_whose_parameter_is_constant_in_another_unit"],
+    ),
+    "the second clock fitted where the span is one unit": (
+        "vojax/_tracker/_clock.py",
+        [("    return bool(abs(np.log(span)) > SAME_CLOCK)", "    return bool(abs(np.log(span)) >= 0)")],
+        ["tests/test_clock.py"],
+    ),
 }
 
 

@@ -83,7 +83,8 @@ def test_every_diagnostic_message_has_a_troubleshooting_section():
 
     context = dict(width=0.2, trade=(0.1, 0.3), bounds=(0.01, 0.99), at_bound=0.1,
                    held_shift=0.3, drifts=["order_drift"], others=["gamma"], correlation=0.5,
-                   limit=0.1, block=10, block_error=1.0, unstable_from=5)
+                   limit=0.1, block=10, block_error=1.0, unstable_from=5, clock=0.6,
+               span_order=0.3)
     headings = {}
     for line in (ROOT / "docs" / "troubleshooting.md").read_text().splitlines():
         quoted = re.match(r'## "(.*)"', line)

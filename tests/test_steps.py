@@ -15,7 +15,8 @@ from vojax._steps import Step, say
 
 CONTEXT = dict(width=0.2, trade=(0.1, 0.3), bounds=(0.01, 0.99), at_bound=0.1,
                held_shift=0.3, drifts=["order_drift"], others=["gamma"], correlation=0.5,
-               limit=0.1, block=10, block_error=1.0, unstable_from=5)
+               limit=0.1, block=10, block_error=1.0, unstable_from=5, clock=0.6,
+               span_order=0.3)
 
 
 def _identify_options():

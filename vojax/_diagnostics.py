@@ -32,6 +32,7 @@ class Reason(enum.StrEnum):
     `Diagnostics.message` by `render`."""
 
     TRADE_OFF = "trade_off"  # wide because a drifting parameter explains the data as well
+    CLOCK = "clock"  # wide: the order depends on the unit of time the parameters hold in
     WIDE_BAND = "wide_band"  # wide: the data do not determine the order
     AT_BOUND = "at_bound"  # the order sits at a bound of its range
     NOT_CONVERGED = "not_converged"  # the estimation did not converge
@@ -82,6 +83,13 @@ def _trade_off(c):
 
 _FINDINGS = {
     Reason.TRADE_OFF: _trade_off,
+    Reason.CLOCK: lambda c: (
+        f"the order band is ±{c['width']:.2g} wide because the order depends on the unit of "
+        "time in which the parameters are constant: constant over the record's span (the "
+        f"estimate) it is {c['span_order']:.2f}, constant in the data's unit of time "
+        f"{c['clock']:.2f} (medians over the second half); one record cannot tell which "
+        "holds, and the band covers both"
+    ),
     Reason.WIDE_BAND: lambda c: (
         f"the order band is ±{c['width']:.2g} wide: these data do not determine the order"
     ),
@@ -125,6 +133,7 @@ _FINDINGS = {
 
 _STEPS = {
     Reason.TRADE_OFF: (Step.PARAMETERS_CONSTANT, Step.TIME_SCALE, Step.X0, Step.SETTLING_TEST),
+    Reason.CLOCK: (Step.TIME_SCALE, Step.SETTLING_TEST),
     Reason.WIDE_BAND: (Step.LONGER_TEST, Step.TIME_SCALE, Step.X0, Step.REFIT),
     Reason.AT_BOUND: (Step.ALPHA_BOUNDS, Step.INPUTS),
     Reason.NOT_CONVERGED: (Step.OUTLIERS, Step.NOISE),
@@ -209,6 +218,7 @@ def diagnose(
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
     drift_covered=False, block=1, block_error=None, noise_correlation=None, settings=None,
     conditional=None, breakdown_drift=float("nan"), reference_drift=float("nan"), given=(),
+    clock=None,
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -226,7 +236,9 @@ def diagnose(
     conditional band ``(lower, upper)`` (while the parameters drift less than
     `breakdown_drift`; the answer's own parameters drift by `reference_drift`), or None.
     `given`: the `Step`s the call already took (its `parameters`, `x0`, `noise`), which the
-    message does not suggest again."""
+    message does not suggest again. `clock`: the order's median over the second half with the
+    parameters constant in the data's unit of time, where it lies outside the band the
+    span's clock gives (the band was widened to cover it), else None."""
     s = TrackerSettings() if settings is None else settings
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
@@ -237,6 +249,8 @@ def diagnose(
     wide = width > s.identified_halfwidth
     noise_edge = bool(NOISE_EDGES & set(at_edge))
     traded = held_shift is not None and held_shift > width
+    clocked = clock is not None and wide
+    covered = trade is not None or drift_covered or clocked
     # a tracker's drift at its lower edge (the data show none) is no problem: not in the
     # message; at its upper edge the states move as fast as the search allows
     drifts = [name for name in at_edge if name in ("order_drift", "parameter_drift")]
@@ -250,7 +264,8 @@ def diagnose(
     coarse = block_error is not None and block_error > s.block_error_limit
     found = [
         (Reason.TRADE_OFF, (trade is not None or drift_covered) and wide),
-        (Reason.WIDE_BAND, not (trade is not None or drift_covered) and wide),
+        (Reason.CLOCK, clocked),
+        (Reason.WIDE_BAND, not covered and wide),
         (Reason.AT_BOUND, at_bound >= s.bound_fraction),
         (Reason.NOT_CONVERGED, not converged),
         (Reason.NOISE_AT_EDGE, noise_edge),
@@ -266,18 +281,22 @@ def diagnose(
     context = dict(width=width, trade=trade, bounds=bounds, at_bound=at_bound,
                    held_shift=held_shift, drifts=drifts, others=others,
                    correlation=correlation, limit=limit, block=block, block_error=block_error,
-                   unstable_from=unstable_from)
+                   unstable_from=unstable_from, clock=clock,
+                   span_order=float(np.median(alpha[half:])))
     sound = (
         at_bound < s.bound_fraction and bool(converged) and not noise_edge and not traded
         and calibrated and not coloured and unstable_from is None and not coarse
     )
+    # the conditional answer bounds the parameters' drift on the span's clock; where the
+    # unit of time decides the order, that bound is no answer
+    settled = sound and not clocked
     identified = width <= s.identified_halfwidth and sound
     cond_width = float("nan")
     if conditional is not None:
         c_lower, c_upper = (np.asarray(a) for a in conditional)
         cond_width = float(np.median((c_upper - c_lower)[half:]) / 2)
     reach = breakdown_drift - (reference_drift if np.isfinite(reference_drift) else 0.0)
-    conditional_answer = (not identified and sound and cond_width <= s.identified_halfwidth
+    conditional_answer = (not identified and settled and cond_width <= s.identified_halfwidth
                           and reach > s.drift_floor)
     verdict = ("identified" if identified else "conditional" if conditional_answer
                else "not identified")

@@ -185,7 +185,7 @@ def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settin
     columns, summary = adaptive_part(res, y, physical)
     columns["y_hat"] = np.asarray(res.y_hat)
     if tracker == "kalman":
-        if {"trade_off", "held_shift"} & set(res.diagnostics.reasons):
+        if {"trade_off", "held_shift", "clock"} & set(res.diagnostics.reasons):
             summary["settling_test"] = settling_part(u, y, res, record.time, time_unit(record))
         summary["parameter_model"] = res.parameters
         summary["offset_model"] = "estimated" if settings["x0"] is None else "known"

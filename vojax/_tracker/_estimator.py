@@ -16,6 +16,7 @@ from .._stats import prediction_error_correlation
 from .._steps import Step
 from .._xla import to_device
 from ._blocks import block_size, fit_blocks
+from ._clock import second_clock, weigh
 from ._fit import fit_points
 
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
@@ -132,28 +133,17 @@ class Tracker:
         # the tracker's clock: time over the record's span (or `time_scale`), so that
         # parameters held constant (or drift-bounded) mean the same in any unit of time
         scale = self._time_scale(dt, t, length)
-        dt_c = None if dt is None else float(np.asarray(dt)) / scale
-        t_c = None if t is None else np.asarray(t, float) / scale
-        if size > 1:
-            # the sample times on the tracker's clock, as the user's over the scale (so that
-            # a uniform `t` and its `dt` give the same block means to the last bit)
-            user_times = np.asarray(t, float) if t is not None else float(
-                np.asarray(dt)) * np.arange(u2.shape[0])
-            res, fit = fit_blocks(self, u2, y, dt_c, t_c, mask, size, length, scale,
-                                  times=user_times / scale)
-        else:
-            mem = make_memory(self.memory, dt_c, u2.shape[0], rule=self.rule, tol=self.tol,
-                              order_range=bounds, times=t_c)
-            res = fit_points(mem, u2, y, dt_c, bounds, s, smooth=self.smooth, noise=self.noise,
-                             mask=mask, times=t_c, parameters=self.parameters, x0=self.x0,
-                             time_scale=scale)
-            fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
-                       held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask,
-                       conditional=res.conditional)
+        res, fit = self._fit_on(scale, u2, y, dt, t, mask, length, size, bounds)
+        clock = None
+        if self.time_scale is None and second_clock(scale):
+            # the parameters constant in the data's own unit of time: an account the band
+            # must cover where its order lies outside (see `vojax._tracker._clock`)
+            res, fit, clock = weigh(res, fit, *self._fit_on(1.0, u2, y, dt, t, mask, length,
+                                                            size, bounds))
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
-        diagnostics = self._diagnose(res, fit, size, bounds)
+        diagnostics = self._diagnose(res, fit, size, bounds, clock)
         if warn and diagnostics.message:
             warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning,
                           stacklevel=stacklevel)
@@ -170,6 +160,28 @@ class Tracker:
             conditional=None if res.conditional is None else Conditional(*res.conditional),
         )
 
+    def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds):
+        """The tracker's result and its fitted points (the block means of a long record) on
+        the clock of unit `scale` in the user's time."""
+        s = self.settings
+        dt_c = None if dt is None else float(np.asarray(dt)) / scale
+        t_c = None if t is None else np.asarray(t, float) / scale
+        if size > 1:
+            # the sample times on the tracker's clock, as the user's over the scale (so that
+            # a uniform `t` and its `dt` give the same block means to the last bit)
+            user_times = np.asarray(t, float) if t is not None else float(
+                np.asarray(dt)) * np.arange(u2.shape[0])
+            return fit_blocks(self, u2, y, dt_c, t_c, mask, size, length, scale,
+                              times=user_times / scale)
+        mem = make_memory(self.memory, dt_c, u2.shape[0], rule=self.rule, tol=self.tol,
+                          order_range=bounds, times=t_c)
+        res = fit_points(mem, u2, y, dt_c, bounds, s, smooth=self.smooth, noise=self.noise,
+                         mask=mask, times=t_c, parameters=self.parameters, x0=self.x0,
+                         time_scale=scale)
+        return res, dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+                         held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask,
+                         conditional=res.conditional)
+
     def _time_scale(self, dt, t, length):
         """The unit of the tracker's clock in the user's: `time_scale`, or the span of the
         record's fitted samples."""
@@ -179,9 +191,11 @@ class Tracker:
             return float(np.asarray(t)[length - 1] - np.asarray(t)[0])
         return float(np.asarray(dt)) * (length - 1)
 
-    def _diagnose(self, res, fit, size, bounds):
+    def _diagnose(self, res, fit, size, bounds, clock=None):
         """The diagnostics of what the tracker fitted (the block means of a long record); cut
-        in NumPy: an eager slice of a JAX array compiles anew for every record length."""
+        in NumPy: an eager slice of a JAX array compiles anew for every record length.
+        `clock`: the order's median over the second half with the parameters constant in the
+        data's unit of time, where it lies outside the span's band (see `weigh`), else None."""
         fit_mask, span = fit["mask"], fit["span"]
         alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
         shift, conditional = None, fit.get("conditional")
@@ -200,6 +214,7 @@ class Tracker:
             noise_correlation=res.tuning.noise_correlation, settings=self.settings,
             conditional=conditional, breakdown_drift=res.breakdown_drift,
             reference_drift=res.reference_drift, given=self._given(),
+            clock=clock,
         )
 
     def _given(self):

@@ -1,0 +1,124 @@
+"""The unit of time in which the parameters are constant: the second clock's rules on
+stand-in bands (when it is fitted, when its order widens the band and by exactly how much),
+the verdict it gives, and on a tracked record that it changes nothing where the two clocks
+agree."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import vojax
+from vojax._diagnostics import diagnose
+from vojax._tracker._clock import outside, second_clock, weigh
+
+N = 100
+HALF = np.arange(N) >= N // 2
+
+
+@dataclasses.dataclass(frozen=True)
+class _Res:
+    """A stand-in for the tracker's result: the fields `weigh` reads and writes."""
+
+    alpha: np.ndarray
+    alpha_lower: np.ndarray
+    alpha_upper: np.ndarray
+    alpha_std: np.ndarray
+    converged: bool = True
+
+
+def _fit(alpha, half_width, converged=True):
+    alpha = np.asarray(alpha, float)
+    lo, hi = alpha - half_width, alpha + half_width
+    res = _Res(alpha, lo, hi, np.full(N, half_width / 2), converged)
+    return res, dict(alpha=alpha, lower=lo, upper=hi, span=N)
+
+
+def test_the_second_clock_is_fitted_unless_the_span_is_one_unit_within_five_percent():
+    assert not second_clock(1.0) and not second_clock(1.04) and not second_clock(1 / 1.04)
+    assert second_clock(1.06) and second_clock(0.94) and second_clock(1e3) and second_clock(1e-3)
+
+
+def test_an_order_is_outside_a_band_at_most_samples_of_the_second_half():
+    lower, upper = np.zeros(N), np.ones(N)
+    alpha = np.full(N, 0.5)
+    alpha[:N // 2] = 2.0  # the first half does not count
+    assert not outside(alpha, lower, upper)
+    alpha[N // 2 : N // 2 + 26] = 2.0  # 26 of 50
+    assert outside(alpha, lower, upper)
+    alpha[N // 2 + 25] = 0.5  # 25 of 50: not most
+    assert not outside(alpha, lower, upper)
+
+
+def test_an_order_outside_the_band_widens_it_to_the_union_of_both_bands():
+    span = np.linspace(0.3, 0.4, N)
+    res, fit = _fit(span, 0.05)
+    other, other_fit = _fit(span + 0.2, 0.08)
+    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    # the lower edge the span's band's, the upper edge the other's
+    for band in ((new.alpha_lower, new.alpha_upper), (new_fit["lower"], new_fit["upper"])):
+        np.testing.assert_array_equal(np.asarray(band[0]), res.alpha_lower)
+        np.testing.assert_array_equal(np.asarray(band[1]), other.alpha_upper)
+    # the standard deviation at least a quarter of the band, the estimate the span's
+    np.testing.assert_allclose(np.asarray(new.alpha_std), 0.33 / 4, rtol=1e-12)
+    np.testing.assert_array_equal(np.asarray(new.alpha), span)
+    assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
+
+
+@pytest.mark.parametrize("case", ["inside", "not converged", "not finite"])
+def test_an_order_inside_the_band_or_from_a_failed_fit_changes_nothing(case):
+    res, fit = _fit(np.full(N, 0.4), 0.05)
+    shift = 0.04 if case == "inside" else 0.2
+    other, other_fit = _fit(np.full(N, 0.4 + shift), 0.05, converged=case != "not converged")
+    if case == "not finite":
+        other_fit["upper"] = np.where(HALF, np.nan, other_fit["upper"])
+    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    assert new is res and new_fit is fit and clock is None
+
+
+def test_an_order_inside_the_band_but_outside_the_conditional_band_is_named_not_unioned():
+    res, fit = _fit(np.full(N, 0.4), 0.2)
+    fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
+    other, other_fit = _fit(np.full(N, 0.5), 0.05)
+    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    assert new is res and new_fit is fit and clock == pytest.approx(0.5)
+    fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.2, fit["alpha"] + 0.2, None)
+    assert weigh(res, fit, other, other_fit)[2] is None
+
+
+def test_the_clock_refuses_a_wide_band_and_its_conditional_answer_and_names_time_scale():
+    alpha = np.full(N, 0.3)
+    wide, narrow = (alpha - 0.2, alpha + 0.2), (alpha - 0.05, alpha + 0.05)
+    d = diagnose(alpha, *wide, (0.01, 0.99), True, (), clock=0.6, conditional=narrow,
+                 breakdown_drift=0.5, reference_drift=0.0)
+    assert d.reasons == ("clock",) and d.verdict == "not identified"
+    assert d.next_steps[0] == "time_scale"
+    assert "over the record's span (the estimate) it is 0.30, constant in the data's unit of " \
+        "time 0.60" in d.message
+    # the same band without the clock: wide_band, and the conditional answer stands
+    d = diagnose(alpha, *wide, (0.01, 0.99), True, (), conditional=narrow,
+                 breakdown_drift=0.5, reference_drift=0.0)
+    assert d.reasons == ("wide_band",) and d.verdict == "conditional"
+    # a band that covers both clocks and is narrow: identified
+    d = diagnose(alpha, *narrow, (0.01, 0.99), True, (), clock=0.33)
+    assert d.identified and d.reasons == ()
+    # the time scale given: the step is not suggested again
+    d = diagnose(alpha, *wide, (0.01, 0.99), True, (), clock=0.6, given=(vojax.Step.TIME_SCALE,))
+    assert "time_scale" not in d.next_steps
+
+
+def test_where_the_clocks_agree_the_default_is_the_spans_fit_to_the_last_bit():
+    """A constant order (its parameter constant on every clock): the default, which fits on
+    the data's unit too, gives the band of the span's clock stated alone."""
+    n, span = 300, 200.0
+    t = np.linspace(0.0, span, n)
+    u = 1.0 + 0.5 * np.floor(4 * t / span)
+    x = np.asarray(vojax.simulate(u, np.full(n, 0.45), np.array([2.0]), t[1] - t[0]))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(3).standard_normal(n)
+    dt = t[1] - t[0]
+    default = vojax.identify(u, y, dt, warn=False)
+    stated = vojax.identify(u, y, dt, warn=False, time_scale=dt * (n - 1))
+    for name in ("alpha", "alpha_lower", "alpha_upper", "alpha_std", "p"):
+        np.testing.assert_array_equal(np.asarray(getattr(default, name)),
+                                      np.asarray(getattr(stated, name)))
+    assert "clock" not in default.diagnostics.reasons
