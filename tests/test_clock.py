@@ -10,7 +10,7 @@ import pytest
 
 import vojax
 from vojax._diagnostics import diagnose
-from vojax._tracker._clock import outside, second_clock, weigh
+from vojax._tracker._clock import outside, second_clock, weigh_clock
 
 N = 100
 HALF = np.arange(N) >= N // 2
@@ -18,7 +18,7 @@ HALF = np.arange(N) >= N // 2
 
 @dataclasses.dataclass(frozen=True)
 class _Res:
-    """A stand-in for the tracker's result: the fields `weigh` reads and writes."""
+    """A stand-in for the tracker's result: the fields `weigh_clock` reads and writes."""
 
     alpha: np.ndarray
     alpha_lower: np.ndarray
@@ -54,7 +54,7 @@ def test_an_order_outside_the_band_widens_it_to_the_union_of_both_bands():
     span = np.linspace(0.3, 0.4, N)
     res, fit = _fit(span, 0.05)
     other, other_fit = _fit(span + 0.2, 0.08)
-    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
     # the lower edge the span's band's, the upper edge the other's
     for band in ((new.alpha_lower, new.alpha_upper), (new_fit["lower"], new_fit["upper"])):
         np.testing.assert_array_equal(np.asarray(band[0]), res.alpha_lower)
@@ -72,7 +72,7 @@ def test_an_order_inside_the_band_or_from_a_failed_fit_changes_nothing(case):
     other, other_fit = _fit(np.full(N, 0.4 + shift), 0.05, converged=case != "not converged")
     if case == "not finite":
         other_fit["upper"] = np.where(HALF, np.nan, other_fit["upper"])
-    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
     assert new is res and new_fit is fit and clock is None
 
 
@@ -80,10 +80,10 @@ def test_an_order_inside_the_band_but_outside_the_conditional_band_is_named_not_
     res, fit = _fit(np.full(N, 0.4), 0.2)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
     other, other_fit = _fit(np.full(N, 0.5), 0.05)
-    new, new_fit, clock = weigh(res, fit, other, other_fit)
+    new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
     assert new is res and new_fit is fit and clock == pytest.approx(0.5)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.2, fit["alpha"] + 0.2, None)
-    assert weigh(res, fit, other, other_fit)[2] is None
+    assert weigh_clock(res, fit, other, other_fit)[2] is None
 
 
 def test_the_clock_refuses_a_wide_band_and_its_conditional_answer_and_names_time_scale():

@@ -70,7 +70,8 @@ def to_samples(t_blocks, values, times):
     return np.stack([np.interp(times, t_blocks, v) for v in values.T], axis=1)
 
 
-def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=None):
+def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=None,
+               weigh=True):
     """The `tracker` on the means of blocks of `size` samples of the record's first `span`
     samples (padding after them is not the record's), its estimates brought back to every
     sample: the order, its band and the parameters linear between block times, the output
@@ -102,7 +103,7 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
         mem_b, to_device(u_b), to_device(y_b), None, bounds, s, smooth=tracker.smooth,
         noise=noise, mask=None if mask is None else to_device(mask_b), times=t_b,
         parameters=tracker.parameters, x0=x0, batched=size >= s.batched_block,
-        time_scale=time_scale,
+        time_scale=time_scale, weigh=weigh,
     )
     mem = make_memory(tracker.memory, dt, num, rule=tracker.rule, tol=tracker.tol,
                       order_range=bounds, times=t)

@@ -43,7 +43,7 @@ def union(band, other):
     return np.minimum(band[0], other[0]), np.maximum(band[1], other[1])
 
 
-def weigh(res, fit, other, other_fit):
+def weigh_clock(res, fit, other, other_fit):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
     the stated band (`outside`, on the fitted points) the band is widened to cover both;

@@ -16,7 +16,7 @@ from .._stats import prediction_error_correlation
 from .._steps import Step
 from .._xla import to_device
 from ._blocks import block_size, fit_blocks
-from ._clock import second_clock, weigh
+from ._clock import second_clock, weigh_clock
 from ._fit import fit_points
 
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
@@ -137,9 +137,10 @@ class Tracker:
         clock = None
         if self.time_scale is None and second_clock(scale):
             # the parameters constant in the data's own unit of time: an account the band
-            # must cover where its order lies outside (see `vojax._tracker._clock`)
-            res, fit, clock = weigh(res, fit, *self._fit_on(1.0, u2, y, dt, t, mask, length,
-                                                            size, bounds))
+            # must cover where its order lies outside (see `vojax._tracker._clock`); its
+            # tuned smoothing and that smoothing's own band
+            other = self._fit_on(1.0, u2, y, dt, t, mask, length, size, bounds, weigh=False)
+            res, fit, clock = weigh_clock(res, fit, *other)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
@@ -160,9 +161,10 @@ class Tracker:
             conditional=None if res.conditional is None else Conditional(*res.conditional),
         )
 
-    def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds):
+    def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True):
         """The tracker's result and its fitted points (the block means of a long record) on
-        the clock of unit `scale` in the user's time."""
+        the clock of unit `scale` in the user's time; ``weigh=False``: the tuned smoothing
+        and its own band only (see `fit_points`)."""
         s = self.settings
         dt_c = None if dt is None else float(np.asarray(dt)) / scale
         t_c = None if t is None else np.asarray(t, float) / scale
@@ -172,12 +174,12 @@ class Tracker:
             user_times = np.asarray(t, float) if t is not None else float(
                 np.asarray(dt)) * np.arange(u2.shape[0])
             return fit_blocks(self, u2, y, dt_c, t_c, mask, size, length, scale,
-                              times=user_times / scale)
+                              times=user_times / scale, weigh=weigh)
         mem = make_memory(self.memory, dt_c, u2.shape[0], rule=self.rule, tol=self.tol,
                           order_range=bounds, times=t_c)
         res = fit_points(mem, u2, y, dt_c, bounds, s, smooth=self.smooth, noise=self.noise,
                          mask=mask, times=t_c, parameters=self.parameters, x0=self.x0,
-                         time_scale=scale)
+                         time_scale=scale, weigh=weigh)
         return res, dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
                          held=res.alpha_held, y=y, y_pred=res.y_pred, span=length, mask=mask,
                          conditional=res.conditional)
@@ -195,7 +197,7 @@ class Tracker:
         """The diagnostics of what the tracker fitted (the block means of a long record); cut
         in NumPy: an eager slice of a JAX array compiles anew for every record length.
         `clock`: the order's median over the second half with the parameters constant in the
-        data's unit of time, where it lies outside the span's band (see `weigh`), else None."""
+        data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None."""
         fit_mask, span = fit["mask"], fit["span"]
         alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
         shift, conditional = None, fit.get("conditional")

@@ -162,14 +162,16 @@ def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten):
 
 def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, mask=None,
                iterations=3, times=None, parameters="free", x0=None, batched=False,
-               time_scale=1.0):
+               time_scale=1.0, weigh=True):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
     `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `noise` with a
     parameter drift at most `constant_drift`): their drift held there, and the band
     conditional on it (no `trade_interval`). `x0`: the output's offset, known (held there) or
     None (estimated). `batched`: the first pass's and the mixture's runs through one vmapped
     program where that is faster (the same results to rounding). `dt`, `times` and the
-    `memory` are on the tracker's clock, the user's time over `time_scale`."""
+    `memory` are on the tracker's clock, the user's time over `time_scale`. ``weigh=False``:
+    the tuned smoothing and its own band only (no held smoothing, alternatives, trade-off or
+    explanations' band: the second clock's quick look, see `vojax._tracker._clock`)."""
     s = settings
     hold = parameters == "constant" or (
         noise is not None and float(noise["parameter_drift"]) <= s.constant_drift
@@ -190,15 +192,18 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     # (drifting states absorb noise)
     fit_noise = max(tuning.noise, st.noise_data)
     alpha_held, held = None, None
-    if smooth and tuning.tuned and tuning.parameter_drift > s.held_ratio * s.constant_drift:
+    drifting = tuning.parameter_drift > s.held_ratio * s.constant_drift
+    if smooth and weigh and tuning.tuned and drifting:
         alpha_held, held = held_order(problem, hyper, starts[0], tuning.noise, fit_noise,
                                       whiten)
     weights, explanations = None, []
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
-        beta_var, weights, explanations = alternatives(problem, tuning, starts, sm, hold,
-                                                       fit_noise, whiten)
+        beta_var = np.asarray(sm.cov)[:, 0, 0]
+        if weigh:
+            beta_var, weights, explanations = alternatives(problem, tuning, starts, sm, hold,
+                                                           fit_noise, whiten)
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
@@ -208,11 +213,11 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         converged = True
         beta_var = np.asarray(cov)[:, 0, 0]
     trade, traded = None, []
-    if not hold or (smooth and tuning.tuned):  # held: for the breakdown drift only
+    if weigh and (not hold or (smooth and tuning.tuned)):  # held: the breakdown drift only
         trade, traded = trade_interval(problem, fit_noise, whiten, offset=not st.known)
     explanations = tuple(explanations + ([] if held is None else [held]) + traded)
     found = None
-    if smooth and tuning.tuned:
+    if smooth and weigh and tuning.tuned:
         found = bands(explanations, problem.bounds, problem.span,
                       0.0 if hold else stated_drift(parameters), s.band_scale, s.drift_floor,
                       floor=s.band_floor, evidence_floor=s.envelope_evidence)
