@@ -1476,8 +1476,9 @@ def test_coloured_starts_side_by_side_equal_one_after_another(monkeypatch):
     for k in range(1, t.size):
         ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
     y = x + 0.01 * np.ptp(x) * ar
-    first, second = (vojax.identify(u, y, dt, parameters="constant", warn=False)
-                     for _ in range(2))
+    # the span stated as the time scale: one fit per call (no second clock, see test_clock)
+    first, second = (vojax.identify(u, y, dt, parameters="constant", warn=False,
+                                    time_scale=dt * (t.size - 1)) for _ in range(2))
     rho_starts = vojax.TrackerSettings().rho_starts
     assert seen.count(("coloured", len(rho_starts))) == 2
     # each call starts once from every starting correlation (the shares cover them all)
