@@ -238,7 +238,8 @@ def diagnose(
     `given`: the `Step`s the call already took (its `parameters`, `x0`, `noise`), which the
     message does not suggest again. `clock`: the order's median over the second half with the
     parameters constant in the data's unit of time, where it lies outside the band the
-    span's clock gives (the band was widened to cover it), else None."""
+    span's clock gives (the band was widened to cover it) or outside its conditional band,
+    else None (see `vojax._tracker._clock`)."""
     s = TrackerSettings() if settings is None else settings
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
