@@ -819,7 +819,7 @@ MUTATIONS = {
     'the breakdown set by any drifting alternative, inside the band or not': (
         'vojax/_tracker/_band.py',
         [
-            ('if max(e.drift - reference.drift, 0.0) > drift_floor and _outside(m[0], band, half):',
+            ('if max(e.drift - reference.drift, 0.0) > drift_floor and outside(m[0], band, half):',
              'if max(e.drift - reference.drift, 0.0) > drift_floor:'),
         ],
         ['tests/test_band.py'],
@@ -1131,13 +1131,13 @@ MUTATIONS = {
     ),
     "the second clock's band never joins the span's": (
         "vojax/_tracker/_clock.py",
-        [("    if not outside(o_alpha, lower, upper):", "    if True:")],
+        [("    if not outside(o_alpha, (*points, 0.0), half):", "    if True:")],
         ["tests/test_clock.py"],
     ),
     "the second clock's union takes the span's band twice": (
         "vojax/_tracker/_clock.py",
-        [("    lo, hi = union((lower, upper), (o_lower, o_upper))",
-          "    lo, hi = union((lower, upper), (lower, upper))")],
+        [("    _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))",
+          "    _, lo, hi, _ = union((*points, 0.0), (*points, 0.0))")],
         ["tests/test_clock.py"],
     ),
     "the clock's disagreement leaves the conditional answer standing": (

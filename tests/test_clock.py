@@ -10,7 +10,8 @@ import pytest
 
 import vojax
 from vojax._diagnostics import diagnose
-from vojax._tracker._clock import outside, second_clock, weigh_clock
+from vojax._tracker._band import outside
+from vojax._tracker._clock import second_clock, weigh_clock
 
 N = 100
 HALF = np.arange(N) >= N // 2
@@ -43,11 +44,11 @@ def test_an_order_is_outside_a_band_at_most_samples_of_the_second_half():
     lower, upper = np.zeros(N), np.ones(N)
     alpha = np.full(N, 0.5)
     alpha[:N // 2] = 2.0  # the first half does not count
-    assert not outside(alpha, lower, upper)
+    assert not outside(alpha, (None, lower, upper, None), N // 2)
     alpha[N // 2 : N // 2 + 26] = 2.0  # 26 of 50
-    assert outside(alpha, lower, upper)
+    assert outside(alpha, (None, lower, upper, None), N // 2)
     alpha[N // 2 + 25] = 0.5  # 25 of 50: not most
-    assert not outside(alpha, lower, upper)
+    assert not outside(alpha, (None, lower, upper, None), N // 2)
 
 
 def test_an_order_outside_the_band_widens_it_to_the_union_of_both_bands():

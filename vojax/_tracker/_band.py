@@ -68,14 +68,16 @@ def reference_variance(explanations, tuned, span):
     return var + spread - tuned.var
 
 
-def _outside(alpha, band, half):
+def outside(alpha, band, half):
     """An order trajectory lies outside a band: at most samples of the second half."""
     _, lower, upper, _ = band
     out = (alpha < lower) | (alpha > upper)
     return bool(np.mean(out[half:]) > 0.5)
 
 
-def _union(band, member):
+def union(band, member):
+    """The `band` ``(alpha, lower, upper, std)`` widened to cover `member`'s: its estimate
+    kept, its standard deviation at least a quarter of the union's width."""
     alpha, lower, upper, std = band
     _, lo, hi, _ = member
     return alpha, np.minimum(lower, lo), np.maximum(upper, hi), np.maximum(std, (np.maximum(
@@ -121,10 +123,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     conditional_drifts = False
     for e in ladder:
         m = tuple(a[:span] for a in member(e))
-        if max(e.drift - reference.drift, 0.0) > drift_floor and _outside(m[0], band, half):
+        if max(e.drift - reference.drift, 0.0) > drift_floor and outside(m[0], band, half):
             breakdown = e.drift
             break
-        band = _union(band, m)
+        band = union(band, m)
         conditional_drifts |= e.drift > reference.drift + drift_floor
     conditional = tuple(np.concatenate([a, b[span:]]) for a, b in zip(band, ref_band))
     # the stated band: with the parameters held, the reference's (its alternatives weighed
@@ -139,6 +141,6 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged]
         for e in [*others, *ladder]:
             if e.drift <= max(stated_drift, reference.drift) + drift_floor:
-                stated = _union(stated, member(e))
+                stated = union(stated, member(e))
                 drifting |= e.drift > reference.drift + drift_floor
     return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting)

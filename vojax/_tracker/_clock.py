@@ -17,6 +17,7 @@ import dataclasses
 import numpy as np
 
 from .._xla import to_device
+from ._band import outside, union
 
 # the second clock is skipped where the span is within this relative distance of one unit
 # of the data's time: the two clocks then differ by less than a factor 1.05^Δα
@@ -28,21 +29,6 @@ def second_clock(span) -> bool:
     return bool(abs(np.log(span)) > SAME_CLOCK)
 
 
-def outside(alpha, lower, upper) -> bool:
-    """The order trajectory `alpha` lies outside the band ``[lower, upper]`` at most samples
-    of the second half."""
-    alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
-    half = alpha.shape[0] // 2
-    out = (alpha < lower) | (alpha > upper)
-    return bool(np.mean(out[half:]) > 0.5)
-
-
-def union(band, other):
-    """The band ``(lower, upper)`` covering both `band` and `other`, each ``(lower,
-    upper)``."""
-    return np.minimum(band[0], other[0]), np.maximum(band[1], other[1])
-
-
 def weigh_clock(res, fit, other, other_fit):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
@@ -50,24 +36,24 @@ def weigh_clock(res, fit, other, other_fit):
     where it lies outside the stated or the conditional band, that order's median over the
     second half is returned (the conditional answer bounds a drift on the span's clock only),
     else None, and `res` and `fit` unchanged."""
-    span = fit["span"]
-    points = [np.asarray(f[k])[:span] for f in (fit, other_fit)
-              for k in ("alpha", "lower", "upper")]
-    alpha, lower, upper, o_alpha, o_lower, o_upper = points
-    finite = all(np.all(np.isfinite(a)) for a in (o_alpha, o_lower, o_upper))
-    if not (other.converged and finite):
+    span, half = fit["span"], fit["span"] // 2
+    points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
+    o_points = tuple(np.asarray(other_fit[k])[:span] for k in ("alpha", "lower", "upper"))
+    if not (other.converged and all(np.all(np.isfinite(a)) for a in o_points)):
         return res, fit, None
-    clock = float(np.median(o_alpha[span // 2 :]))
-    if not outside(o_alpha, lower, upper):
+    o_alpha = o_points[0]
+    clock = float(np.median(o_alpha[half:]))
+    if not outside(o_alpha, (*points, 0.0), half):
         cond = fit.get("conditional")
-        beyond = cond is not None and outside(o_alpha, *(np.asarray(a)[:span] for a in cond[1:3]))
+        beyond = cond is not None and outside(
+            o_alpha, (None, *(np.asarray(a)[:span] for a in cond[1:3]), None), half)
         return res, fit, clock if beyond else None
-    lo, hi = union((lower, upper), (o_lower, o_upper))
+    _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))
     fit = dict(fit, lower=np.concatenate([lo, np.asarray(fit["lower"])[span:]]),
                upper=np.concatenate([hi, np.asarray(fit["upper"])[span:]]))
-    r_lo, r_hi = union((np.asarray(res.alpha_lower), np.asarray(res.alpha_upper)),
-                       (np.asarray(other.alpha_lower), np.asarray(other.alpha_upper)))
-    std = np.maximum(np.asarray(res.alpha_std), (r_hi - r_lo) / 4)
+    fields = ("alpha", "alpha_lower", "alpha_upper", "alpha_std")
+    _, r_lo, r_hi, std = union(*(tuple(np.asarray(getattr(r, k)) for k in fields)
+                                 for r in (res, other)))
     res = dataclasses.replace(res, alpha_lower=to_device(r_lo), alpha_upper=to_device(r_hi),
                               alpha_std=to_device(std))
     return res, fit, clock

@@ -200,10 +200,11 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
-        beta_var = np.asarray(sm.cov)[:, 0, 0]
         if weigh:
             beta_var, weights, explanations = alternatives(problem, tuning, starts, sm, hold,
                                                            fit_noise, whiten)
+        else:  # the tuned smoothing's own band
+            beta_var = np.asarray(sm.cov)[:, 0, 0]
     else:
         # the online filter starts from the constant-order fit (a whole-record summary, like
         # the tuned intensities): from the neutral prior its first samples cannot place p
