@@ -546,9 +546,44 @@ MUTATIONS = {
         [("    padded[:, :m] = x\n", "    padded[:, :m] = x[:, ::-1]\n")],
         ["tests/test_tracker.py::test_phi_of_each_column_equals_the_memory_run_on_all_columns"],
     ),
+    "compare's likelihood counts every sample, not the window's": (
+        "vojax/_compare.py",
+        [("    num = int(inside.sum())\n    res = scaled(fit)[inside]\n",
+          "    num = strain.size\n    res = scaled(fit)\n")],
+        ["tests/test_compare_window.py::test_a_window_leaves_the_ringing_out_and_counts_only_its_samples"],
+    ),
+    "compare's held-out end is the record's, not the window's": (
+        "vojax/_compare.py",
+        [("times[idx[int(round((1 - holdout) * (idx.size - 1)))]]",
+          "times[int(round((1 - holdout) * (times.size - 1)))]")],
+        ["tests/test_compare_window.py::test_a_window_leaves_the_ringing_out_and_counts_only_its_samples"],
+    ),
+    "compare's relative likelihood without its Jacobian": (
+        "vojax/_compare.py",
+        [("        loglik -= float(np.sum(np.log(np.abs(strain[inside]))))\n",
+          "        loglik -= 0.0\n")],
+        ["tests/test_compare_window.py::test_relative_residuals_have_the_likelihood_of_proportional_noise"],
+    ),
+    "compare counts a given offset as a free number": (
+        "vojax/_compare.py",
+        [("    offset = 1 if isinstance(x0, str) else 0", "    offset = 1")],
+        ["tests/test_compare_window.py::test_a_given_offset_is_held_and_not_counted"],
+    ),
+    "the batch compares over the whole record, not the refit's window": (
+        "vojax/_data/_compute.py",
+        [("r, area, length, **{k: fit[k] for k in FIT_KEYS if k in fit})",
+          "r, area, length)")],
+        ["tests/test_compare_window.py::test_the_batch_compares_over_the_refits_window_in_the_files_time"],
+    ),
+    "compare's fit of the first part ignores the relative option": (
+        "vojax/_compare.py",
+        [("    fitting = dict(x0=x0, origin=origin, relative=relative)",
+          "    fitting = dict(x0=x0, origin=origin)")],
+        ["tests/test_compare_window.py::test_relative_residuals_have_the_likelihood_of_proportional_noise"],
+    ),
     "the comparison's Zener row always takes the Maxwell fit": (
         "vojax/_compare.py",
-        [("    if rss(nested) < rss(fit):\n", "    if True:\n")],
+        [("    if rss(nested, inside) < rss(fit, inside):\n", "    if True:\n")],
         ["tests/test_compare.py::test_the_comparison_finds_each_law_with_the_noise_below_its_feature"],
     ),
     "trade interval without its χ² test": (

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from . import _validate as check
+from ._refit_inputs import _check_x0, _weights
 from ._stats import correlation_limit
 from ._tracker._blocks import block_average, block_size
 
@@ -18,6 +19,8 @@ MODELS = ("springpot", "kelvin-voigt", "maxwell", "zener", "variable")
 UNDECIDED_BF = 3.0
 OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `_fit`)
 STRONG_BF = 10.0
+MIN_POINTS = 20  # the fewest samples compared: each law's fit of its first part needs a
+# few more than the variable order's free numbers (knots + coefficient + offset)
 MAX_POINTS = 20_000  # a longer record is compared on block means (about 1.5 s per 1,000
 # points and law on two cores, growing a little faster than the points)
 
@@ -68,7 +71,9 @@ class Comparison:
         return self.table()
 
 
-def _fit(model, stress, strain, grid, knots, window=None):
+def _fit(model, stress, strain, grid, knots, window=None, fitting=None):
+    """One law's refit over `window`, with the shared refit options `fitting` (the offset,
+    the test's start, relative residuals)."""
     from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
     from ._refit import refit
 
@@ -80,7 +85,7 @@ def _fit(model, stress, strain, grid, knots, window=None):
             law.inputs(stress, regressor), strain, **grid,
             order=knots if model == "variable" else "constant",
             direct=law.direct(stress, regressor), p_signs=law.p_signs, window=window,
-            warn=False,
+            warn=False, **(fitting or {}),
         )
 
     fit = once(strain)
@@ -93,23 +98,26 @@ def _fit(model, stress, strain, grid, knots, window=None):
     return fit
 
 
-def _at_least_nested(fit, early, nested, nested_early, strain, tail):
+def _at_least_nested(fit, early, nested, nested_early, scaled, inside, tail):
     """The fit (and the fit of the record's first part) of a law, or of the law it nests
-    where that fits better: ``(fit, early, note or None)``."""
-    def rss(f, where=slice(None)):
-        r = np.asarray(strain - f.y_hat)[where]
+    where that fits better: ``(fit, early, note or None)``; `scaled` gives a fit's residuals
+    as fitted (relative where asked), `inside` and `tail` the samples compared."""
+    def rss(f, where):
+        r = scaled(f)[where]
         return float(r @ r)
 
     note = None
-    if rss(nested) < rss(fit):
+    if rss(nested, inside) < rss(fit, inside):
         fit, note = nested, "E0 at 0: the Maxwell fit"
-    if rss(nested_early, ~tail) < rss(early, ~tail):  # on the part they were fitted to
+    early_part = inside & ~tail  # the part they were fitted to
+    if rss(nested_early, early_part) < rss(early, early_part):
         early = nested_early
     return fit, early, note
 
 
 def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int = 3,
-            holdout: float = 0.25, max_points: int = MAX_POINTS) -> Comparison:
+            holdout: float = 0.25, max_points: int = MAX_POINTS, window=None,
+            x0="estimate", origin=None, relative: bool = False) -> Comparison:
     """Fits each of `models` to one record (the strain as output, the stress as input, as
     in ``σ = η D^{q} ε``) and ranks them by evidence. The samples lie at ``k·dt`` or at the
     times `t`; or `stress` is a `Record` (`vojax.load_records`, one input) given alone,
@@ -118,8 +126,17 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     - `models`: any of ``"springpot"``, ``"kelvin-voigt"``, ``"maxwell"``, ``"zener"`` (the
       constant-order laws of `vojax.Springpot` … `vojax.FractionalZener`, with their sign
       constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots);
-    - `holdout`: the fraction at the end of the record that a second fit of each model does
-      not see and predicts (the whole loading history still drives it).
+    - `holdout`: the fraction at the end of the record (of the window, with one) that a
+      second fit of each model does not see and predicts (the whole loading history still
+      drives it).
+
+    As `refit`'s, and passed to every law's refit: `window` ``(from, to)``, the samples fitted
+    and compared (e.g. after a rheometer's inertial ringing; N below is their number);
+    `x0`, the strain's offset, ``"estimate"`` (default, one free number), ``None`` (the
+    first sample) or a number (a tared sensor); `origin`, the test's start before the first
+    sample (a step load there); `relative`, residuals relative to the strain (for data over
+    decades: the likelihood is then that of noise proportional to the data, and the held-out
+    error the RMS relative error).
 
     The log evidence is the Schwarz approximation ``log L̂ − (k/2) ln N`` (k the free
     numbers, the noise level's included; L̂ the Gaussian likelihood at the fit), whose
@@ -137,6 +154,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
         stress, strain, dt, t, output="strain", call="compare")
     stress, strain = _checked_arrays(stress, strain, models, holdout, dt, t)
     max_points = check.count(max_points, "max_points", 100, 1_000_000)
+    _check_x0(x0, origin)
     num = stress.size
     times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
     grid = dict(dt=dt) if t is None else dict(t=times)
@@ -144,29 +162,38 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     if block > 1:  # block means on the coarser clock, as the tracker fits a long record
         times, stress, strain = (block_average(v, block) for v in (times, stress, strain))
         num, grid = stress.size, dict(t=times)
-    split = times[int(round((1 - holdout) * (num - 1)))]
-    tail = times > split
+    inside = _weights(num, None, None, window, relative, times, strain) > 0
+    first, split = _parts(times, inside, holdout, window)
+    tail = inside & (times > split)
+    fitting = dict(x0=x0, origin=origin, relative=relative)
     fits = {}
 
-    def fitted(model, window=None):  # each law's fit once, whole record or first part
-        if (model, window) not in fits:
-            fits[model, window] = _fit(model, stress, strain, grid, knots, window=window)
-        return fits[model, window]
+    def fitted(model, part=window):  # each law's fit once, over the window or its first part
+        key = (model, None if part is None else tuple(part))
+        if key not in fits:
+            fits[key] = _fit(model, stress, strain, grid, knots, part, fitting)
+        return fits[key]
 
-    part = (times[0], split)
+    def scaled(fit):  # a fit's residuals as fitted
+        r = np.asarray(strain - fit.y_hat)
+        return r / np.where(inside, strain, 1.0) if relative else r  # y ≠ 0 where compared
+
+    part = (first, split)
+    offset = 1 if isinstance(x0, str) else 0  # an estimated offset is a free number
     rows = []
     for model in dict.fromkeys(models):
         fit, early = fitted(model), fitted(model, part)
-        k = np.asarray(fit.knots).size + np.asarray(fit.p).size + 1 + 1  # + x0 + σ
+        k = np.asarray(fit.knots).size + np.asarray(fit.p).size + offset + 1  # + σ
         nested = None
         if model == "zener":
             # the Zener with E0 = 0 is the Maxwell law: its output-error fit (the strain fed
             # back, refitted until it settles) can stop short of that, so the Maxwell fit
             # stands in where it fits better (the Zener's count of quantities kept)
             fit, early, nested = _at_least_nested(
-                fit, early, fitted("maxwell"), fitted("maxwell", part), strain, tail
+                fit, early, fitted("maxwell"), fitted("maxwell", part), scaled, inside, tail
             )
-        rows.append(_row(model, int(k), fit, early, strain, tail, nested))
+        rows.append(
+            _row(model, int(k), fit, early, strain, scaled, inside, tail, nested, relative))
     for r in rows:
         bad = [k for k, v in r.items() if isinstance(v, float) and not math.isfinite(v)]
         if bad:
@@ -179,18 +206,37 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     weights = np.exp([r["log_evidence"] - top for r in rows])
     for r, w in zip(rows, weights / weights.sum()):
         r["weight"] = float(w)
+    num = int(inside.sum())
     return Comparison(rows, verdict_of(rows, num), block)
 
 
-def _row(model, k, fit, early, strain, tail, nested):
-    """One law's row: its likelihood and criteria, the held-out prediction's error, the
-    residuals' lag-1 correlation, the order (a range where it moves) and its refit."""
-    num = strain.size
-    res = np.asarray(strain - fit.y_hat)
+def _parts(times, inside, holdout, window):
+    """The first fitted time and the split before the held-out end, both inside the window;
+    refuses a window too short to compare on."""
+    idx = np.flatnonzero(inside)
+    if idx.size < MIN_POINTS:
+        where = ("the record" if window is None
+                 else f"`window` {tuple(float(v) for v in window)}")
+        raise ValueError(
+            f"{where} holds {idx.size} samples; compare needs at least {MIN_POINTS} to fit "
+            "each law and predict its held-out end."
+        )
+    return times[idx[0]], times[idx[int(round((1 - holdout) * (idx.size - 1)))]]
+
+
+def _row(model, k, fit, early, strain, scaled, inside, tail, nested, relative):
+    """One law's row: its likelihood and criteria over the `inside` samples (with relative
+    residuals, the density of noise proportional to the data), the held-out prediction's
+    error on `tail`, the residuals' lag-1 correlation, the order (a range where it moves)
+    and its refit."""
+    num = int(inside.sum())
+    res = scaled(fit)[inside]
     rss = float(res @ res)
     loglik = -0.5 * num * (math.log(2 * math.pi * max(rss, 1e-300) / num) + 1.0)
-    miss = np.asarray(strain - early.y_hat)[tail]
-    span = float(np.ptp(strain)) or 1.0
+    if relative:  # the Jacobian of y ↦ r/y: a density of the data, as the absolute rows'
+        loglik -= float(np.sum(np.log(np.abs(strain[inside]))))
+    miss = scaled(early)[tail]
+    span = 1.0 if relative else (float(np.ptp(strain[inside])) or 1.0)
     e = res - res.mean()
     lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else 0.0  # an exact fit: none
     order = np.asarray(fit.order)

@@ -149,7 +149,7 @@ def compare_command(args) -> int:
     from .._compare import MODELS, compare
     from .._data._batch import _write_table
     from .._data._paths import claim_outputs
-    from .._data._pipeline import stress_strain
+    from .._data._pipeline import refit_options, stress_strain
 
     if args.model is not None:
         raise CLIError("--model does not apply to compare: it fits every model (--models).")
@@ -159,6 +159,8 @@ def compare_command(args) -> int:
         raise CLIError(f"--models takes some of {','.join(MODELS)}, got {args.models!r}.")
     if not 1 <= args.knots <= 10:
         raise CLIError(f"--knots must be from 1 to 10, got {args.knots}.")
+    if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
+        raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
     _out_apart(args.out, [args.file])
     records = _select(_load(args.file, args), args)
     for record in records:
@@ -169,8 +171,13 @@ def compare_command(args) -> int:
     rows = []
     for record in records:
         stress, strain = stress_strain(record, args.area, args.length)
+        fitting = refit_options(record, None, args.area, args.length, args.origin,
+                                args.fit_from, args.fit_to)  # in the record's own clock
+        if args.x0 is not None:  # in the output column's unit: a strain through --length
+            fitting["x0"] = args.x0 if args.length is None else args.x0 / args.length
         try:
-            result = compare(stress, strain, **record.grid, models=models, knots=args.knots)
+            result = compare(stress, strain, **record.grid, models=models, knots=args.knots,
+                             relative=args.relative, **fitting)
         except ValueError as e:
             raise CLIError(f"{record.name}: {e}") from None
         print(f"{record.name}:")

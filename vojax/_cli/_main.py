@@ -13,8 +13,18 @@ from ._commands import (
     identify_command,
 )
 from ._demo import demo
-from ._options import _column_options, _data_options
-from ._types import CLIError, _count, _fraction, _gain, _order, _order_list, _Parser, _positive
+from ._options import _column_options, _data_options, _refit_options
+from ._types import (
+    CLIError,
+    _count,
+    _finite,
+    _fraction,
+    _gain,
+    _order,
+    _order_list,
+    _Parser,
+    _positive,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -159,6 +169,18 @@ def _compare_parser(sub) -> None:
     )
     m.add_argument("--knots", type=int, default=3,
                    help="knots of the variable order (default 3)")
+    _refit_options(m)
+    m.add_argument(
+        "--x0", type=_finite, default=None, metavar="VALUE",
+        help="the output's offset where it is known (the output column's reading at rest, in "
+        "its unit; a tared sensor reads 0): every law holds it there instead of estimating it "
+        "(default: estimated, one free number more)",
+    )
+    m.add_argument(
+        "--relative", action="store_true",
+        help="residuals relative to the strain, for data over decades (no fitted sample may "
+        "be 0: leave the start out with --fit-from or give --origin)",
+    )
     m.set_defaults(run=compare_command)
 
 

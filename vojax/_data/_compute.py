@@ -19,6 +19,9 @@ from ._pipeline import (
     runs_refit,
 )
 
+# the refit's options that the comparison takes too: the fit window and the test's start
+FIT_KEYS = ("origin", "fit_from", "fit_to")
+
 
 def _compute_group(group, num, dt, config, mesh=None):
     """Computes the records of one bucket (``num`` samples, step ``dt``; ``num=None``: one
@@ -100,7 +103,8 @@ def _compute_group(group, num, dt, config, mesh=None):
                     length=length, pad_to=num, **fit,
                 )
             if config.get("compare"):
-                summary["compare"] = compare_part(r, area, length)
+                summary["compare"] = compare_part(
+                    r, area, length, **{k: fit[k] for k in FIT_KEYS if k in fit})
             check_finite(summary, columns)
         except Exception as e:  # noqa: BLE001
             yield r, state, e

@@ -52,19 +52,22 @@ def adaptive_part(res, y, physical):
     return columns, part
 
 
-def compare_part(record, area=None, length=None):
+def compare_part(record, area=None, length=None, origin=None, fit_from=None, fit_to=None):
     """`vojax.compare` of one record (its one input as the stress, its output as the strain,
-    through `area` and `length` as eq. (35)) as the ``compare`` block of its summary: the
-    best law, the next one and the Bayes factor between them, the verdict, and each law's
-    log evidence, weight and held-out NRMSE."""
+    through `area` and `length` as eq. (35)), over the refit's window and from its origin (in
+    the file's time unit), as the ``compare`` block of its summary: the best law, the next
+    one and the Bayes factor between them, the verdict, and each law's log evidence, weight
+    and held-out NRMSE."""
     from .._compare import compare
+    from ._regressors import refit_options
 
     if record.inputs.shape[1] != 1:
         raise ValueError(
             f"--compare takes one input column (the stress); this record has "
             f"{record.inputs.shape[1]}."
         )
-    c = compare(*stress_strain(record, area, length), **record.grid)
+    fitting = refit_options(record, None, area, length, origin, fit_from, fit_to)
+    c = compare(*stress_strain(record, area, length), **record.grid, **fitting)
     rows = c.rows
     out = {
         "best": rows[0]["model"],
