@@ -103,7 +103,8 @@ def _calls():
     vary("compare", vojax.compare,
          dict(stress=U, strain=Y, dt=DT, models=("springpot",)),
          dict(stress=_arrays(U), strain=_arrays(Y), models=TEXTS + [("springpot", "x")],
-              knots=COUNTS, holdout=SCALARS, max_points=COUNTS))
+              knots=COUNTS, holdout=SCALARS, max_points=COUNTS, window=PAIRS,
+              x0=SCALARS + TEXTS, origin=SCALARS, relative=[None, "yes", 1, math.nan]))
     vary("fisher_information", vojax.fisher_information,
          dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01),
          dict(u=_arrays(U), order=SCALARS, p=SCALARS, noise_std=SCALARS, knots=COUNTS,

@@ -232,8 +232,22 @@ def cases(files):
                  "constant_output.csv", "huge_numbers.csv", "far_clock.csv"):
         out.append(["compare", name, *COLUMNS, "--models", "springpot,maxwell", "--out", "out"])
     for opts in (["--models", "bogus"], ["--knots", "0"], ["--knots", "99"],
-                 ["--model", "zener"]):
+                 ["--model", "zener"], ["--fit-from", "nan"], ["--fit-from", "1e300"],
+                 ["--fit-from", "3", "--fit-to", "1"], ["--origin", "0"], ["--origin", "-inf"],
+                 ["--x0", "inf"], ["--relative"], ["--relative", "--fit-from", "0.2"],
+                 ["--origin", "-1", "--x0", "0", "--relative", "--fit-to", "0.5"]):
         out.append(["compare", "good.csv", *COLUMNS, *opts, "--out", "out"])
+    for opts in (["--noise", "x"], ["--noise", "order_drift=1"], ["--noise", ""],
+                 ["--noise", "order_drift=1,parameter_drift=1,noise_std=1,extra=1"],
+                 ["--noise", "order_drift=1,order_drift=1,noise_std=1"],
+                 ["--noise", "order_drift=inf,parameter_drift=1,noise_std=1"],
+                 ["--noise", "order_drift=1e-300,parameter_drift=1e-300,noise_std=1e-300"],
+                 ["--noise", "order_drift=1,parameter_drift=1,noise_std=1e300"],
+                 ["--noise", "order_drift=0.01,parameter_drift=0.001,noise_std=0.01",
+                  "--method", "gradient"],
+                 ["--noise", "order_drift=0.01,parameter_drift=0.001,noise_std=0.01",
+                  "--parameters", "0.1"]):
+        out.append(["identify", "good.csv", *COLUMNS, *opts, "--out", "out"])
     afm = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
     for name in ("good.jpk-force", "cut.jpk-force", "channel.jpk-force"):
         for opts in ([], ["--tip", "sphere:1e-320"], ["--tip", "sphere:5"],

@@ -70,7 +70,7 @@ MUTATIONS = {
     ),
     "refit covariance uses sigma, not sigma squared": (
         "vojax/_refit_solve.py",
-        [("    cov = sigma2 * inverse\n    raw_of", "    cov = jnp.sqrt(sigma2) * inverse\n    raw_of")],
+        [("    cov = sigma2 * inverse\n    raw, raw_sd", "    cov = jnp.sqrt(sigma2) * inverse\n    raw, raw_sd")],
         ["tests/test_refit.py"],
     ),
     "batch writes the first record's law output for every record": (
@@ -191,8 +191,8 @@ MUTATIONS = {
     "refit's tolerance passed as a Python number (a retrace per value)": (
         'vojax/_refit.py',
         [
-            ('jnp.asarray(rtol, big_y.dtype), jnp.asarray(atol, big_y.dtype), max_steps, throw,',
-             'float(rtol), float(atol), max_steps, throw,'),
+            ('jnp.asarray(solver["rtol"], dtype),\n            jnp.asarray(solver["atol"], dtype),',
+             'float(solver["rtol"]),\n            float(solver["atol"]),'),
         ],
         ['tests/test_retracing.py::test_refit_traces_once'],
     ),
@@ -204,8 +204,8 @@ MUTATIONS = {
     ),
     "refit Jacobian's order column without the chain rule dβ/draw": (
         "vojax/_refit_solve.py",
-        [("[(dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta, design(phi_t)], axis=1",
-          "[(dphi_t @ (p_t[:width] * active[:width]))[:, None] * jnp.ones_like(dbeta), design(phi_t)], axis=1")],
+        [("by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta",
+          "by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * jnp.ones_like(dbeta)")],
         ["tests/test_refit.py::test_standard_errors_are_the_gauss_newton_covariance",
          "tests/test_refit.py::test_knot_standard_errors_from_an_autodiff_jacobian"],
     ),
@@ -237,8 +237,8 @@ MUTATIONS = {
         ["tests/test_grid_identify.py"],
     ),
     "refit with an origin fits the added sample": (
-        "vojax/_refit.py",
-        [("w = np.concatenate([[0.0], w])", "w = np.concatenate([[1.0], w])")],
+        "vojax/_refit_inputs.py",
+        [("np.concatenate([[0.0], w]))", "np.concatenate([[1.0], w]))")],
         ["tests/test_refit_recordings.py"],
     ),
     "sign constraints never hold a coefficient": (
@@ -384,7 +384,7 @@ MUTATIONS = {
     ),
     "law's band covariance never renormalised": (
         "vojax/_adaptive/_bands.py",
-        [("renorm = jnp.isfinite(big) & (big > RESCALE)", "renorm = big < 0.0")],
+        [("renorm = jnp.isfinite(big) & (big > rescale)", "renorm = big < 0.0")],
         ["tests/test_tracker.py::test_an_unstable_law_reports_an_infinite_band_with_its_reason"],
     ),
     "law's band rescaled with the wrong sign": (
@@ -545,6 +545,29 @@ MUTATIONS = {
         "vojax/_tracker/_start.py",
         [("    padded[:, :m] = x\n", "    padded[:, :m] = x[:, ::-1]\n")],
         ["tests/test_tracker.py::test_phi_of_each_column_equals_the_memory_run_on_all_columns"],
+    ),
+    "the command's noise level not divided by --length": (
+        "vojax/_data/_pipeline.py",
+        [("settings[\"noise\"][\"noise_std\"]) / abs(output_scale(model, length))",
+          "settings[\"noise\"][\"noise_std\"])")],
+        ["tests/test_noise_option.py::test_the_command_line_noise_is_in_the_files_unit"],
+    ),
+    "--noise beside --parameters constant let through": (
+        "vojax/_tracker/_estimator.py",
+        [("    if parameters == \"constant\":\n        raise ValueError(\n            \"`noise` sets",
+          "    if False:\n        raise ValueError(\n            \"`noise` sets")],
+        ["tests/test_noise_option.py::test_the_command_line_noise_is_in_the_files_unit"],
+    ),
+    "a noise intensity of 1e300 let through": (
+        "vojax/_tracker/_estimator.py",
+        [("check.positive(v, f\"noise[{k!r}]\", upper=NOISE_LIMIT)",
+          "check.positive(v, f\"noise[{k!r}]\")")],
+        ["tests/test_noise_option.py::test_an_intensity_whose_square_overflows_is_refused"],
+    ),
+    "--noise with a key missing let through": (
+        "vojax/_cli/_types.py",
+        [("    if sorted(keys) != sorted(NOISE_KEYS) or", "    if")],
+        ["tests/test_noise_option.py::test_the_command_line_noise_is_in_the_files_unit"],
     ),
     "compare's likelihood counts every sample, not the window's": (
         "vojax/_compare.py",
@@ -840,7 +863,8 @@ MUTATIONS = {
     ),
     "the command line's offset not in the model's output unit": (
         "vojax/_data/_pipeline.py",
-        [('extra["x0"] = float(x0) / output_scale(model, length)', 'extra["x0"] = float(x0)')],
+        [('extra["x0"] = float(settings["x0"]) / output_scale(model, length)',
+          'extra["x0"] = float(settings["x0"])')],
         ["tests/test_offset.py::test_the_command_line_offset_is_in_the_files_unit"],
     ),
     'a known offset reported as estimated': (
@@ -1000,8 +1024,7 @@ MUTATIONS = {
     ),
     "held-out error from the fit that saw the end": (
         "vojax/_compare.py",
-        [("        miss = np.asarray(strain - early.y_hat)[tail]",
-          "        miss = np.asarray(strain - fit.y_hat)[tail]")],
+        [("    miss = scaled(early)[tail]", "    miss = scaled(fit)[tail]")],
         ["tests/test_compare.py::test_the_held_out_error_is_the_prediction_of_a_fit_that_did_not_see_the_end"],
     ),
     '"strongly favoured" from a Bayes factor of 3': (
@@ -1025,9 +1048,9 @@ MUTATIONS = {
         [("    check.order(order, num, bounds=order_range)\n", "")],
         ["tests/test_design.py::test_bad_plans_are_refused_with_a_reason"],
     ),
-    "fisher_information squares any noise level": (
+    "fisher_information answers an information that overflowed": (
         "vojax/_design.py",
-        [("    if variance is None:", "    if False:")],
+        [("    if not np.all(np.isfinite(information)):", "    if False:")],
         ["tests/test_design.py::test_bad_plans_are_refused_with_a_reason"],
     ),
     "AFM contact one sample early": (

@@ -127,6 +127,10 @@ def test_a_window_too_short_to_compare_on_is_refused_in_one_sentence():
         vojax.compare(stress, y, dt, window=(3.0, 1.0))
     with pytest.raises(ValueError, match="`x0` must be 'estimate', None"):
         vojax.compare(stress, y, dt, x0="zero")
+    with pytest.raises(TypeError, match="`relative` must be True or False, got 'yes'"):
+        vojax.compare(stress, y, dt, relative="yes")
+    with pytest.raises(ValueError, match="`origin` must be a finite time before the first"):
+        vojax.compare(stress, y, dt, origin=0.0, models=("springpot",))
 
 
 def test_the_command_passes_the_window_offset_and_origin_in_the_files_time(tmp_path):

@@ -55,13 +55,17 @@ def test_each_step_is_an_option_of_the_interface_it_is_said_in(reason):
     assert "=" not in cli.split(". Next: ")[-1] and "vojax." not in cli
 
 
-def test_a_step_without_an_option_on_the_command_line_is_left_out_there():
-    """`noise=` has no command-line option: the command says the other steps, renumbered."""
+def test_every_step_is_said_in_both_interfaces_numbered_in_order():
+    """Each step has its words in Python and on the command line (the noise intensities
+    too: ``--noise``), numbered in the order given."""
+    from vojax._steps import _WORDS
+
+    assert set(_WORDS) == set(Step) and all(p and c for p, c in _WORDS.values())
     python = say("f", (Step.OUTLIERS, Step.NOISE))
     cli = say("f", (Step.NOISE, Step.OUTLIERS), "cli")
-    assert python.count("(2)") == 1 and "noise=" in python
-    assert cli == "f. Next: (1) look for steps or outliers in the data"
-    assert say("f", (Step.NOISE,), "cli") == "f"
+    assert python.count("(2)") == 1 and "(2) give the noise intensities" in python and "noise=" in python
+    assert cli == ("f. Next: (1) give the noise intensities yourself, the instrument's noise "
+                   "level among them: --noise; (2) look for steps or outliers in the data")
     with pytest.raises(ValueError, match="`interface` must be 'python' or 'cli'"):
         say("f", (Step.X0,), "R")
 

@@ -155,6 +155,8 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     stress, strain = _checked_arrays(stress, strain, models, holdout, dt, t)
     max_points = check.count(max_points, "max_points", 100, 1_000_000)
     _check_x0(x0, origin)
+    if not isinstance(relative, (bool, np.bool_)):
+        raise TypeError(f"`relative` must be True or False, got {relative!r}.")
     num = stress.size
     times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
     grid = dict(dt=dt) if t is None else dict(t=times)

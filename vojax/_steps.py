@@ -72,7 +72,7 @@ _WORDS = {
     ),
     Step.NOISE: (
         "give the noise intensities yourself, the instrument's noise level among them: noise=",
-        None,
+        "give the noise intensities yourself, the instrument's noise level among them: --noise",
     ),
     Step.COMPARE: (
         "compare the laws the record supports: vojax.compare",
@@ -104,11 +104,10 @@ INTERFACES = ("python", "cli")
 
 def say(finding: str, steps, interface: str = "python") -> str:
     """`finding` followed by the numbered `steps` in the words of `interface` ("python" or
-    "cli"); a step the interface has no option for is left out."""
+    "cli")."""
     if interface not in INTERFACES:
         raise ValueError(f"`interface` must be 'python' or 'cli', got {interface!r}.")
     words = [_WORDS[Step(s)][INTERFACES.index(interface)] for s in steps]
-    words = [w for w in words if w]
     if not finding or not words:
         return finding
     return finding + ". Next: " + "; ".join(f"({i}) {w}" for i, w in enumerate(words, 1))

@@ -45,6 +45,7 @@ def _settings(args) -> dict:
         **({"parameters": args.parameters} if getattr(args, "parameters", None) else {}),
         **({"max_points": args.max_points} if getattr(args, "max_points", None) else {}),
         **({"x0": args.x0} if getattr(args, "x0", None) is not None else {}),
+        **({"noise": args.noise} if getattr(args, "noise", None) is not None else {}),
         **({"time_scale": args.time_scale}
            if getattr(args, "time_scale", None) is not None else {}),
         **({"alpha_bounds": list(args.alpha_bounds)}

@@ -13,6 +13,7 @@ from ._types import (
     _delimiter,
     _finite,
     _gain,
+    _noise,
     _parameters,
     _positive,
     _rate,
@@ -208,6 +209,16 @@ def _tracker_options(p):
         "the offset trade off; as vojax.identify(x0=...)",
     )
     p.add_argument(
+        "--noise",
+        type=_noise,
+        default=None,
+        metavar="order_drift=A,parameter_drift=B,noise_std=S",
+        help="the tracker's noise intensities, instead of tuning them: the variance of the "
+        "order's (logistic) change over the record, of each normalised parameter's change, "
+        "and the measurement noise's standard deviation in the output column's unit; as "
+        "vojax.identify(noise=...)",
+    )
+    p.add_argument(
         "--max-points",
         type=int,
         default=None,
@@ -290,7 +301,8 @@ def _law_options(args):
 
     try:  # the tracker's options, checked as the batch's Python route checks them
         check_parameters(args.method, getattr(args, "parameters", None), points,
-                         getattr(args, "x0", None), getattr(args, "time_scale", None))
+                         getattr(args, "x0", None), getattr(args, "time_scale", None),
+                         getattr(args, "noise", None))
     except ValueError as e:
         raise CLIError(str(e)) from None
     if points is not None and not MIN_POINTS <= points <= TRACKER_MAX_POINTS:

@@ -2,6 +2,7 @@
 sentence what is wrong."""
 
 import argparse
+import math
 
 
 class CLIError(Exception):
@@ -62,6 +63,32 @@ def _finite(text: str):
     if not abs(value) <= BIG:
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return value
+
+
+NOISE_KEYS = ("order_drift", "parameter_drift", "noise_std")
+
+
+def _noise(text: str) -> dict:
+    """The tracker's noise intensities, ``order_drift=…,parameter_drift=…,noise_std=…``:
+    each key once, each value a positive finite number."""
+    pairs = [part.partition("=") for part in text.split(",")]
+    keys = [k.strip() for k, _, _ in pairs]
+    if sorted(keys) != sorted(NOISE_KEYS) or any(not eq for _, eq, _ in pairs):
+        raise argparse.ArgumentTypeError(
+            f"expected order_drift=…,parameter_drift=…,noise_std=… (each once), got {text!r}"
+        )
+    out = {}
+    for key, _, value in pairs:
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not 0.0 < number <= BIG:
+            raise argparse.ArgumentTypeError(
+                f"{key.strip()} must be a positive finite number, got {value.strip()!r}"
+            )
+        out[key.strip()] = number
+    return {k: out[k] for k in NOISE_KEYS}
 
 
 def _fraction(text: str):

@@ -105,6 +105,7 @@ def run_batch(
     x0=None,
     time_scale=None,
     alpha_bounds=None,
+    noise=None,
     client=None,
     compare=False,
 ):
@@ -131,15 +132,15 @@ def run_batch(
     `figure_workers` worker processes (default: the cores but one, at least one, at most four;
     0 draws them in this process), off the computation's path; a record counts as done when its
     figure and summary are written. Records on irregular clocks run one at a time, on their own
-    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`, `max_points`, `x0` and
-    `time_scale`: the tracker's, `alpha_bounds`: every estimator's, as in `identify_record`.
+    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`, `max_points`, `x0`,
+    `time_scale` and `noise`: the tracker's, `alpha_bounds`: every estimator's, as in `identify_record`.
 
     `client`: a Dask ``distributed.Client`` (``pip install "vojax[dask]"``) to compute the
     records on its workers, in tasks of a few records of one length bucket each (see
     `dask_client`); this process keeps the lock, writes every record's folder and draws the
     figures, as without it. Results equal the single-process run's to rounding.
     """
-    check_parameters(method, parameters, max_points, x0, time_scale)
+    check_parameters(method, parameters, max_points, x0, time_scale, noise)
     if client is not None and not all(hasattr(client, a) for a in ("submit", "nthreads")):
         raise TypeError(
             f"`client` must be a distributed.Client, got {type(client).__name__}: start one "
@@ -156,6 +157,7 @@ def run_batch(
             max_points=max_points, x0=None if x0 is None else float(x0),
             time_scale=None if time_scale is None else float(time_scale),
             alpha_bounds=None if alpha_bounds is None else [float(b) for b in alpha_bounds],
+            noise=None if noise is None else {k: float(v) for k, v in dict(noise).items()},
         ).items()
         if v is not None
     }

@@ -62,10 +62,12 @@ def estimator(method) -> str | None:
     return first if first in ("kalman", "gradient") else None
 
 
-def check_parameters(method, parameters, max_points=None, x0=None, time_scale=None) -> None:
-    """`parameters`, `max_points`, `x0` and `time_scale` (the tracker's) are refused with a
-    method that does not run the tracker; `x0` must be a finite number, `time_scale` a
-    positive one."""
+def check_parameters(method, parameters, max_points=None, x0=None, time_scale=None,
+                     noise=None) -> None:
+    """`parameters`, `max_points`, `x0`, `time_scale` and `noise` (the tracker's) are refused
+    with a method that does not run the tracker; `x0` must be a finite number, `time_scale`
+    a positive one, `noise` the tracker's three intensities and not beside
+    ``parameters="constant"``."""
     if x0 is not None:
         from .._validate import known_offset
 
@@ -74,10 +76,18 @@ def check_parameters(method, parameters, max_points=None, x0=None, time_scale=No
         from .._validate import positive
 
         positive(time_scale, "time_scale")
+    if noise is not None:
+        from .._tracker._estimator import check_noise, parameters_statement
+
+        try:
+            check_noise(noise, parameters_statement(parameters))
+        except ValueError as e:  # in the command's words
+            raise ValueError(str(e).replace("`noise`", "--noise").replace(
+                "parameters='constant'", "--parameters constant")) from None
     if estimator(canonical_method(method)) == "kalman":
         return
     for name, value in (("--parameters", parameters), ("--max-points", max_points),
-                        ("--x0", x0), ("--time-scale", time_scale)):
+                        ("--x0", x0), ("--time-scale", time_scale), ("--noise", noise)):
         if value is not None:
             raise ValueError(
                 f"{name} sets the tracker, which --method {method} does not run; add "
@@ -92,7 +102,7 @@ def runs_refit(method) -> bool:
 def identify_record(
     record, *, model="springpot", method="kalman", gamma="auto", lam=None, area=None,
     length=None, pad_to=None, origin=None, fit_from=None, fit_to=None, parameters=None,
-    max_points=None, x0=None, threads=None, time_scale=None, alpha_bounds=None,
+    max_points=None, x0=None, threads=None, time_scale=None, alpha_bounds=None, noise=None,
 ):
     """Runs the tracker or the law and/or the refit on one record (`method`: one of
     `METHODS`); returns ``(columns, summary)``.
@@ -104,12 +114,13 @@ def identify_record(
     tracker's, as in `vojax.identify` (its defaults when None); `x0`: the tracker's known
     offset of the output, in the unit of the file's output column (None: estimated);
     `time_scale`: the unit of time, in the file's, in which `parameters` holds (None: the
-    record's span, as in `vojax.identify`); `alpha_bounds` ``(lo, hi)``: the order's range
+    record's span, as in `vojax.identify`); `noise`: the tracker's noise intensities, its
+    ``noise_std`` in the unit of the file's output column (None: tuned); `alpha_bounds` ``(lo, hi)``: the order's range
     for every estimator run (None: each one's default);
     `threads`: the most threads the tracker's smoothings run in (None: its settings')."""
     method = canonical_method(method)
     _check_record_options(record, model, method, origin, fit_from, fit_to)
-    check_parameters(method, parameters, max_points, x0, time_scale)
+    check_parameters(method, parameters, max_points, x0, time_scale, noise)
     u, y, names, physical = regressors(record, model, area, length)
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
     columns = {"time": record.time}
@@ -119,6 +130,7 @@ def identify_record(
         settings = dict(
             gamma=gamma, lam=lam, max_points=max_points, x0=x0, threads=threads,
             time_scale=time_scale, parameters=parameters, alpha_bounds=alpha_bounds,
+            noise=noise,
         )
         cols, summary[tracker] = _tracker_part(
             record, tracker, u, y, physical, pad_to, model, length, settings
@@ -171,6 +183,9 @@ def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settin
             extra["x0"] = float(settings["x0"]) / output_scale(model, length)
         if settings["time_scale"] is not None:
             extra["time_scale"] = float(settings["time_scale"])
+        if settings["noise"] is not None:  # its noise_std in the output column's unit
+            extra["noise"] = dict(settings["noise"], noise_std=float(
+                settings["noise"]["noise_std"]) / abs(output_scale(model, length)))
         if settings["threads"] is not None:
             from .._settings import TrackerSettings
 

@@ -28,6 +28,24 @@ MIN_POINTS = 100  # the fewest points `max_points` may ask for
 # with 4 and about 2 minutes with 8 or 16 (other work beside it); 50 did not finish in 20 min
 MAX_INPUTS = 16
 NOISE_KEYS = frozenset({"order_drift", "parameter_drift", "noise_std"})
+NOISE_LIMIT = 1e150  # above it an intensity's square overflows float64
+
+
+def check_noise(noise, parameters) -> None:
+    """`noise` None, or a dict of the three intensities, each positive and below
+    `NOISE_LIMIT`; not beside ``parameters="constant"`` (the statement, as
+    `parameters_statement` gives it), which sets the parameters' drift itself."""
+    if noise is None:
+        return
+    if parameters == "constant":
+        raise ValueError(
+            "`noise` sets the parameters' drift itself (its 'parameter_drift'); give it, "
+            "or parameters='constant', not both."
+        )
+    if not isinstance(noise, dict) or set(noise) != NOISE_KEYS:
+        raise ValueError(f"`noise` must be a dict with keys {sorted(NOISE_KEYS)}, got {noise!r}.")
+    for k, v in noise.items():
+        check.positive(v, f"noise[{k!r}]", upper=NOISE_LIMIT)
 
 
 def parameters_statement(value):
@@ -79,18 +97,7 @@ class Tracker:
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", parameters_statement(self.parameters))
-        if self.parameters == "constant" and self.noise is not None:
-            raise ValueError(
-                "`noise` sets the parameters' drift itself (its 'parameter_drift'); give it, "
-                "or parameters='constant', not both."
-            )
-        if self.noise is not None:
-            if not isinstance(self.noise, dict) or set(self.noise) != NOISE_KEYS:
-                raise ValueError(
-                    f"`noise` must be a dict with keys {sorted(NOISE_KEYS)}, got {self.noise!r}."
-                )
-            for k, v in self.noise.items():
-                check.positive(v, f"noise[{k!r}]")
+        check_noise(self.noise, self.parameters)
         if self.x0 is not None:
             object.__setattr__(self, "x0", check.known_offset(self.x0))
         object.__setattr__(self, "alpha_bounds",
