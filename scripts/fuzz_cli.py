@@ -246,7 +246,10 @@ def cases(files):
                  ["--noise", "order_drift=0.01,parameter_drift=0.001,noise_std=0.01",
                   "--method", "gradient"],
                  ["--noise", "order_drift=0.01,parameter_drift=0.001,noise_std=0.01",
-                  "--parameters", "0.1"]):
+                  "--parameters", "0.1"], ["--strain-from-length", "0"],
+                 ["--strain-from-length", "nan"], ["--strain-from-length", "1e300"],
+                 ["--strain-from-length", "1e-300"], ["--strain-from-length", "1"],
+                 ["--strain-from-length", "1", "--length", "1"]):
         out.append(["identify", "good.csv", *COLUMNS, *opts, "--out", "out"])
     afm = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
     for name in ("good.jpk-force", "cut.jpk-force", "channel.jpk-force"):

@@ -546,6 +546,22 @@ MUTATIONS = {
         [("    padded[:, :m] = x\n", "    padded[:, :m] = x[:, ::-1]\n")],
         ["tests/test_tracker.py::test_phi_of_each_column_equals_the_memory_run_on_all_columns"],
     ),
+    "a strain from a length divided by the length, not the rest length": (
+        "vojax/_data/_records.py",
+        [("output=(length - rest) / rest,", "output=(length - rest) / length,")],
+        ["tests/test_strain_from_length.py::test_the_output_is_the_strain_of_the_length_over_its_rest_length"],
+    ),
+    "--strain-from-length beside --length let through": (
+        "vojax/_cli/_args.py",
+        [("strain_from_length\", None) is not None and args.length is not None:",
+          "strain_from_length\", None) is not None and False:")],
+        ["tests/test_strain_from_length.py::test_the_command_identifies_the_strain_of_a_length_column"],
+    ),
+    "a length column reaching 0 let through": (
+        "vojax/_data/_records.py",
+        [("    if not length[low] > 0.0:", "    if False:")],
+        ["tests/test_strain_from_length.py::test_a_record_that_is_not_a_length_is_refused_not_divided_by_zero"],
+    ),
     "the command's noise level not divided by --length": (
         "vojax/_data/_pipeline.py",
         [("settings[\"noise\"][\"noise_std\"]) / abs(output_scale(model, length))",

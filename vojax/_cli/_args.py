@@ -15,6 +15,7 @@ def _load(path, args):
 
     if (args.trim_column is None) != (args.trim_below is None):
         raise CLIError("--trim-column and --trim-below go together.")
+    check_strain_options(args)
     if args.decimal_comma and args.delimiter == ",":
         raise CLIError("--decimal-comma needs another separator: add --delimiter ';' (or tab).")
     try:
@@ -30,6 +31,12 @@ def _load(path, args):
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
     return records
+
+
+def check_strain_options(args) -> None:
+    """``--strain-from-length`` gives the strain itself: refused beside ``--length``."""
+    if getattr(args, "strain_from_length", None) is not None and args.length is not None:
+        raise CLIError("--strain-from-length already gives a strain; leave out --length.")
 
 
 def _settings(args) -> dict:
@@ -69,6 +76,8 @@ def _loader(args) -> dict:
         decimal="," if args.decimal_comma else ".",
         **_afm_loader(args),
         **({"units": args.units} if getattr(args, "units", None) else {}),
+        **({"strain_from_length": args.strain_from_length}
+           if getattr(args, "strain_from_length", None) is not None else {}),
     )
 
 

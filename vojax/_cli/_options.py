@@ -56,6 +56,13 @@ def _column_options(p):
         "(default: none, the output column is the strain)",
     )
     p.add_argument(
+        "--strain-from-length",
+        type=_positive,
+        metavar="L0",
+        help="the output column is the specimen's length L and L0 its rest length, in that "
+        "column's unit: the output becomes the strain (L − L0)/L0 (not with --length)",
+    )
+    p.add_argument(
         "--group-by",
         help="column naming the record in a long-format file (default: the file is one record)",
     )
@@ -281,7 +288,11 @@ def _method(text):
 
 
 def _law_options(args):
-    """``--gamma``/``--lam`` apply to the paper's law only: refused with another method."""
+    """``--gamma``/``--lam`` apply to the paper's law only: refused with another method;
+    ``--strain-from-length`` not beside ``--length`` (before a batch creates its folder)."""
+    from ._args import check_strain_options
+
+    check_strain_options(args)
     if not args.method.startswith("gradient"):
         given = [f"--{k}" for k in ("gamma", "lam") if getattr(args, k) is not None]
         if given:

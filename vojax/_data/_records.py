@@ -1,6 +1,7 @@
 """Recorded tests in: CSV (header row, ``#`` comments) or NPZ, one record or many per file."""
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -144,6 +145,7 @@ def load_records(
     tip=None,
     poisson: float = 0.5,
     units: dict | None = None,
+    strain_from_length: float | None = None,
 ) -> list[Record]:
     """Reads the records of one CSV, NPZ or AFM file.
 
@@ -173,15 +175,48 @@ def load_records(
     - `units`: the units of columns whose names do not end in one, for the figures' axis
       labels, e.g. ``{"stress": "kPa", "time": "ms"}`` (a name such as ``stress_kPa`` already
       says it). They change no number.
+    - `strain_from_length`: the rest length ``L₀`` of a specimen whose `output` column is its
+      length ``L`` (in that column's unit): the output becomes the strain ``(L − L₀)/L₀``,
+      named ``strain`` (unit 1). Every length must be above 0.
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
     inputs = column_names(time, inputs, output, group_by)
     pairs = check_units(units, [time, *inputs, output])
-    return [dataclasses.replace(r, units=pairs) for r in _read_records(
+    rest = _rest_length(strain_from_length)
+    records = [dataclasses.replace(r, units=pairs) for r in _read_records(
         path, time, inputs, output, group_by, strict, resample, trim_column, trim_below,
         delimiter, decimal, segments, from_contact, tip, poisson,
     )]
+    return records if rest is None else [_strain_of(r, rest) for r in records]
+
+
+def _rest_length(value) -> float | None:
+    """`strain_from_length` checked: None, or a positive finite number."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`strain_from_length` must be a number (a length), got {value!r}.")
+    if not 0.0 < float(value) < math.inf:
+        raise ValueError(
+            f"`strain_from_length` must be a positive finite length, got {float(value)!r}."
+        )
+    return float(value)
+
+
+def _strain_of(record, rest):
+    """The record with its output, a length, as the strain ``(L − rest)/rest``."""
+    length = np.asarray(record.output, float)
+    low = int(np.argmin(length))
+    if not length[low] > 0.0:
+        raise DataError(
+            f"{record.source}, record {record.name!r}: {record.output_name} reaches "
+            f"{length[low]:g} at t = {record.time[low] + record.time_offset:g}; a strain from a length needs "
+            "lengths above 0 (is the output a displacement? then use a length scale)."
+        )
+    units = tuple(p for p in record.units if p[0] != "strain") + (("strain", "1"),)
+    return dataclasses.replace(record, output=(length - rest) / rest, output_name="strain",
+                               units=tuple(sorted(units)))
 
 
 def column_names(time, inputs, output, group_by=None) -> list[str]:
