@@ -149,7 +149,8 @@ def _calls():
               output=TEXTS + ["time_s"], group_by=TEXTS, resample=SCALARS,
               delimiter=TEXTS + [";", "\t", ",,"], decimal=TEXTS + [","],
               units=[None, 3, {"x": "s"}, {"stress": ""}, {"stress": "k" * 100}, "kPa"],
-              strain_from_length=SCALARS,
+              strain_from_length=SCALARS, length_column=TEXTS + ["strain", "time_s"],
+              area_column=TEXTS + ["stress"],
               segments=[None, 3, [0], ["a"], "0"], tip=[None, "sphere", ("sphere",),
                                                         ("cube", 1.0)]))
     return cases

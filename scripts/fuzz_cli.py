@@ -249,7 +249,11 @@ def cases(files):
                   "--parameters", "0.1"], ["--strain-from-length", "0"],
                  ["--strain-from-length", "nan"], ["--strain-from-length", "1e300"],
                  ["--strain-from-length", "1e-300"], ["--strain-from-length", "1"],
-                 ["--strain-from-length", "1", "--length", "1"]):
+                 ["--strain-from-length", "1", "--length", "1"],
+                 ["--length-column", "nope"], ["--length-column", "strain"],
+                 ["--length-column", "stress"], ["--area-column", "stress"],
+                 ["--area-column", "time_s"], ["--length-column", "stress", "--length", "2"],
+                 ["--length-column", "stress", "--strain-from-length", "2"]):
         out.append(["identify", "good.csv", *COLUMNS, *opts, "--out", "out"])
     afm = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
     for name in ("good.jpk-force", "cut.jpk-force", "channel.jpk-force"):

@@ -10,7 +10,7 @@ FIT_OPTIONS = ("origin", "fit_from", "fit_to")
 
 
 def _load(path, args):
-    from .._data import load_records
+    from .._data import DataError, load_records
     from .._data._records import check_units
 
     if (args.trim_column is None) != (args.trim_below is None):
@@ -27,16 +27,32 @@ def _load(path, args):
     # the loader's warnings (resampled time steps) are shown as one line each, not as Python's
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        records = load_records(path, **_loader(args))
+        try:
+            records = load_records(path, **_loader(args))
+        except DataError:
+            raise
+        except (ValueError, TypeError) as e:  # an option's check, in the command's words
+            text = str(e)
+            for name in ("strain_from_length", "length_column", "area_column"):
+                text = text.replace(f"`{name}`", "--" + name.replace("_", "-"))
+            raise CLIError(text) from None
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
     return records
 
 
 def check_strain_options(args) -> None:
-    """``--strain-from-length`` gives the strain itself: refused beside ``--length``."""
-    if getattr(args, "strain_from_length", None) is not None and args.length is not None:
-        raise CLIError("--strain-from-length already gives a strain; leave out --length.")
+    """``--strain-from-length`` and ``--length-column`` give the strain themselves, and
+    ``--area-column`` the stress: refused beside ``--length``, ``--area`` or each other."""
+    length_column = getattr(args, "length_column", None)
+    if getattr(args, "strain_from_length", None) is not None:
+        if args.length is not None or length_column is not None:
+            raise CLIError("--strain-from-length already gives a strain; leave out "
+                           f"{'--length' if args.length is not None else '--length-column'}.")
+    if length_column is not None and args.length is not None:
+        raise CLIError("--length-column already gives each record's length; leave out --length.")
+    if getattr(args, "area_column", None) is not None and args.area is not None:
+        raise CLIError("--area-column already gives each record's area; leave out --area.")
 
 
 def _settings(args) -> dict:
@@ -76,8 +92,8 @@ def _loader(args) -> dict:
         decimal="," if args.decimal_comma else ".",
         **_afm_loader(args),
         **({"units": args.units} if getattr(args, "units", None) else {}),
-        **({"strain_from_length": args.strain_from_length}
-           if getattr(args, "strain_from_length", None) is not None else {}),
+        **{k: getattr(args, k) for k in ("strain_from_length", "length_column", "area_column")
+           if getattr(args, k, None) is not None},
     )
 
 

@@ -63,6 +63,18 @@ def _column_options(p):
         "column's unit: the output becomes the strain (L − L0)/L0 (not with --length)",
     )
     p.add_argument(
+        "--length-column",
+        metavar="NAME",
+        help="a column holding each record's specimen length l (one value per record, e.g. "
+        "a tool gap per specimen): ε = d/l per record (not with --length)",
+    )
+    p.add_argument(
+        "--area-column",
+        metavar="NAME",
+        help="a column holding each record's contact area a (one value per record): σ = F/a "
+        "per record, one input only (not with --area)",
+    )
+    p.add_argument(
         "--group-by",
         help="column naming the record in a long-format file (default: the file is one record)",
     )

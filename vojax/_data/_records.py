@@ -11,6 +11,7 @@ from ._read import MAX_SAMPLES as MAX_SAMPLES
 from ._read import _column as _column
 from ._read import _npz_column as _npz_column
 from ._read import _read_csv as _read_csv
+from ._scales import Scales
 
 UNIFORM_RTOL = 1e-6  # relative spread of the time steps below which a grid counts as uniform
 
@@ -146,6 +147,8 @@ def load_records(
     poisson: float = 0.5,
     units: dict | None = None,
     strain_from_length: float | None = None,
+    length_column: str | None = None,
+    area_column: str | None = None,
 ) -> list[Record]:
     """Reads the records of one CSV, NPZ or AFM file.
 
@@ -178,45 +181,22 @@ def load_records(
     - `strain_from_length`: the rest length ``L₀`` of a specimen whose `output` column is its
       length ``L`` (in that column's unit): the output becomes the strain ``(L − L₀)/L₀``,
       named ``strain`` (unit 1). Every length must be above 0.
+    - `length_column`, `area_column`: columns holding each record's specimen length ``l``
+      and contact area ``a`` (one value per record, e.g. a tool gap per specimen in a
+      long-format file): the output becomes the strain ``d/l`` (named ``strain``, unit 1)
+      and the one input the stress ``F/a`` (named ``stress``), as eq. (35) with a number
+      per record. Each must be above 0 and the same at every sample of a record.
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """
     inputs = column_names(time, inputs, output, group_by)
     pairs = check_units(units, [time, *inputs, output])
-    rest = _rest_length(strain_from_length)
-    records = [dataclasses.replace(r, units=pairs) for r in _read_records(
-        path, time, inputs, output, group_by, strict, resample, trim_column, trim_below,
-        delimiter, decimal, segments, from_contact, tip, poisson,
+    scales = Scales.checked(strain_from_length, length_column, area_column, time, inputs,
+                            output, group_by)
+    return [scales.apply(dataclasses.replace(r, units=pairs)) for r in _read_records(
+        path, time, inputs + scales.columns, output, group_by, strict, resample, trim_column,
+        trim_below, delimiter, decimal, segments, from_contact, tip, poisson,
     )]
-    return records if rest is None else [_strain_of(r, rest) for r in records]
-
-
-def _rest_length(value) -> float | None:
-    """`strain_from_length` checked: None, or a positive finite number."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"`strain_from_length` must be a number (a length), got {value!r}.")
-    if not 0.0 < float(value) < math.inf:
-        raise ValueError(
-            f"`strain_from_length` must be a positive finite length, got {float(value)!r}."
-        )
-    return float(value)
-
-
-def _strain_of(record, rest):
-    """The record with its output, a length, as the strain ``(L − rest)/rest``."""
-    length = np.asarray(record.output, float)
-    low = int(np.argmin(length))
-    if not length[low] > 0.0:
-        raise DataError(
-            f"{record.source}, record {record.name!r}: {record.output_name} reaches "
-            f"{length[low]:g} at t = {record.time[low] + record.time_offset:g}; a strain from a length needs "
-            "lengths above 0 (is the output a displacement? then use a length scale)."
-        )
-    units = tuple(p for p in record.units if p[0] != "strain") + (("strain", "1"),)
-    return dataclasses.replace(record, output=(length - rest) / rest, output_name="strain",
-                               units=tuple(sorted(units)))
 
 
 def column_names(time, inputs, output, group_by=None) -> list[str]:
