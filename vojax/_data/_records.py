@@ -1,7 +1,6 @@
 """Recorded tests in: CSV (header row, ``#`` comments) or NPZ, one record or many per file."""
 
 import dataclasses
-import math
 from pathlib import Path
 
 import numpy as np
