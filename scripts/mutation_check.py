@@ -548,13 +548,13 @@ MUTATIONS = {
     ),
     "a per-record length multiplies the displacement": (
         "vojax/_data/_scales.py",
-        [("output = output / _per_record(record, self.length, extra[self.length])",
-          "output = output * _per_record(record, self.length, extra[self.length])")],
+        [("output = output / _initial(record, self.length, extra[self.length])",
+          "output = output * _initial(record, self.length, extra[self.length])")],
         ["tests/test_scales.py::test_a_length_and_an_area_per_record_from_columns"],
     ),
-    "a per-record length that varies within the record let through": (
+    "a per-record length taken at the last sample, not the first": (
         "vojax/_data/_scales.py",
-        [("    if hi - lo > SAME * hi:", "    if False:")],
+        [("    value = float(values[0])", "    value = float(values[-1])")],
         ["tests/test_scales.py::test_a_length_and_an_area_per_record_from_columns"],
     ),
     "the length and the area columns read in each other's place": (

@@ -65,13 +65,13 @@ def _column_options(p):
     p.add_argument(
         "--length-column",
         metavar="NAME",
-        help="a column holding each record's specimen length l (one value per record, e.g. "
-        "a tool gap per specimen): ε = d/l per record (not with --length)",
+        help="a column whose value at a record's first sample is its specimen's initial "
+        "length l (e.g. the tool gap of each specimen): ε = d/l per record (not with --length)",
     )
     p.add_argument(
         "--area-column",
         metavar="NAME",
-        help="a column holding each record's contact area a (one value per record): σ = F/a "
+        help="a column whose value at a record's first sample is its contact area a: σ = F/a "
         "per record, one input only (not with --area)",
     )
     p.add_argument(

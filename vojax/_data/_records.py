@@ -180,11 +180,12 @@ def load_records(
     - `strain_from_length`: the rest length ``L₀`` of a specimen whose `output` column is its
       length ``L`` (in that column's unit): the output becomes the strain ``(L − L₀)/L₀``,
       named ``strain`` (unit 1). Every length must be above 0.
-    - `length_column`, `area_column`: columns holding each record's specimen length ``l``
-      and contact area ``a`` (one value per record, e.g. a tool gap per specimen in a
-      long-format file): the output becomes the strain ``d/l`` (named ``strain``, unit 1)
-      and the one input the stress ``F/a`` (named ``stress``), as eq. (35) with a number
-      per record. Each must be above 0 and the same at every sample of a record.
+    - `length_column`, `area_column`: columns whose value at a record's first sample is its
+      specimen's initial length ``l`` and contact area ``a`` (e.g. the tool gap of each
+      specimen in a long-format file, which then shrinks as the tool moves in): the output
+      becomes the engineering strain ``d/l`` (named ``strain``, unit 1) and the one input
+      the stress ``F/a`` (named ``stress``), as eq. (35) with a number per record. Each must
+      be above 0 there.
 
     **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
     """

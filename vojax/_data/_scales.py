@@ -1,7 +1,7 @@
 """The signals a record's columns stand for: a strain from a recorded length
-(``(L − L₀)/L₀``), or from a displacement over a length given per record in a column, and a
-stress from a force over an area given per record in a column (eq. 35 with a number per
-record)."""
+(``(L − L₀)/L₀``), or from a displacement over the specimen's initial length read from a
+column, and a stress from a force over the initial area read from a column (eq. 35 with a
+number per record: the column's value at the record's first sample)."""
 
 import dataclasses
 import math
@@ -10,14 +10,12 @@ import numpy as np
 
 from ._errors import DataError
 
-SAME = 1e-9  # a per-record length or area may vary by this much (relative): rounding only
-
-
 @dataclasses.dataclass(frozen=True)
 class Scales:
     """What `load_records` turns the output and the input into: `rest` the rest length of
-    `strain_from_length`, `length` and `area` the columns that hold each record's length and
-    area (read as extra inputs, `columns`, then taken out)."""
+    `strain_from_length`, `length` and `area` the columns whose value at a record's first
+    sample is its specimen's initial length and area (read as extra inputs, `columns`, then
+    taken out)."""
 
     rest: float | None = None
     length: str | None = None
@@ -60,11 +58,11 @@ class Scales:
         if self.rest is not None:
             output, output_name = _strain_of_length(record, output, self.rest), "strain"
         if self.length is not None:
-            output = output / _per_record(record, self.length, extra[self.length])
+            output = output / _initial(record, self.length, extra[self.length])
             output_name = "strain"
         inputs = inputs[:, :count]
         if self.area is not None:
-            inputs = inputs / _per_record(record, self.area, extra[self.area])
+            inputs = inputs / _initial(record, self.area, extra[self.area])
             units.pop(names[0], None)
             names = ("stress",)
         if self.rest is not None or self.length is not None:  # the output made a strain
@@ -100,13 +98,11 @@ def _strain_of_length(record, length, rest):
     return (length - rest) / rest
 
 
-def _per_record(record, name, values):
-    """The one value of column `name` in this record: above 0, the same at every sample."""
-    lo, hi = float(np.min(values)), float(np.max(values))
-    where = f"{record.source}, record {record.name!r}: {name}"
-    if not lo > 0.0:
-        raise DataError(f"{where} is {lo:g}; a length or an area must be above 0.")
-    if hi - lo > SAME * hi:
-        raise DataError(f"{where} varies within the record ({lo:g} to {hi:g}); it must hold "
-                        "one value per record.")
-    return hi
+def _initial(record, name, values):
+    """Column `name`'s value at the record's first sample (the specimen's initial length or
+    area, which engineering strain and stress divide by), above 0."""
+    value = float(values[0])
+    if not value > 0.0:
+        raise DataError(f"{record.source}, record {record.name!r}: {name} is {value:g} at its "
+                        "first sample; a length or an area must be above 0.")
+    return value
