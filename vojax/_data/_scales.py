@@ -10,6 +10,7 @@ import numpy as np
 
 from ._errors import DataError
 
+
 @dataclasses.dataclass(frozen=True)
 class Scales:
     """What `load_records` turns the output and the input into: `rest` the rest length of
