@@ -602,6 +602,12 @@ MUTATIONS = {
         [("    if sorted(keys) != sorted(NOISE_KEYS) or", "    if")],
         ["tests/test_noise_option.py::test_the_command_line_noise_is_in_the_files_unit"],
     ),
+    "the least drift's constant parameters judged by the penalised ladder only": (
+        "vojax/_tracker/_trade.py",
+        [("    if float(res @ res) * scale <= limit:\n        return 0.0",
+          "    if False:\n        return 0.0")],
+        ["tests/test_band.py::test_least_drift_against_a_brute_force_search"],
+    ),
     "compare's likelihood counts every sample, not the window's": (
         "vojax/_compare.py",
         [("    num = int(inside.sum())\n    res = scaled(fit)[inside]\n",

@@ -99,9 +99,17 @@ def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True)
     chi2, coef = fit(0.0)
     if not chi2 <= limit:
         return np.inf
-    lo, hi = -12.0, 12.0  # log10 λ, in units of `unit`
-    if fit(10.0**hi)[0] <= limit:
+    # the parameters constant (every a_j a multiple of ones: the hats sum to 1), fitted
+    # exactly rather than as the λ → ∞ end of the ladder, whose χ² LAPACK builds differ on
+    tie = np.zeros((cols.shape[1], n + (cols.shape[1] - n * k)))
+    for j in range(n):
+        tie[j * k : (j + 1) * k, j] = 1.0
+    tie[n * k :, n:] = np.eye(cols.shape[1] - n * k)  # the offset, where fitted
+    const = a_mat @ tie
+    res = b - const @ np.linalg.lstsq(const, b, rcond=None)[0]
+    if float(res @ res) * scale <= limit:
         return 0.0  # the parameters constant within the limit
+    lo, hi = -12.0, 12.0  # log10 λ, in units of `unit`
     for _ in range(40):
         mid = (lo + hi) / 2
         c_mid, coef_mid = fit(10.0**mid)
