@@ -602,6 +602,16 @@ MUTATIONS = {
         [("    if sorted(keys) != sorted(NOISE_KEYS) or", "    if")],
         ["tests/test_noise_option.py::test_the_command_line_noise_is_in_the_files_unit"],
     ),
+    "the parallel filter's mean loses the later element's information": (
+        "vojax/_tracker/_parallel.py",
+        [("        _mv(m, b1 + _mv(c1, e2)) + b2,", "        _mv(m, b1) + b2,")],
+        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
+    ),
+    "the parallel filter's information vector loses the earlier mean": (
+        "vojax/_tracker/_parallel.py",
+        [("        _mv(n, e2 - _mv(j2, b1)) + e1,", "        _mv(n, e2) + e1,")],
+        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
+    ),
     "the least drift's constant parameters judged by the penalised ladder only": (
         "vojax/_tracker/_trade.py",
         [("    if float(res @ res) * scale <= limit:\n        return 0.0",

@@ -120,7 +120,14 @@ def test_schedule_is_sequential_on_a_cpu_and_parallel_elsewhere(monkeypatch):
 def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
         schedule, n, max_points, monkeypatch):
     """`identify`, its filters and smoothers run as prefix sums (the GPU's path, here on the
-    CPU): the same order and band to rounding of the iterations."""
+    CPU): the same order and band to the smoother's own stopping rule. The iteration stops
+    once the objective J (about one unit per point fitted, in the tracker's normalised units)
+    falls by less than `REL_TOL` of itself, so two schedules whose sums round differently may
+    stop one step apart, at states within ``δᵀHδ ≲ 2·REL_TOL·J`` of each other: an order
+    within ``√(2·REL_TOL·points)`` of its posterior σ. That bound (about 6e-4 σ here, some
+    1e-5 in the order) is what the schedules must meet; a wrong prefix sum is off by σ or
+    more. (An absolute 1e-7 held where both stopped on the same step, and failed by 2.1e-7 on
+    chunked-200 under jax 0.10.2 with numpy 2.4.6.)"""
     dt = 0.05
     t = dt * np.arange(n)
     u = np.minimum(t / (0.2 * t[-1]), 1.0) + 0.05 * np.sin(t)
@@ -146,7 +153,11 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
     assert got.diagnostics.block == ref.diagnostics.block
     batched_block = vojax.TrackerSettings().batched_block
     assert (got.diagnostics.block >= batched_block) == (max_points is not None)
-    np.testing.assert_allclose(got.alpha, ref.alpha, atol=1e-7)
+    from vojax._tracker._smoother import REL_TOL
+
+    points = min(n, max_points or n)
+    bound = np.sqrt(2 * REL_TOL * points) * np.asarray(ref.alpha_std)
+    assert np.all(np.abs(np.asarray(got.alpha) - np.asarray(ref.alpha)) <= bound)
     np.testing.assert_allclose(got.alpha_std, ref.alpha_std, rtol=1e-5)
     assert got.diagnostics.identified == ref.diagnostics.identified
 
