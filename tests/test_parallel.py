@@ -124,9 +124,9 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
     once the objective J (about one unit per point fitted, in the tracker's normalised units)
     falls by less than `REL_TOL` of itself, so two schedules whose sums round differently may
     stop one step apart, at states within ``δᵀHδ ≲ 2·REL_TOL·J`` of each other: an order
-    within ``√(2·REL_TOL·points)`` of its posterior σ. That bound (about 6e-4 σ here, some
-    1e-5 in the order) is what the schedules must meet; a wrong prefix sum is off by σ or
-    more. (An absolute 1e-7 held where both stopped on the same step, and failed by 2.1e-7 on
+    within ``√(2·REL_TOL·points)`` of its posterior σ. That bound (6.3e-4 σ at 200 points,
+    1.2e-4 in the order here, where σ is about 0.19) is what the schedules must meet; the
+    planted prefix-sum bugs of `scripts/mutation_check.py` fail it. (An absolute 1e-7 held where both stopped on the same step, and failed by 2.1e-7 on
     chunked-200 under jax 0.10.2 with numpy 2.4.6.)"""
     dt = 0.05
     t = dt * np.arange(n)
