@@ -643,7 +643,7 @@ MUTATIONS = {
     ),
     "the batch compares over the whole record, not the refit's window": (
         "vojax/_data/_compute.py",
-        [("r, area, length, **{k: fit[k] for k in FIT_KEYS if k in fit})",
+        [("r, area, length, **{k: fit[k] for k in FIT_OPTIONS if k in fit})",
           "r, area, length)")],
         ["tests/test_compare_window.py::test_the_batch_compares_over_the_refits_window_in_the_files_time"],
     ),

@@ -192,3 +192,32 @@ def test_the_batch_compares_over_the_refits_window_in_the_files_time(tmp_path):
         assert block["log_evidence"][r["model"]] == pytest.approx(r["log_evidence"], rel=1e-9)
     assert block["log_evidence"]["springpot"] != pytest.approx(
         next(r for r in whole.rows if r["model"] == "springpot")["log_evidence"], rel=1e-3)
+
+
+def test_a_window_that_ends_before_it_starts_is_refused_by_both_commands(tmp_path, capsys):
+    """``--fit-from 3 --fit-to 1``: the same one-line refusal from `vojax compare` and
+    `vojax identify`, before anything is written."""
+    from vojax._cli import main
+
+    from .test_data_cli import _springpot_csv
+
+    _springpot_csv(tmp_path / "r.csv", n=60)
+    common = ["r.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
+              "--fit-from", "3", "--fit-to", "1"]
+    for command, extra in (("compare", []), ("identify", ["--method", "refit"])):
+        done = _cli_in(main, tmp_path, [command, *common, *extra, "--out", "p"])
+        err = capsys.readouterr().err.strip()
+        assert done == 1 and err == ("vojax: error: --fit-from must be before --fit-to, got "
+                                     "3.0 and 1.0."), err
+        assert not (tmp_path / "p").exists()
+
+
+def _cli_in(main, where, argv):
+    import os
+
+    here = os.getcwd()
+    os.chdir(where)
+    try:
+        return main(argv)
+    finally:
+        os.chdir(here)

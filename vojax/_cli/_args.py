@@ -3,10 +3,8 @@ the identification, the record chosen."""
 
 import sys
 
+from .._data._regressors import FIT_OPTIONS as FIT_OPTIONS  # the refit's own options
 from ._types import CLIError
-
-# the refit's own options (a window and the test's start, in the file's time unit)
-FIT_OPTIONS = ("origin", "fit_from", "fit_to")
 
 
 def _load(path, args):
@@ -39,6 +37,12 @@ def _load(path, args):
     for w in caught:
         print(f"vojax: warning: {w.message}", file=sys.stderr)
     return records
+
+
+def check_fit_window(args) -> None:
+    """``--fit-from`` must come before ``--fit-to`` where both are given."""
+    if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
+        raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
 
 
 def check_strain_options(args) -> None:

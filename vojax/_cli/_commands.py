@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from .._steps import say
-from ._args import _load, _loader, _select, _settings
+from ._args import _load, _loader, _select, _settings, check_fit_window
 from ._options import _law_options
 from ._types import CLIError
 
@@ -159,8 +159,7 @@ def compare_command(args) -> int:
         raise CLIError(f"--models takes some of {','.join(MODELS)}, got {args.models!r}.")
     if not 1 <= args.knots <= 10:
         raise CLIError(f"--knots must be from 1 to 10, got {args.knots}.")
-    if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
-        raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
+    check_fit_window(args)
     _out_apart(args.out, [args.file])
     records = _select(_load(args.file, args), args)
     for record in records:

@@ -6,7 +6,7 @@ import sys
 
 from .._settings import TrackerSettings
 from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
-from ._args import FIT_OPTIONS
+from ._args import FIT_OPTIONS, check_fit_window
 from ._types import (
     CLIError,
     _bounds,
@@ -338,5 +338,4 @@ def _law_options(args):
             f"{' and '.join(fit)} set the refit, which --method {args.method} does not run; "
             f"add --method refit (or {args.method}+refit)."
         )
-    if args.fit_from is not None and args.fit_to is not None and not args.fit_from < args.fit_to:
-        raise CLIError(f"--fit-from must be before --fit-to, got {args.fit_from} and {args.fit_to}.")
+    check_fit_window(args)

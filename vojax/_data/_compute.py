@@ -18,9 +18,7 @@ from ._pipeline import (
     regressors,
     runs_refit,
 )
-
-# the refit's options that the comparison takes too: the fit window and the test's start
-FIT_KEYS = ("origin", "fit_from", "fit_to")
+from ._regressors import FIT_OPTIONS
 
 
 def _compute_group(group, num, dt, config, mesh=None):
@@ -104,7 +102,7 @@ def _compute_group(group, num, dt, config, mesh=None):
                 )
             if config.get("compare"):
                 summary["compare"] = compare_part(
-                    r, area, length, **{k: fit[k] for k in FIT_KEYS if k in fit})
+                    r, area, length, **{k: fit[k] for k in FIT_OPTIONS if k in fit})
             check_finite(summary, columns)
         except Exception as e:  # noqa: BLE001
             yield r, state, e

@@ -67,6 +67,11 @@ def _stress_strain(record, model, area, length):
     return stress, strain
 
 
+# the refit's own options (a window and the test's start, in the file's time unit), which
+# the comparison takes too
+FIT_OPTIONS = ("origin", "fit_from", "fit_to")
+
+
 def refit_options(record, model, area=None, length=None, origin=None, fit_from=None, fit_to=None):
     """The `refit` keywords for a record: the model's order-0 regressors and signs, and the
     test's origin and fit window given in the file's time unit (the record's clock starts at 0
