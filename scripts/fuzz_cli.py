@@ -258,10 +258,19 @@ def cases(files):
     afm = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
     for name in ("good.jpk-force", "cut.jpk-force", "channel.jpk-force"):
         for opts in ([], ["--tip", "sphere:1e-320"], ["--tip", "sphere:5"],
-                     ["--tip", "cone:95"], ["--tip", "cube:1"], ["--segments", "9"]):
+                     ["--tip", "cone:95"], ["--tip", "cube:1"], ["--segments", "9"],
+                     ["--tip", "pyramid:89.9"], ["--tip", "pyramid:0"], ["--contact", "fit"],
+                     ["--contact", "nope"], ["--tip", "cone:20", "--contact",
+                                             "frechet_direct_path"],
+                     ["--spring-constant", "0.061"], ["--spring-constant", "nan"],
+                     ["--poisson", "-0.99", "--tip", "sphere:5e-6"]):
             out.append(["identify", name, *afm, "--method", "refit", *opts, "--out", "out"])
         out.append(["batch", name, "good.csv", *afm, "--method", "refit", "--quiet",
                     "--out", "out"])
+    for opts in ([], ["--spring-constant", "0.061"], ["--spring-constant", "1e300"],
+                 ["--spring-constant", "0.061", "--tip", "sphere:5e-6"],
+                 ["--spring-constant", "0.061", "--contact", "gradient_zero_crossing"]):
+        out.append(["identify", "good.csv", *afm, "--method", "refit", *opts, "--out", "out"])
     for opts in (["--scheduler", "local", "--workers", "1000"],
                  ["--scheduler", "local", "--workers", "0"], ["--workers", "2"],
                  ["--scheduler", " "], ["--scheduler", "tcp://127.0.0.1:1"]):

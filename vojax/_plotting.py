@@ -242,6 +242,10 @@ def record_figure(columns, summary, inputs, path) -> None:
         verdict.append("the estimators' bands are disjoint")
     title = f"{summary['record']} — {summary['model']}"
     title += f" ({'; '.join(verdict)})" if verdict else ""
+    afm = summary.get("afm") or {}
+    if afm.get("youngs_modulus_Pa") is not None:  # nanite's Hertz fit of the loading
+        title += (f"; E = {afm['youngs_modulus_Pa']:.4g} ± {afm['youngs_modulus_stderr_Pa']:.2g}"
+                  f" Pa (Hertz, {afm['tip']})")
     reason = first_sentence(part.get("message", "")) if part and not part.get("identified", True) else ""
     fig.suptitle(title + (f"\n{reason}" if reason else ""))
     _save(fig, path, compress_level=1)  # a batch draws one a record: the faster zlib level

@@ -103,10 +103,11 @@ def _loader(args) -> dict:
 
 def _afm_loader(args) -> dict:
     """The AFM options, only where given (a CSV's provenance is unchanged by them)."""
-    from .._data._afm import check_tip
+    from .._data._afm_records import AfmOptions
 
     try:
-        check_tip(args.tip, args.poisson)
+        AfmOptions.checked(tip=args.tip, poisson=args.poisson, contact=args.contact,
+                           spring_constant=args.spring_constant)
     except ValueError as e:
         raise CLIError(str(e)) from None
     out = {}
@@ -118,6 +119,10 @@ def _afm_loader(args) -> dict:
         out["tip"] = args.tip
     if args.poisson != 0.5:
         out["poisson"] = args.poisson
+    if args.contact is not None:
+        out["contact"] = args.contact
+    if args.spring_constant is not None:
+        out["spring_constant"] = args.spring_constant
     return out
 
 

@@ -108,6 +108,14 @@ def identify_command(args) -> int:
         )
         write_outputs(target, columns, summary, record.inputs, args.format)
         parts = [f"{record.name}: {record.time.size} samples"]
+        afm = summary.get("afm") or {}
+        if afm.get("youngs_modulus_Pa") is not None:
+            parts.append(f"E = {afm['youngs_modulus_Pa']:.4g} ± "
+                         f"{afm['youngs_modulus_stderr_Pa']:.2g} Pa (Hertz, {afm['tip']}, "
+                         f"contact at {afm['contact_time']:.4g} s)")
+        elif afm.get("fit_success") is False:
+            print(f"vojax: warning: {record.name}: nanite's Hertz fit did not converge: no "
+                  "Young's modulus.", file=sys.stderr)
         for key in ("kalman", "gradient"):
             if key not in summary:
                 continue

@@ -4,6 +4,7 @@ settings of a record's pipeline."""
 import argparse
 import sys
 
+from .._data._contact import CONTACT_METHODS
 from .._settings import TrackerSettings
 from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
 from ._args import FIT_OPTIONS, check_fit_window
@@ -122,27 +123,45 @@ def _reading_options(p):
 
 
 def _afm_options(p):
-    """AFM files only: segments, the contact point, the contact strain's tip and sample."""
+    """AFM files and CSV exports of force curves: segments, the contact point, the tip and
+    the sample."""
     p.add_argument(
         "--segments",
         type=_segments,
-        help="AFM files: the segments to keep, e.g. 1,2 (numbered as in the file; default: all)",
+        help="AFM curves: the segments to keep, e.g. 1,2 (numbered as in the file; default: all)",
     )
     p.add_argument(
         "--no-contact",
         action="store_true",
-        help="AFM files: keep the samples before the contact point (default: drop them)",
+        help="AFM curves: keep the samples before the contact point (default: drop them)",
     )
     p.add_argument(
         "--tip",
-        help="AFM files: the tip for the contact_strain column, sphere:RADIUS_m or "
-        "cone:HALF_ANGLE_deg (default: none)",
+        help="AFM curves: the tip, for nanite's Hertz fit of the loading (the Young's modulus "
+        "in the summary) and the contact_strain column: sphere:RADIUS_m, cone:HALF_ANGLE_deg "
+        "or pyramid:FACE_ANGLE_deg (three-sided) (default: none)",
+    )
+    p.add_argument(
+        "--contact",
+        choices=CONTACT_METHODS,
+        help="AFM curves: how the contact point is found, 'fit' (the Hertz fit's free contact "
+        "point; needs --tip) or one of nanite's estimators (default: 'fit' with --tip, else "
+        "'deviation_from_baseline')",
+    )
+    p.add_argument(
+        "--spring-constant",
+        type=_finite,
+        metavar="K_N_per_m",
+        help="a CSV export of force curves (columns time_s, segment, force_N and "
+        "height_measured_m or height_piezo_m): the cantilever's spring constant in N/m, "
+        "which makes the AFM options and columns work on it",
     )
     p.add_argument(
         "--poisson",
         type=_finite,
         default=0.5,
-        help="AFM files: the sample's Poisson ratio for contact_strain (default 0.5)",
+        help="AFM curves: the sample's Poisson ratio for contact_strain and the Hertz fit "
+        "(default 0.5)",
     )
 
 

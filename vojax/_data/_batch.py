@@ -193,7 +193,8 @@ def run_batch(
 
 
 def _check_table_paths(out_dir, figure_format):
-    for name in ("summary.csv", "failures.csv", f"overview.{figure_format}"):
+    for name in ("summary.csv", "failures.csv", f"overview.{figure_format}",
+                 f"maps.{figure_format}"):
         if (out_dir / name).is_dir() and not (out_dir / name).is_symlink():
             raise ValueError(
                 f"{out_dir / name} is a folder, where the batch writes its {name}: rename it "
@@ -240,6 +241,8 @@ class _Run:
         self.report = BatchReport(failed=len(self.failed))
         self.folders = {r.name: inside(out_dir, record_folder(r.name)) for r in records}
         tables = ["summary.csv", "failures.csv", f"overview.{figure_format}"]
+        if any(dict(r.afm).get("grid_index_x") is not None for r in records):
+            tables.append(f"maps.{figure_format}")  # a force map's curves: maps of them
         own = ("identification.csv", "summary.json", f"identification.{figure_format}")
         claim_outputs(
             out_dir, tables + [f"{record_folder(r.name)}/{name}" for r in records for name in own]
@@ -358,6 +361,9 @@ class _Run:
             overview_figure(
                 rows, self.out_dir / f"overview.{self.figure_format}", failed=len(self.failed)
             )
+            from .._plotting_maps import map_figure
+
+            map_figure(rows, self.out_dir / f"maps.{self.figure_format}")
         path = self.out_dir / "failures.csv"
         if self.failed:
             order = sorted(self.failed, key=lambda x: (natural_key(x[1]), x[0]))

@@ -141,6 +141,7 @@ def record_header(record, model, method, area, length):
         "area": area,
         "length": length,
         **({"units": dict(record.units)} if record.units else {}),
+        **({"afm": dict(record.afm)} if record.afm else {}),
     }
 
 

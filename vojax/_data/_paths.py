@@ -29,6 +29,7 @@ RESERVED = {
     "identification.svg",
     "identification.pdf",
     "overview.png",
+    "maps.png",
     ".vojax-batch.lock",
     "con",
     "prn",

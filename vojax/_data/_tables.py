@@ -41,6 +41,8 @@ def _summary_row(summary):
         row["breakdown_drift"] = part.get("breakdown_drift")
         row["reasons"] = ";".join(part.get("reasons") or ())
         row["next_steps"] = ";".join(part.get("next_steps") or ())
+    for k, v in (summary.get("afm") or {}).items():  # nanite's contact and modulus
+        row[f"afm_{k}"] = v
     if "disagreement" in summary:
         row["disagreement"] = summary["disagreement"]
     if "compare" in summary:
