@@ -152,7 +152,17 @@ def _calls():
               strain_from_length=SCALARS, length_column=TEXTS + ["strain", "time_s"],
               area_column=TEXTS + ["stress"],
               segments=[None, 3, [0], ["a"], "0"], tip=[None, "sphere", ("sphere",),
-                                                        ("cube", 1.0)]))
+                                                        ("cube", 1.0)],
+              contact=TEXTS + ["fit", "frechet_direct_path"], spring_constant=SCALARS))
+    jpk = Path(__file__).resolve().parents[1] / "tests" / "data" / "afm" / "brain_creep.jpk-force"
+    vary("load_records(AFM)", vojax.io.load_records,
+         dict(path=jpk, time="time_s", inputs=["force_rise_N"], output="indentation_m"),
+         dict(contact=TEXTS + ["fit", "gradient_zero_crossing", 3],
+              tip=[("sphere", 5e-6), ("pyramid", 89.99), ("pyramid", 0.0), ("cone", "20"),
+                   "pyramid:35", ("sphere", math.inf)],
+              poisson=SCALARS + [-0.999, 0.5, 0.0], spring_constant=SCALARS + [0.061],
+              segments=[[9], [2], ["0"], [0.5]], from_contact=[0, "yes", None],
+              output=["contact_strain", "force_rise_N"]))
     return cases
 
 
@@ -226,8 +236,9 @@ def main():
     parser.add_argument("--limit", type=int)
     parser.add_argument("--show-dirty", action="store_true")
     parser.add_argument("--out")
+    parser.add_argument("--only", help="the cases whose name starts with this")
     args = parser.parse_args()
-    cases = _calls()[: args.limit]
+    cases = [c for c in _calls() if not args.only or c[0].startswith(args.only)][: args.limit]
     started = time.perf_counter()
     dirty, by_function = [], {}
     for name, thunk in cases:

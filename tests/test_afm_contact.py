@@ -114,6 +114,16 @@ def test_contact_options_are_checked():
         _contact.check_contact("threshold", None)
     assert _contact.check_contact(None, None) == "deviation_from_baseline"
     assert _contact.check_contact(None, ("cone", 20.0)) == "fit"
+    with pytest.raises(TypeError, match="`from_contact` must be True or False, got 'yes'"):
+        load_records(RAW, time="time_s", inputs=["force_N"], output="indentation_m",
+                     from_contact="yes")
+    for bad in ("0", [0.5], [True], 3):
+        with pytest.raises(TypeError, match="`segments` must be a list of segment numbers"):
+            load_records(RAW, time="time_s", inputs=["force_N"], output="indentation_m",
+                         segments=bad)
+    rec, = load_records(RAW, time="time_s", inputs=["force_N"], output="indentation_m",
+                        segments=(k for k in (0, 1)))  # any iterable of numbers, once
+    assert rec.output.size > 3000
     with pytest.raises(ValueError, match="a pyramid's face angle must lie in"):
         _afm.check_tip("pyramid:95")
     with pytest.raises(ValueError, match="the tip must be a sphere, a cone or a pyramid"):

@@ -36,6 +36,16 @@ class AfmOptions:
 
         tip = check_tip(tip, poisson)
         check_contact(contact, tip)
+        if not isinstance(from_contact, (bool, np.bool_)):
+            raise TypeError(f"`from_contact` must be True or False, got {from_contact!r}.")
+        if segments is not None:
+            given = segments
+            segments = None if isinstance(given, (str, bytes)) else (
+                tuple(given) if hasattr(given, "__iter__") else None)
+            if segments is None or not all(
+                isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in segments
+            ):
+                raise TypeError(f"`segments` must be a list of segment numbers, got {given!r}.")
         if spring_constant is not None:
             lo, hi = SPRING_CONSTANT
             if isinstance(spring_constant, bool) or not (
@@ -45,7 +55,7 @@ class AfmOptions:
                     f"the spring constant is in N/m, from {lo:g} to {hi:g}, got "
                     f"{spring_constant!r}."
                 )
-        return cls(None if segments is None else tuple(segments), bool(from_contact), tip,
+        return cls(segments, bool(from_contact), tip,
                    poisson, contact, None if spring_constant is None else float(spring_constant))
 
     @property
