@@ -1102,6 +1102,34 @@ MUTATIONS = {
         [("    if not np.all(np.isfinite(information)):", "    if False:")],
         ["tests/test_design.py::test_bad_plans_are_refused_with_a_reason"],
     ),
+    "Mittag-Leffler integral without the grading at w_c": (
+        "vojax/_models/_closed.py",
+        [("        if c < 0:  # the steep rise of φ near w_c (a step at α = 1)",
+          "        if False:")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Mittag-Leffler sin απ from απ near α = 1": (
+        "vojax/_models/_closed.py",
+        [("        s, c = math.sin((1 - alpha) * math.pi), -math.cos((1 - alpha) * math.pi)",
+          "        s, c = math.sin(alpha * math.pi), math.cos(alpha * math.pi)")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Mittag-Leffler asymptotic series one term short": (
+        "vojax/_models/_closed.py",
+        [("def _asymptotic(alpha, x, terms=12):", "def _asymptotic(alpha, x, terms=1):")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Zener creep rate E1/η instead of E0E1/((E0+E1)η)": (
+        "vojax/_models/_closed.py",
+        [("    rate = e0 * e1 / (total * p[\"eta\"])", "    rate = e1 / p[\"eta\"]")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Maxwell complex modulus with E and η swapped in the denominator": (
+        "vojax/_models/_closed.py",
+        [("        return p[\"E\"] * p[\"eta\"] * s / (p[\"eta\"] * s + p[\"E\"])",
+          "        return p[\"E\"] * p[\"eta\"] * s / (p[\"E\"] * s + p[\"eta\"])")],
+        ["tests/test_closed_forms.py"],
+    ),
     "AFM contact one sample late (fit)": (
         "vojax/_data/_contact.py",
         [("        c = int(part[inside[0]])", "        c = int(part[inside[0]]) + 1")],

@@ -59,6 +59,7 @@ from ._models import (
 from ._models import (
     stress_strain as stress_strain,
 )
+from ._models._closed import mittag_leffler as mittag_leffler
 from ._refit import Refit as Refit
 from ._refit import RefitWarning as RefitWarning
 from ._refit import refit as refit

@@ -68,6 +68,28 @@ class AbstractViscoelasticModel(eqx.Module):
     def regression(self, **physical):
         """``p`` from the physical parameters; the inverse of `parameters`."""
 
+    def relaxation_modulus(self, t, *, q, **parameters):
+        """``G(t)`` at the times `t` (> 0) after a unit step of strain, for the constant
+        order `q` in (0, 1) and the law's physical parameters (`names`), e.g.
+        ``FractionalMaxwell().relaxation_modulus(t, q=0.3, eta=2.0, E=5.0)``."""
+        from ._closed import relaxation_modulus
+
+        return relaxation_modulus(self, t, q, parameters)
+
+    def creep_compliance(self, t, *, q, **parameters):
+        """``J(t)`` at the times `t` (> 0) after a unit step of stress (as
+        `relaxation_modulus`)."""
+        from ._closed import creep_compliance
+
+        return creep_compliance(self, t, q, parameters)
+
+    def complex_modulus(self, omega, *, q, **parameters):
+        """``G*(ω) = G′ + iG″`` at the angular frequencies `omega` (> 0) (as
+        `relaxation_modulus`)."""
+        from ._closed import complex_modulus
+
+        return complex_modulus(self, omega, q, parameters)
+
     def parameters_stderr(self, p, cov) -> dict:
         """Standard errors of the physical parameters at ``p`` (n,) given the covariance
         ``cov`` (n, n) of ``p`` (e.g. `Refit.p_cov`), by the delta method."""
