@@ -105,6 +105,12 @@ def test_a_named_estimator_is_nanites_on_the_loading(method):
     np.testing.assert_allclose(rise, force - force[start : c + 1].mean(), rtol=0, atol=1e-20)
     assert delta[c] == 0.0 and block["contact_method"] == method
     assert "youngs_modulus_Pa" not in block
+    # with a tip, the modulus is the fit's, whose own contact point is kept beside
+    _, _, c2, both = _contact.analyse(curve, "synthetic", TIPS["sphere"], NU, method)
+    fitted, *_ = _contact.analyse(curve, "synthetic", TIPS["sphere"], NU, "fit")[3:]
+    assert c2 == c and both["contact_point_m"] == block["contact_point_m"]
+    assert both["fit_contact_point_m"] == fitted["contact_point_m"]
+    assert both["youngs_modulus_Pa"] == fitted["youngs_modulus_Pa"]
 
 
 def test_contact_options_are_checked():

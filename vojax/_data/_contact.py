@@ -108,6 +108,9 @@ def analyse(curve, label, tip, poisson, contact):
     else:
         c = int(part[_poc(nanite, force[part], contact, label)])
         z_c, f0 = float(z[c]), float(np.mean(force[part[0] : c + 1]))
+        if tip is not None:  # the fit's own contact and baseline, kept beside the record's
+            block.update(fit_contact_point_m=block["contact_point_m"],
+                         fit_force_baseline_N=block["force_baseline_N"])
         block.update(contact_point_m=z_c, force_baseline_N=f0)
     block.update(contact_index=c)
     return force - f0, z_c - z, c, block
