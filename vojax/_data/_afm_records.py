@@ -86,7 +86,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
     """The records of a CSV export of force curves (one per `group_by` value, else one)."""
     from ._afm import _curve
     from ._contact import check_contact
-    from ._read import _column
+    from ._read import _column, row_groups
 
     present = [h for h in EXPORT_HEIGHTS if h in header]
     need = ["time_s", "segment", "force_N"]
@@ -104,11 +104,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
         )
     _check_wanted(path, wanted, afm)
     raw = {c: _column(path, header, rows, lines, c, decimal=decimal) for c in need + present}
-    if group_by:
-        keys = _column(path, header, rows, lines, group_by, numeric=False)
-        groups = {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}
-    else:
-        groups = {path.stem: np.arange(len(rows))}
+    groups = row_groups(path, header, rows, lines, group_by, single=path.stem)
     contact = check_contact(afm.contact, afm.tip)
     names = {"time_s": "time", "segment": "segment", "force_N": "force",
              "height_measured_m": "height (measured)", "height_piezo_m": "height (piezo)"}

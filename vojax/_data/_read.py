@@ -125,3 +125,12 @@ def _column(path, header, rows, line_numbers, name, numeric=True, decimal="."):
                 f"{path}, line {line}, column {name!r}: {text!r} is not a number."
             ) from None
     return np.array(values, dtype=object if not numeric else float)
+
+
+def row_groups(path, header, rows, lines, group_by, single=""):
+    """The rows of each record: by the value of the column `group_by` (in order of first
+    appearance; a record's rows need not be contiguous), or all rows under `single`."""
+    if not group_by:
+        return {single: np.arange(len(rows))}
+    keys = _column(path, header, rows, lines, group_by, numeric=False)
+    return {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}

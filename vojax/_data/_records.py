@@ -11,6 +11,7 @@ from ._read import MAX_SAMPLES as MAX_SAMPLES
 from ._read import _column as _column
 from ._read import _npz_column as _npz_column
 from ._read import _read_csv as _read_csv
+from ._read import row_groups
 from ._record import Record as Record
 from ._record import _record
 from ._scales import Scales
@@ -210,11 +211,7 @@ def _read_records(path, time, inputs, output, group_by, strict, resample, trim_c
         cols = {
             c: _column(path, header, rows, lines, c, decimal=decimal) for c in dict.fromkeys(wanted)
         }
-        if group_by:
-            keys = _column(path, header, rows, lines, group_by, numeric=False)
-            groups = {k: np.flatnonzero(keys == k) for k in dict.fromkeys(keys)}
-        else:
-            groups = {"": np.arange(len(rows))}
+        groups = row_groups(path, header, rows, lines, group_by)
     return [
         _record(path, name, cols, idx, lines, time, inputs, output, trim_column, trim_below,
                 strict, resample)

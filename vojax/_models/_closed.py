@@ -92,9 +92,10 @@ def _integral(alpha, x):
     else:
         s, c = math.sin(alpha * math.pi), math.cos(alpha * math.pi)
     halves = 2.0 ** -np.arange(GRADING + 1)
+    graded = [0.0, *(2.0 ** np.arange(-GRADING, 11))]  # towards w = 0, up to W_MAX
     out = np.empty_like(x)
     for i, xi in enumerate(x):
-        points = [0.0, *(2.0 ** np.arange(-GRADING, 11))]
+        points = list(graded)
         if c < 0:  # the steep rise of φ near w_c (a step at α = 1)
             wc = (xi / -c) ** (1.0 / alpha)
             if wc < W_MAX:
