@@ -95,7 +95,7 @@ def _calls():
     vary("identify[tracker]", vojax.identify, tracker,
          dict(u=_arrays(U), dt=SCALARS, t=_arrays(T), x0=SCALARS[:8],
               parameters=TEXTS + [-1.0, math.nan], time_scale=SCALARS[:10],
-              max_points=COUNTS, mask=_arrays(U)[:12]))
+              max_points=COUNTS, mask=_arrays(U)[:12], window=PAIRS + [(None, 1.0), (2.0, 2.05)]))
     vary("refit", vojax.refit, dict(u=U, y=Y, dt=DT, warn=False),
          dict(u=_arrays(U), y=_arrays(Y), order=TEXTS + COUNTS, order_bounds=PAIRS,
               order0=SCALARS, x0=SCALARS, window=PAIRS, weights=_arrays(U)[:12],

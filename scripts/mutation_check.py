@@ -1350,6 +1350,42 @@ MUTATIONS = {
         [("    return bool(abs(np.log(span)) > SAME_CLOCK)", "    return bool(abs(np.log(span)) >= 0)")],
         ["tests/test_clock.py"],
     ),
+    "the tracker's diagnostics over the whole record, not the fit window": (
+        "vojax/_tracker/_estimator.py",
+        [("        cut = slice(first, span)", "        cut = slice(0, span)")],
+        ["tests/test_tracker_window.py"],
+    ),
+    "the band's second half from the record's middle, not the window's": (
+        "vojax/_tracker/_band.py",
+        [("    return first + (span - first) // 2", "    return span // 2")],
+        ["tests/test_tracker_window.py::test_second_half_of_the_fitted_range"],
+    ),
+    "the tracker's window ignored": (
+        "vojax/_tracker/_estimator.py",
+        [("            mask = _windowed(mask, window, dt, t, u2.shape)", "            pass")],
+        ["tests/test_tracker_window.py"],
+    ),
+    "the window's end excluded": (
+        "vojax/_validate.py",
+        [("    return ((times >= lo) & (times <= hi)).astype(float)",
+          "    return ((times >= lo) & (times < hi)).astype(float)")],
+        ["tests/test_tracker_window.py"],
+    ),
+    "the summary's final order the record's, not the window's": (
+        "vojax/_identification.py",
+        [("        return a if self.fitted is None else a[slice(*self.fitted)]", "        return a")],
+        ["tests/test_tracker_window.py"],
+    ),
+    "the command's window not shifted to the record's clock": (
+        "vojax/_data/_pipeline.py",
+        [("    shift = record.time_offset\n    return (None", "    shift = 0.0\n    return (None")],
+        ["tests/test_tracker_window.py::test_command_line_window_is_the_python_window"],
+    ),
+    "the command's summary over the whole record with a window": (
+        "vojax/_data/_parts.py",
+        [("    cut = slice(None) if fitted is None else slice(*fitted)", "    cut = slice(None)")],
+        ["tests/test_tracker_window.py::test_command_line_window_is_the_python_window"],
+    ),
 }
 
 

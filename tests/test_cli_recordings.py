@@ -82,7 +82,7 @@ def test_maxwell_and_signs_from_the_command_line(tmp_path, capsys):
     assert main(["identify", path, *COLUMNS, "--model", "maxwell", "--out", str(tmp_path / "o2")]) == 1
     assert "add --method refit" in capsys.readouterr().err
     assert main(["identify", path, *COLUMNS, "--origin", "-1", "--out", str(tmp_path / "o3")]) == 1
-    assert "--origin set the refit, which --method kalman does not run" in capsys.readouterr().err
+    assert "--origin sets the refit, which --method kalman does not run" in capsys.readouterr().err
 
 
 def test_kelvin_voigt_keeps_k_non_negative(tmp_path):

@@ -71,21 +71,29 @@ class Identification(eqx.Module):
     parameters: str | None = eqx.field(static=True, default=None)
     # the tracker's conditional answer (see `Conditional`); None for the law
     conditional: Conditional | None = None
+    # the samples fitted, ``(first, stop)`` (a fit window: `identify(..., window=)`); None:
+    # every sample. The summary and the verdict line speak of this range.
+    fitted: tuple[int, int] | None = eqx.field(static=True, default=None)
+
+    def _fitted(self, a):
+        """`a` (N, …) over the fitted samples."""
+        a = np.asarray(a)
+        return a if self.fitted is None else a[slice(*self.fitted)]
 
     def summary(self, names=None):
         """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
         order with its standard deviation, the order's median over the second half, the band's
-        half-width, each parameter's final value (named by `names`, default ``p1``, ``p2``…),
+        half-width, each parameter's final value (over the fitted samples, with a fit window) (named by `names`, default ``p1``, ``p2``…),
         the offset, and the verdict with its reason."""
         from ._results import Summary, parameter_names, row
 
-        alpha, std = np.asarray(self.alpha), np.asarray(self.alpha_std)
+        alpha, std = self._fitted(self.alpha), self._fitted(self.alpha_std)
         half = alpha.shape[0] // 2
         out = Summary()
         out["order (final)"] = row(alpha[-1], std[-1])
         out["order (median, second half)"] = row(np.median(alpha[half:]))
         out["band half-width (median)"] = row(self.diagnostics.band_halfwidth)
-        p, p_std = np.asarray(self.p), np.asarray(self.p_std)
+        p, p_std = self._fitted(self.p), self._fitted(self.p_std)
         names = parameter_names(names, p.shape[1])
         for j, name in enumerate(names):
             out[f"{name} (final)"] = row(p[-1, j], p_std[-1, j])
@@ -112,9 +120,9 @@ class Identification(eqx.Module):
         test; beyond that a drifting parameter explains the data as well"."""
         d = self.diagnostics
         if d.verdict == "conditional" and self.conditional is not None:
-            alpha, width = np.asarray(self.conditional.alpha), d.conditional_halfwidth
+            alpha, width = self._fitted(self.conditional.alpha), d.conditional_halfwidth
         else:
-            alpha, width = np.asarray(self.alpha), d.band_halfwidth
+            alpha, width = self._fitted(self.alpha), d.band_halfwidth
         half = alpha.shape[0] // 2
         head = f"{d.verdict}: α {alpha[half]:.2f} → {alpha[-1]:.2f} ± {width:.2g}"
         if d.verdict == "identified":
@@ -142,6 +150,10 @@ class Identification(eqx.Module):
             times, self.alpha, self.alpha_lower, self.alpha_upper, ax=ax, label=name,
             xlabel="time (from the first sample)", title=f"order: {self.diagnostics.verdict}",
         )
+        if self.fitted is not None:  # the fit window, shaded
+            ax.axvspan(times[self.fitted[0]], times[self.fitted[1] - 1], color="0.92", zorder=0,
+                       label="fit window")
+            ax.legend(fontsize=8)
         if self.conditional is not None and self.diagnostics.verdict == "conditional":
             c = self.conditional
             ax.fill_between(times, np.asarray(c.alpha_lower), np.asarray(c.alpha_upper),

@@ -40,6 +40,7 @@ def identify(
     noise=None,
     parameters=None,
     mask=None,
+    window=None,
     max_points: int | None = None,
     tol: float = 1e-10,
     warn: bool = True,
@@ -125,6 +126,13 @@ def identify(
       fitted (the tracker still estimates the states there, from its random-walk model). Used
       to pad records to a common length so that one compiled program serves many lengths;
       the diagnostics cover the samples up to the last one fitted.
+    - `window`: ``method="kalman"`` only: ``(from, to)`` in the record's time (an end None:
+      open): only the samples with ``from ≤ t_k ≤ to`` are fitted, e.g. the hold of a
+      ramp–hold test or a creep record after the rheometer's inertial ringing. The whole
+      input history still drives the memory (cutting the record would lose it). Outside the
+      window the estimates follow the random-walk model (the band widens); the diagnostics,
+      the verdict and `summary()` speak of the window (`Identification.fitted`). With
+      `mask`, the samples fitted are those of both.
     - `max_points`: ``method="kalman"`` only: the most points the tracker fits (None: 1,000;
       from 100 to 50,000). A longer record is fitted as the means of blocks of ``B``
       consecutive samples (its first sample kept alone, so that the integral starts where the
@@ -163,10 +171,10 @@ def identify(
             max_points=max_points, tol=tol, time_scale=time_scale,
             settings=TrackerSettings() if settings is None else settings,
         )
-        return tracker._fit(u, y, dt, t, mask, warn, stacklevel=3)
+        return tracker._fit(u, y, dt, t, mask, warn, stacklevel=3, window=window)
     tracker_only = dict(
         settings=settings, time_scale=time_scale, max_points=max_points, parameters=parameters,
-        noise=noise,
+        noise=noise, window=window,
     )
     _check_law_arguments(tracker_only, mask, smooth)
     return _identify_law(

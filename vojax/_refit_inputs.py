@@ -67,7 +67,7 @@ def _from_origin(origin, t, times, u2, v, y, w):
 def _weights(num, mask, weights, window, relative, times, y):
     """The weight of each sample's squared residual (NumPy): the product of the mask, the
     user's weights, the fit window and, for relative residuals, ``1/y²``."""
-    from ._validate import check_mask
+    from ._validate import check_mask, window_mask
 
     w = np.ones(num)
     if mask is not None:
@@ -80,13 +80,7 @@ def _weights(num, mask, weights, window, relative, times, y):
             raise ValueError("`weights` must be finite and non-negative.")
         w = w * arr
     if window is not None:
-        try:
-            lo, hi = (float(v) for v in window)
-        except (TypeError, ValueError):
-            raise TypeError(f"`window` must be a pair of times (from, to), got {window!r}.") from None
-        if not lo < hi:
-            raise ValueError(f"`window` must satisfy from < to, got ({lo}, {hi}).")
-        w = w * ((times >= lo) & (times <= hi))
+        w = w * window_mask(window, times)
     if relative:
         y = np.asarray(y)
         zero = (w > 0) & (y == 0)

@@ -243,6 +243,28 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
     return u2, y, bounds, x0, r0
 
 
+def window_mask(window, times):
+    """The fit window ``(from, to)`` as a 0/1 mask: 1 at the samples with
+    ``from ≤ t_k ≤ to`` (`times` on the host); an end given as None is open. Refuses anything
+    but a pair of times with from < to."""
+    def end(v, open_end):
+        if v is None:
+            return open_end
+        if isinstance(v, bool):
+            raise TypeError
+        return float(v)
+
+    try:
+        first, last = window
+        lo, hi = end(first, -np.inf), end(last, np.inf)
+    except (TypeError, ValueError):
+        raise TypeError(f"`window` must be a pair of times (from, to), got {window!r}.") from None
+    if not lo < hi:  # NaN fails too
+        raise ValueError(f"`window` must satisfy from < to, got ({lo}, {hi}).")
+    times = np.asarray(times, dtype=float)
+    return ((times >= lo) & (times <= hi)).astype(float)
+
+
 def check_mask(mask, num, num_inputs):
     """A 0/1 mask of shape (N,) with enough fitted samples; returns it as a NumPy array."""
     arr = np.asarray(mask, dtype=float)

@@ -7,7 +7,7 @@ import sys
 from .._data._contact import CONTACT_METHODS
 from .._settings import TrackerSettings
 from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
-from ._args import FIT_OPTIONS, check_fit_window
+from ._args import check_fit_window
 from ._types import (
     CLIError,
     _bounds,
@@ -179,14 +179,14 @@ def _refit_options(p):
         "--fit-from",
         type=_finite,
         metavar="T",
-        help="the refit fits samples from this time on (the whole record still drives the "
-        "model; default: the first sample)",
+        help="the tracker and the refit fit samples from this time on, in the time column's "
+        "unit (the whole record still drives the model; default: the first sample)",
     )
     p.add_argument(
         "--fit-to",
         type=_finite,
         metavar="T",
-        help="the refit fits samples up to this time (default: the last sample)",
+        help="the tracker and the refit fit samples up to this time (default: the last sample)",
     )
 
 
@@ -351,10 +351,15 @@ def _law_options(args):
         raise CLIError(
             f"--max-points must be from {MIN_POINTS:,} to {TRACKER_MAX_POINTS:,}, got {points:,}."
         )
-    fit = [f"--{k.replace('_', '-')}" for k in FIT_OPTIONS if getattr(args, k) is not None]
-    if fit and not args.method.endswith("refit"):
+    if getattr(args, "origin", None) is not None and not args.method.endswith("refit"):
         raise CLIError(
-            f"{' and '.join(fit)} set the refit, which --method {args.method} does not run; "
+            f"--origin sets the refit, which --method {args.method} does not run; "
             f"add --method refit (or {args.method}+refit)."
+        )
+    window = [f"--{k}" for k in ("fit-from", "fit-to") if getattr(args, k.replace("-", "_")) is not None]
+    if window and args.method == "gradient":
+        raise CLIError(
+            f"{' and '.join(window)} set the tracker and the refit; the paper's law (--method "
+            "gradient) fits every sample: use --method kalman, refit or gradient+refit."
         )
     check_fit_window(args)

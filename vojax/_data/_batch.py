@@ -132,7 +132,8 @@ def run_batch(
     `figure_workers` worker processes (default: the cores but one, at least one, at most four;
     0 draws them in this process), off the computation's path; a record counts as done when its
     figure and summary are written. Records on irregular clocks run one at a time, on their own
-    clock. `origin`, `fit_from`, `fit_to`: the refit's, `parameters`, `max_points`, `x0`,
+    clock. `origin`: the refit's, `fit_from`, `fit_to`: the tracker's and the refit's fit
+    window, `parameters`, `max_points`, `x0`,
     `time_scale` and `noise`: the tracker's, `alpha_bounds`: every estimator's, as in `identify_record`.
 
     `client`: a Dask ``distributed.Client`` (``pip install "vojax[dask]"``) to compute the

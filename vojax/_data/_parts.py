@@ -12,7 +12,10 @@ from ._regressors import stress_strain
 
 
 def adaptive_part(res, y, physical):
-    """Per-sample columns and the summary block of an `Identification` (either method)."""
+    """Per-sample columns and the summary block of an `Identification` (either method); its
+    numbers over the fitted samples (a fit window: `Identification.fitted`)."""
+    fitted = getattr(res, "fitted", None)
+    cut = slice(None) if fitted is None else slice(*fitted)
     alpha = np.asarray(res.alpha)
     p = np.asarray(res.p)
     params = {k: np.asarray(v) for k, v in physical(p).items()}
@@ -27,22 +30,25 @@ def adaptive_part(res, y, physical):
         columns.update(alpha_conditional=np.asarray(c.alpha),
                        alpha_conditional_lower=np.asarray(c.alpha_lower),
                        alpha_conditional_upper=np.asarray(c.alpha_upper))
+    a, p_fit = alpha[cut], p[cut]
     part = {
         "method": res.method,
-        "nrmse": nrmse(y, res.y_hat),
-        "alpha_min": float(alpha.min()),
-        "alpha_max": float(alpha.max()),
-        "alpha_mean": float(alpha.mean()),
-        "alpha_final": float(alpha[-1]),
-        "alpha_final_std": float(res.alpha_std[-1]),
-        "parameters_final": {k: float(v[-1]) for k, v in params.items()},
+        "nrmse": nrmse(np.asarray(y)[cut], np.asarray(res.y_hat)[cut]),
+        "alpha_min": float(a.min()),
+        "alpha_max": float(a.max()),
+        "alpha_mean": float(a.mean()),
+        "alpha_final": float(a[-1]),
+        "alpha_final_std": float(np.asarray(res.alpha_std)[cut][-1]),
+        "parameters_final": {k: float(v[cut][-1]) for k, v in params.items()},
         "parameters_final_stderr": delta_stderr(
-            physical, p[-1], np.diag(np.asarray(res.p_std)[-1] ** 2)
+            physical, p_fit[-1], np.diag(np.asarray(res.p_std)[cut][-1] ** 2)
         ),
         "x0": float(res.x0),
         "x0_std": float(res.x0_std),
         **diagnostics_dict(res.diagnostics),
     }
+    if fitted is not None:
+        part["fitted_samples"] = [int(fitted[0]), int(fitted[1])]
     if res.method == "kalman":
         part["answer"] = res.verdict_line()
     if res.method == "gradient":

@@ -109,7 +109,9 @@ def identify_record(
     With `pad_to`, the tracker and the refit of a record on a uniform clock run on it padded
     to that length and masked (results equal to the unpadded run within the solvers'
     tolerances). `origin` (the test's start, before the first sample) and the fit window
-    `fit_from`, `fit_to` are in the file's time unit and apply to the refit; the refit keeps
+    `fit_from`, `fit_to` are in the file's time unit; the window applies to the tracker and
+    the refit (not to the paper's law, which fits every sample), the origin to the refit; the
+    refit keeps
     the model's coefficients physical (`p_signs`). `parameters`, `max_points`: the
     tracker's, as in `vojax.identify` (its defaults when None); `x0`: the tracker's known
     offset of the output, in the unit of the file's output column (None: estimated);
@@ -130,7 +132,7 @@ def identify_record(
         settings = dict(
             gamma=gamma, lam=lam, max_points=max_points, x0=x0, threads=threads,
             time_scale=time_scale, parameters=parameters, alpha_bounds=alpha_bounds,
-            noise=noise,
+            noise=noise, window=_window(record, fit_from, fit_to),
         )
         cols, summary[tracker] = _tracker_part(
             record, tracker, u, y, physical, pad_to, model, length, settings
@@ -157,10 +159,14 @@ def _check_record_options(record, model, method, origin, fit_from, fit_to):
             f"--model {model} has a spring (an order-0 term) that the adaptive law and the "
             "tracker do not take; use --method refit."
         )
-    if not runs_refit(method) and not (origin is None and fit_from is None and fit_to is None):
+    if not runs_refit(method) and origin is not None:
         raise ValueError(
-            "--origin, --fit-from and --fit-to set the refit; use --method refit or "
-            f"{method}+refit."
+            f"--origin sets the refit; use --method refit or {method}+refit."
+        )
+    if method == "gradient" and not (fit_from is None and fit_to is None):
+        raise ValueError(
+            "--fit-from and --fit-to set the tracker and the refit; the paper's law fits every "
+            "sample: use --method kalman, refit or gradient+refit."
         )
     silent = [n for n, col in zip(record.input_names, np.asarray(record.inputs).T) if not col.any()]
     if silent:
@@ -168,6 +174,16 @@ def _check_record_options(record, model, method, origin, fit_from, fit_to):
             f"the input column {silent[0]!r} is 0 at every sample: nothing it drives can be "
             "identified (its coefficient is undetermined); leave it out of --input."
         )
+
+
+def _window(record, fit_from, fit_to):
+    """The fit window ``(from, to)`` on the record's clock from times in the file's (an end
+    None: open), or None."""
+    if fit_from is None and fit_to is None:
+        return None
+    shift = record.time_offset
+    return (None if fit_from is None else float(fit_from) - shift,
+            None if fit_to is None else float(fit_to) - shift)
 
 
 def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settings):
@@ -186,6 +202,8 @@ def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settin
         if settings["noise"] is not None:  # its noise_std in the output column's unit
             extra["noise"] = dict(settings["noise"], noise_std=float(
                 settings["noise"]["noise_std"]) / abs(output_scale(model, length)))
+        if settings["window"] is not None:
+            extra["window"] = settings["window"]
         if settings["threads"] is not None:
             from .._settings import TrackerSettings
 

@@ -68,6 +68,13 @@ def reference_variance(explanations, tuned, span):
     return var + spread - tuned.var
 
 
+def second_half(mask, span) -> int:
+    """Where the second half of the fitted samples' range begins: the range from the first
+    fitted sample (a fit window's start; 0 without a mask) to `span`, halved."""
+    first = 0 if mask is None else int(np.flatnonzero(np.asarray(mask)[:span] > 0)[0])
+    return first + (span - first) // 2
+
+
 def outside(alpha, band, half):
     """An order trajectory lies outside a band: at most samples of the second half."""
     _, lower, upper, _ = band
@@ -85,7 +92,7 @@ def union(band, member):
 
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
-          floor=0.0, evidence_floor=np.inf):
+          floor=0.0, evidence_floor=np.inf, half=None):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -94,7 +101,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     interpolation of the input between samples); `evidence_floor`: a smoothing with drifting
     parameters whose Laplace evidence lies more than this many nats below the tuned one's
     does not count, however well it fits (such runs fit almost any record, their order's
-    level free)."""
+    level free); `half`: where the second half of the fitted samples begins (None:
+    ``span // 2``, every sample fitted)."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
     # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
@@ -114,7 +122,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     if reference is held:
         ladder.append(tuned)
     ladder.sort(key=lambda e: e.drift)
-    half = span // 2
+    half = span // 2 if half is None else half
     band = tuple(a[:span] for a in ref_band)
     breakdown = np.inf
     def member(e):

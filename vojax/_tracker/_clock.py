@@ -17,7 +17,7 @@ import dataclasses
 import numpy as np
 
 from .._xla import to_device
-from ._band import outside, union
+from ._band import outside, second_half, union
 
 # the second clock is skipped where the span is within this relative distance of one unit
 # of the data's time: the two clocks then differ by less than a factor 1.05^Δα
@@ -36,7 +36,8 @@ def weigh_clock(res, fit, other, other_fit):
     where it lies outside the stated or the conditional band, that order's median over the
     second half is returned (the conditional answer bounds a drift on the span's clock only),
     else None, and `res` and `fit` unchanged."""
-    span, half = fit["span"], fit["span"] // 2
+    span = fit["span"]
+    half = second_half(fit.get("mask"), span)
     points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
     o_points = tuple(np.asarray(other_fit[k])[:span] for k in ("alpha", "lower", "upper"))
     if not (other.converged and all(np.all(np.isfinite(a)) for a in o_points)):

@@ -111,14 +111,16 @@ class Tracker:
         if not isinstance(self.settings, TrackerSettings):
             raise TypeError(f"`settings` must be a vojax.TrackerSettings, got {self.settings!r}.")
 
-    def fit(self, u, y, dt=None, *, t=None, mask=None, warn=True) -> Identification:
+    def fit(self, u, y, dt=None, *, t=None, mask=None, window=None, warn=True) -> Identification:
         """Identifies the order and the parameters of ``D^{α(t)} x = pᵀu`` from the inputs
         `u` (N,) or (N, n) and the output `y` (N,) on the step `dt` or at the sample times
-        `t`; `mask` (N,) of 0/1 leaves samples with 0 unfitted. Returns an `Identification`;
-        with `warn`, an `IdentifiabilityWarning` where the order is not identified."""
-        return self._fit(u, y, dt, t, mask, warn, stacklevel=3)
+        `t`; `mask` (N,) of 0/1 leaves samples with 0 unfitted; `window` ``(from, to)`` fits
+        the samples with ``from ≤ t_k ≤ to`` only (an end None: open), the whole input history
+        still driving the memory. Returns an `Identification`; with `warn`, an
+        `IdentifiabilityWarning` where the order is not identified."""
+        return self._fit(u, y, dt, t, mask, warn, stacklevel=3, window=window)
 
-    def _fit(self, u, y, dt, t, mask, warn, stacklevel):
+    def _fit(self, u, y, dt, t, mask, warn, stacklevel, window=None):
         u2, y, bounds, _, _ = check.check_options(
             u, y, dt, None, sum(self.alpha_bounds) / 2, self.alpha_bounds, self.memory,
             self.rule, None, None, t=t,
@@ -131,6 +133,8 @@ class Tracker:
             )
         if mask is not None:
             mask = check.check_mask(mask, u2.shape[0], u2.shape[1])
+        if window is not None:
+            mask = _windowed(mask, window, dt, t, u2.shape)
         s = self.settings
         max_points = s.max_points if self.max_points is None else self.max_points
         # the record's length up to its last fitted sample (padding after it is not the
@@ -166,6 +170,7 @@ class Tracker:
             memory=self.memory, method="kalman", diagnostics=diagnostics, tuning=res.tuning,
             parameters=self.parameters,
             conditional=None if res.conditional is None else Conditional(*res.conditional),
+            fitted=None if window is None else _fitted_range(mask, length),
         )
 
     def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True):
@@ -204,17 +209,21 @@ class Tracker:
         """The diagnostics of what the tracker fitted (the block means of a long record); cut
         in NumPy: an eager slice of a JAX array compiles anew for every record length.
         `clock`: the order's median over the second half with the parameters constant in the
-        data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None."""
+        data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None.
+        The diagnostics cover the fitted range: from the first fitted point to the last."""
         fit_mask, span = fit["mask"], fit["span"]
-        alpha, lower, upper = (np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
+        first = 0 if fit_mask is None else int(np.flatnonzero(np.asarray(fit_mask)[:span])[0])
+        cut = slice(first, span)
+        alpha, lower, upper = (np.asarray(fit[k])[cut] for k in ("alpha", "lower", "upper"))
         shift, conditional = None, fit.get("conditional")
         if conditional is not None:  # the held smoothing is an explanation the band weighed
-            conditional = tuple(np.asarray(a)[:span] for a in conditional[1:3])
+            conditional = tuple(np.asarray(a)[cut] for a in conditional[1:3])
         elif fit["held"] is not None:
-            held = np.asarray(fit["held"])[:span]
-            shift = float(np.median(np.abs(held - alpha)[span // 2 :]))
-        y_np, pred = np.asarray(fit["y"])[:span], np.asarray(fit["y_pred"])[:span]
-        fitted = np.ones(span, bool) if fit_mask is None else np.asarray(fit_mask)[:span] > 0
+            held = np.asarray(fit["held"])[cut]
+            shift = float(np.median(np.abs(held - alpha)[alpha.shape[0] // 2 :]))
+        y_np, pred = np.asarray(fit["y"])[cut], np.asarray(fit["y_pred"])[cut]
+        fitted = (np.ones(span - first, bool) if fit_mask is None
+                  else np.asarray(fit_mask)[cut] > 0)
         correlation, samples = prediction_error_correlation(y_np, pred, fitted)
         return diagnose(
             alpha, lower, upper, bounds, res.converged, res.tuning.at_edge, shift,
@@ -232,3 +241,24 @@ class Tracker:
                  (self.x0 is not None, Step.X0), (self.noise is not None, Step.NOISE),
                  (self.time_scale is not None, Step.TIME_SCALE)]
         return tuple(step for done, step in taken if done)
+
+
+def _windowed(mask, window, dt, t, shape):
+    """The fitted samples' mask (or None) restricted to the fit `window` ``(from, to)``;
+    refuses a window that leaves too few samples to fit."""
+    num, n = shape
+    times = np.asarray(t, float) if t is not None else float(np.asarray(dt)) * np.arange(num)
+    inside = check.window_mask(window, times)
+    kept = inside if mask is None else inside * mask
+    if kept.sum() < n + 3:
+        raise ValueError(
+            f"`window` {tuple(window)} leaves {int(kept.sum())} fitted samples "
+            f"(the record's times run from {times[0]:g} to {times[-1]:g}); the tracker needs at "
+            f"least {n + 3}."
+        )
+    return kept
+
+
+def _fitted_range(mask, length) -> tuple[int, int]:
+    """``(first, stop)``: the first fitted sample and one past the last."""
+    return int(np.flatnonzero(np.asarray(mask))[0]), int(length)

@@ -12,7 +12,7 @@ from jax import lax
 
 from .._stats import noise_variance
 from .._xla import to_device
-from ._band import bands
+from ._band import bands, second_half
 from ._coloured import ar_whitener, coloured
 from ._filter import KalmanTracker
 from ._level import level_profile
@@ -221,7 +221,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     if smooth and weigh and tuning.tuned:
         found = bands(explanations, problem.bounds, problem.span,
                       0.0 if hold else stated_drift(parameters), s.band_scale, s.drift_floor,
-                      floor=s.band_floor, evidence_floor=s.envelope_evidence)
+                      floor=s.band_floor, evidence_floor=s.envelope_evidence,
+                      half=second_half(problem.mask, problem.span))
     res = assemble(st, problem, theta, cov, beta_var, None if hold else trade, y_hat_n,
                    y_pred_n, sm.phi if y_hat_n is None else None, converged, tuning,
                    alpha_held, weights, found, time_scale)
