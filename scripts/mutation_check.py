@@ -889,8 +889,8 @@ MUTATIONS = {
     ),
     "refit's padding left in the coefficients' covariance": (
         "vojax/_refit.py",
-        [('        out["p_cov"] = out["p_cov"][:count, :count]\n', "")],
-        ["tests/test_refit.py::test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit"],
+        [('        out["p_cov"] = out["p_cov"][np.ix_(real, real)]\n', "")],
+        ["tests/test_refit.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
     ),
     "a known offset's prior left wide": (
         'vojax/_tracker/_problem.py',
@@ -1385,6 +1385,18 @@ MUTATIONS = {
         "vojax/_data/_parts.py",
         [("    cut = slice(None) if fitted is None else slice(*fitted)", "    cut = slice(None)")],
         ["tests/test_tracker_window.py::test_command_line_window_is_the_python_window"],
+    ),
+    "the padded fit's coefficients read from the wrong columns": (
+        "vojax/_refit.py",
+        [("    real = np.r_[np.arange(width), wide + np.arange(v.shape[1])]",
+          "    real = np.arange(width + v.shape[1])")],
+        ["tests/test_refit.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
+    ),
+    "short records not padded to two inputs": (
+        "vojax/_refit.py",
+        [("if num_knots == 1 and n_all <= PAD_INPUTS_UP_TO else width",
+          "if num_knots == 1 and n_all > PAD_INPUTS_UP_TO else width")],
+        ["tests/test_refit.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
     ),
 }
 

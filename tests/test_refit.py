@@ -271,17 +271,17 @@ def test_refit_traces_once_per_shape():
     assert TRACES["fit"] == before + 1
 
 
-def test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_fit(monkeypatch):
-    """The springpot and Maxwell fits of one record trace the fit once between them, and so do
-    the Kelvin–Voigt and Zener fits (the laws without a spring in series padded with a zero
-    direct regressor, held at 0); each equals its fit without the padding to the solver's
-    tolerance, its coefficients' covariance included."""
+def test_the_four_laws_share_a_program_and_padding_changes_no_fit(monkeypatch):
+    """The springpot, Maxwell, Kelvin–Voigt and Zener fits of one record trace the fit once
+    between them (each padded to two integrated inputs and one direct regressor with zero
+    columns, held at 0); each equals its fit without the padding to the solver's tolerance,
+    its coefficients' covariance included."""
     import functools
 
     from vojax import _refit
     from vojax._refit import TRACES
 
-    n = 263  # a length no other test fits: the first of each pair traces, the second reuses it
+    n = 263  # a length no other test fits: the first law traces, the others reuse it
     stress = U[:n, 1]
     strain = np.asarray(vojax.simulate(stress, 0.5, np.array([0.8]), DT))
     strain = strain + NOISE * np.random.default_rng(9).standard_normal(n)
@@ -296,8 +296,9 @@ def test_laws_with_and_without_a_spring_share_a_program_and_padding_changes_no_f
     for k, m in enumerate(laws):
         before = TRACES["fit"]
         padded.append(fit(m))
-        assert TRACES["fit"] == before + (k % 2 == 0), m  # the second of each pair: no trace
-    monkeypatch.setattr(_refit, "_active_set", functools.partial(_refit._active_set, pad_direct=0))
+        assert TRACES["fit"] == before + (k == 0), m  # after the first law: no trace
+    monkeypatch.setattr(_refit, "_active_set", functools.partial(
+        _refit._active_set, pad_direct=0, pad_inputs=0))
     for m, a in zip(laws, padded):
         b = fit(m)
         assert a.p_at_bound == b.p_at_bound

@@ -177,7 +177,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
         return fits[key]
 
     def scaled(fit):  # a fit's residuals as fitted
-        r = np.asarray(strain - fit.y_hat)
+        r = np.asarray(strain) - np.asarray(fit.y_hat)
         return r / np.where(inside, strain, 1.0) if relative else r  # y ≠ 0 where compared
 
     part = (first, split)

@@ -36,38 +36,54 @@ from ._refit_solve import _order_curve as _order_curve
 from ._refit_solve import _raw_curve as _raw_curve
 from ._refit_solve import _zero_rounding as _zero_rounding
 
-# a constant-order fit with fewer direct regressors than this runs padded to it (zero columns,
-# held at 0), so that the laws with and without a spring in series share a compiled program
+# a constant-order fit with fewer integrated inputs or direct regressors than these runs padded
+# to them (zero columns, their coefficients held at 0), so that the four laws `compare` fits
+# share one compiled program (the springpot, Kelvin–Voigt, Maxwell and Zener laws: 1–2 inputs,
+# 0–1 direct regressors); a fit on knots is a program of its own anyway
+PAD_INPUTS = 2
 PAD_DIRECT = 1
+# records longer than this are not padded with inputs: the zero input's scan of the memory
+# would cost more than the compilation it saves (`compare` fits at most 20,000 points)
+PAD_INPUTS_UP_TO = 20_000
 
 
-def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None):
+def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None,
+                pad_inputs=None):
     """The nonlinear fit with the sign constraints as an active set: a coefficient whose free
     fit breaks its sign is held at 0 and the rest refitted, one at a time. Returns the fit's
-    dictionary and the active flags (0 where held).
+    dictionary (NumPy arrays, the solver's result code) and the active flags (0 where held).
 
-    A constant-order fit with fewer direct regressors than `pad_direct` (default `PAD_DIRECT`)
-    is padded with zero columns whose coefficients are held at 0 (they cost no scan of the
-    memory): the springpot shares the Maxwell law's compiled program, the Kelvin–Voigt law the
-    Zener's (`compare` fits all four); a fit on knots is a program of its own anyway."""
+    A constant-order fit is padded with zero columns, their coefficients held at 0, up to
+    `pad_inputs` (default `PAD_INPUTS`) integrated inputs (records up to `PAD_INPUTS_UP_TO`
+    samples) and `pad_direct` (default `PAD_DIRECT`) direct regressors: the four laws of
+    `compare` share one compiled program."""
     pad_direct = PAD_DIRECT if pad_direct is None else pad_direct
+    pad_inputs = PAD_INPUTS if pad_inputs is None else pad_inputs
     n_all, width = u2.shape
+    wide = max(width, pad_inputs) if num_knots == 1 and n_all <= PAD_INPUTS_UP_TO else width
     deep = max(v.shape[1], pad_direct) if num_knots == 1 else v.shape[1]
-    v_pad = jnp.concatenate([v, jnp.zeros((n_all, deep - v.shape[1]), v.dtype)], axis=1)
-    count = signs.size  # the coefficients that are not padding come first
-    active = np.ones(count)
+    u_pad = u2 if wide == width else jnp.asarray(
+        np.concatenate([np.asarray(u2), np.zeros((n_all, wide - width))], axis=1), u2.dtype)
+    v_pad = np.concatenate([np.asarray(v), np.zeros((n_all, deep - v.shape[1]))], axis=1)
+    # where each real coefficient sits among the padded ones: the inputs', then the direct
+    real = np.r_[np.arange(width), wide + np.arange(v.shape[1])]
+    active = np.ones(signs.size)
     dtype = big_y.dtype
     while True:
+        padded = np.zeros(wide + deep)
+        padded[real] = active
         out = _fit(
-            mem, u2, v_pad, big_y, sw, jnp.asarray(np.pad(active, (0, width + deep - count))),
-            jnp.asarray(solver["order0"], dtype), num_knots, solver["bounds"],
-            solver["estimate"], jnp.asarray(solver["rtol"], dtype),
-            jnp.asarray(solver["atol"], dtype), solver["max_steps"], solver["throw"],
+            mem, u_pad, v_pad.astype(dtype), big_y, sw, padded.astype(dtype),
+            np.asarray(solver["order0"], dtype), num_knots, solver["bounds"],
+            solver["estimate"], np.asarray(solver["rtol"], dtype),
+            np.asarray(solver["atol"], dtype), solver["max_steps"], solver["throw"],
         )
-        out["p"], out["p_stderr"] = out["p"][:count], out["p_stderr"][:count]
-        out["p_cov"] = out["p_cov"][:count, :count]
-        se = np.maximum(np.asarray(out["p_stderr"]), np.finfo(float).tiny)
-        if not _hold_worst(active, signs, np.asarray(out["p"]), se):
+        # on the host from here (an eager JAX operation compiles a program of its own)
+        out = {k: (v_ if k == "result" else np.asarray(v_)) for k, v_ in out.items()}
+        out["p"], out["p_stderr"] = out["p"][real], out["p_stderr"][real]
+        out["p_cov"] = out["p_cov"][np.ix_(real, real)]
+        se = np.maximum(out["p_stderr"], np.finfo(float).tiny)
+        if not _hold_worst(active, signs, out["p"], se):
             return out, active
 
 
@@ -165,7 +181,9 @@ def refit(
     mem = make_memory(
         memory, dt if grid is None else None, n_all, rule=rule, order_range=bounds, times=grid
     )
-    big_y = y - x0  # with an estimated offset, x0 = y[0] + the fitted correction
+    # with an estimated offset, x0 = y[0] + the fitted correction (on the host: an eager JAX
+    # operation compiles a program of its own)
+    big_y = jnp.asarray(np.asarray(y) - np.asarray(x0), u2.dtype)
     sw = jnp.asarray(np.sqrt(w), u2.dtype)
     v = jnp.asarray(v, u2.dtype)
     trim = slice(1, None) if origin is not None else slice(None)
@@ -203,19 +221,21 @@ def _result(out, active, x0, estimate, trim, sw, bounds, all_times, warn):
                                 "residuals") else a) for k, a in out.items()}
     rho, inflation = _residual_inflation(np.asarray(out["residuals"]), sw[trim])
     out = _inflated(out, inflation, bounds)
-    at_bound = bool(jnp.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin)))
+    at_bound = bool(np.any((knots < bounds[0] + margin) | (knots > bounds[1] - margin)))
     if warn:
         _warn(out["result"], at_bound, rho)
+    x0 = np.asarray(x0)
+    arrays = dict(
+        out,
+        x0=x0 + offset if estimate else x0,
+        knot_times=(np.interp(places, np.arange(all_times.size), all_times)
+                    if num_knots > 1 else np.zeros(1)),
+        y_hat=(fit + x0)[trim],
+    )
     return Refit(
-        **out,
+        **{k: (a if k == "result" else jax.device_put(np.asarray(a))) for k, a in arrays.items()},
         residual_correlation=rho,
         error_inflation=inflation,
-        x0=x0 + offset if estimate else x0,
-        knot_times=(
-            jnp.asarray(np.interp(places, np.arange(all_times.size), all_times))
-            if num_knots > 1 else jnp.zeros(1)
-        ),
-        y_hat=(fit + x0)[trim],
         p_at_bound=tuple(bool(a == 0) for a in active),
         at_bound=at_bound,
     )
@@ -258,8 +278,8 @@ def _inflated(out, factor, bounds):
     raw, slope = np.log(z) - np.log1p(-z), (hi - lo) * z * (1 - z)
     raw_sd = factor * sd / np.maximum(slope, 1e-300)
     sig = lambda x: 0.5 * (1.0 + np.tanh(x / 2))  # noqa: E731  (no overflow at the bounds)
-    out["order_lower"] = jnp.asarray(lo + (hi - lo) * sig(raw - 2 * raw_sd))
-    out["order_upper"] = jnp.asarray(lo + (hi - lo) * sig(raw + 2 * raw_sd))
+    out["order_lower"] = lo + (hi - lo) * sig(raw - 2 * raw_sd)
+    out["order_upper"] = lo + (hi - lo) * sig(raw + 2 * raw_sd)
     for key in ("order_stderr", "p_stderr", "x0_stderr", "knots_stderr"):
         out[key] = out[key] * factor
     out["p_cov"] = out["p_cov"] * factor**2

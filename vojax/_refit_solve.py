@@ -53,7 +53,8 @@ def _gauss_newton(jac, free):
 def _knot_places(num_knots):
     """Knots at the centres of K equal parts of the record (as fractions of its length): none at
     t = 0, where Φ = 0 says nothing about the order."""
-    return (jnp.arange(num_knots, dtype=jnp.result_type(float)) + 0.5) / num_knots
+    # NumPy (a constant under tracing): an eager JAX operation compiles a program of its own
+    return (np.arange(num_knots, dtype=jnp.result_type(float)) + 0.5) / num_knots
 
 
 def _raw_curve(raw, num, span=None):
