@@ -42,6 +42,9 @@ def test_log_spaced_creep_with_its_origin(tmp_path):
     assert abs(s["refit"]["order"] - 0.2) < 1e-3
     table = np.genfromtxt(out / "identification.csv", delimiter=",", names=True)
     np.testing.assert_allclose(table["time"], t - 10.0, rtol=1e-15)
+    # the file's own time kept beside the record's clock, and the shift stated
+    np.testing.assert_allclose(table["file_time"], t, rtol=1e-15)
+    assert s["time_offset"] == 10.0
 
 
 def _ramp_hold_file(tmp_path):

@@ -176,7 +176,7 @@ def test_cli_identify_end_to_end(tmp_path, method):
     band = ["alpha", "alpha_lower", "alpha_upper", "eta"]
     if method.startswith("kalman"):  # the tracker's conditional answer too
         band += ["alpha_conditional", "alpha_conditional_lower", "alpha_conditional_upper"]
-    expected = ["time"] + (band if method != "refit" else []) + ["y"]
+    expected = ["time", "file_time"] + (band if method != "refit" else []) + ["y"]
     expected += ["y_hat"] if method != "refit" else []
     if method.endswith("refit"):
         expected += ["refit_alpha", "refit_alpha_lower", "refit_alpha_upper", "refit_y_hat"]

@@ -242,6 +242,14 @@ def test_parameters_panel_shows_a_constant_plainly_and_names_the_parameters(tmp_
     assert lo <= 31.9185851 * 0.99 + 1e-12 and hi >= 34.0 and hi < 1e3
     assert seen["offset"] == "" and seen["label"] == "eta"
     assert seen["time"] == "time (s, from the first sample)" and seen["input"] == "stress (kPa)"
+    # a record whose first sample is at 100 s in its file says so on its time axes
+    _plotting._save = keep
+    try:
+        _plotting.record_figure(columns, dict(summary, time_offset=100.0), np.sin(t)[:, None],
+                                tmp_path / "g.png")
+    finally:
+        _plotting._save = real
+    assert seen["time"] == "time (s, from the first sample, at 100 in the file)"
 
 
 def test_axis_labels_carry_the_units_of_the_column_names():

@@ -196,7 +196,9 @@ def record_figure(columns, summary, inputs, path) -> None:
     time_unit = units.get(time_column) or UNITS.get(time_column.rpartition("_")[2])
     if not time_column.rpartition("_")[0] and time_column not in units:
         time_unit = None
-    time_label = f"time ({time_unit or time_column}, from the first sample)"
+    offset = summary.get("time_offset") or 0.0
+    time_label = f"time ({time_unit or time_column}, from the first sample" + (
+        f", at {offset:g} in the file)" if offset else ")")
     fig, axes = _record_axes()
     ax = axes[0, 0]
     ax.plot(t, columns["y"], "k", lw=1.2, label="measured")

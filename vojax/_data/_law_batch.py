@@ -99,7 +99,8 @@ def _columns_from_batch(r, y, names, physical, batch, x0, i, gains, model, metho
         "exponential", host=True, y=y,
     )
     cols, part = adaptive_part(res, y, physical)
-    columns = {"time": r.time, **cols, "y": y, "y_hat": np.asarray(res.y_hat)}
+    columns = {"time": r.time, "file_time": r.time + r.time_offset, **cols, "y": y,
+               "y_hat": np.asarray(res.y_hat)}
     summary = record_header(r, model, method, area, length)
     summary["parameter_names"] = names
     summary["gradient"] = part

@@ -130,6 +130,9 @@ def record_header(record, model, method, area, length):
         "record": record.name,
         "source": record.source,
         "samples": int(record.time.size),
+        # the file's time at the first sample: each record's clock (`time`, the knots, the
+        # fit window's samples) starts at 0 there; `file_time` in identification.csv is both
+        "time_offset": float(record.time_offset),
         "dt": record.dt,
         "uniform_clock": record.uniform,
         "resampled_step_spread": record.resampled,

@@ -125,7 +125,8 @@ def identify_record(
     check_parameters(method, parameters, max_points, x0, time_scale, noise)
     u, y, names, physical = regressors(record, model, area, length)
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
-    columns = {"time": record.time}
+    # the record's clock (from 0 at its first sample) and the file's own time
+    columns = {"time": record.time, "file_time": record.time + record.time_offset}
     summary = record_header(record, model, method, area, length)
     tracker = estimator(method)
     if tracker is not None:

@@ -34,6 +34,7 @@ def _summary_row(summary):
         "folder": record_folder(summary["record"]),
         "source": summary["source"],
         "samples": summary["samples"],
+        "time_offset": summary.get("time_offset", 0.0),
     }
     if "kalman" in summary:  # the tracker's verdict and how far it holds, first
         part = summary["kalman"]
