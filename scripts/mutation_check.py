@@ -1398,6 +1398,17 @@ MUTATIONS = {
           "if num_knots == 1 and n_all > PAD_INPUTS_UP_TO else width")],
         ["tests/test_refit.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
     ),
+    "a refit whose every input is held is not run again": (
+        "vojax/_refit.py",
+        [(" and bool(active[:width].any())", "")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "the refit's restarts keep the largest sum of squares": (
+        "vojax/_refit.py",
+        [("        if (settled(fit), -rss(fit)) > (settled(best), -rss(best) * (1 - 1e-12)):",
+          "        if (settled(fit), rss(fit)) > (settled(best), rss(best) * (1 - 1e-12)):")],
+        ["tests/test_refit_settles.py"],
+    ),
 }
 
 

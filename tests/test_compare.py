@@ -178,12 +178,15 @@ def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tm
     assert not (tmp_path / "again").exists()
 
 
-def test_the_zener_fits_at_least_as_well_as_the_maxwell_law_it_nests():
+def test_the_zener_fits_at_least_as_well_as_the_maxwell_law_it_nests(monkeypatch):
     """The Zener with E0 = 0 is the Maxwell law, so its likelihood is never below the
-    Maxwell's: on a record where the Zener's output-error refit stops short (the adhesive
-    staircase driving a Zener whose springs are 3-6 times the springpot's creep scale,
-    noise 2 %), the Maxwell fit stands in for it, named in its row, with the Zener's count of
-    quantities; on records where its own fit is better, that fit is kept."""
+    Maxwell's. On the adhesive staircase driving a Zener whose springs are 3-6 times the
+    springpot's creep scale (noise 2 %) the Zener's refit from its start stops short; run
+    again from other starts (`refit`'s restarts) it fits at least as well, and is kept. Where
+    it still stops short (here: the restarts left out), the Maxwell fit stands in for it,
+    named in its row, with the Zener's count of quantities; on records where its own fit is
+    better, that fit is kept."""
+    from vojax import _refit
     from vojax.io import example_file, load_records
 
     (rec,) = load_records(example_file("adhesive"), time="time_s",
@@ -200,6 +203,11 @@ def test_the_zener_fits_at_least_as_well_as_the_maxwell_law_it_nests():
     a, b, c = e1 / (e0 + e1), e0 * e1 / (e0 + e1), 1 / (e0 + e1)
     y = np.linalg.solve(np.eye(n) + b * w, a * (w @ stress) + c * stress)
     y = y + 0.02 * np.ptp(y) * rng.standard_normal(n)
+    comp = vojax.compare(stress, y, dt, models=("maxwell", "zener"))
+    rows = {r["model"]: r for r in comp.rows}
+    assert rows["zener"]["log_likelihood"] >= rows["maxwell"]["log_likelihood"] - 1e-9
+    assert "note" not in rows["zener"]
+    monkeypatch.setattr(_refit, "_settled_fit", _refit._active_set)  # no restarts
     comp = vojax.compare(stress, y, dt, models=("maxwell", "zener"))
     rows = {r["model"]: r for r in comp.rows}
     assert rows["zener"]["log_likelihood"] >= rows["maxwell"]["log_likelihood"] - 1e-9

@@ -48,6 +48,40 @@ PAD_DIRECT = 1
 PAD_INPUTS_UP_TO = 5_000
 
 
+# the starts, as fractions of `order_bounds`, from which a fit that did not settle is run again
+RESTARTS = (0.1, 0.3, 0.5, 0.7, 0.9)
+
+
+def _settled_fit(mem, u2, v, big_y, sw, signs, num_knots, solver):
+    """`_active_set` from `solver`'s start; where that fit did not converge, or its active set
+    held every integrated input's coefficient at 0 (the order then moves nothing, and the
+    solver stops where it started), it is run again from each of `RESTARTS` and the fit with
+    the least weighted sum of squares is kept (the first of equals: the given start's)."""
+    import optimistix as optx
+
+    width = u2.shape[1]
+    sw_np = np.asarray(sw)
+
+    def settled(fit):
+        out, active = fit
+        return bool(out["result"] == optx.RESULTS.successful) and bool(active[:width].any())
+
+    def rss(fit):
+        return float(np.sum((sw_np * fit[0]["residuals"]) ** 2))
+
+    best = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
+    if settled(best):
+        return best
+    lo, hi = solver["bounds"]
+    for fraction in RESTARTS:
+        fit = _active_set(mem, u2, v, big_y, sw, signs, num_knots,
+                          dict(solver, order0=lo + fraction * (hi - lo)))
+        # a settled fit beats an unsettled one; among equals, the least sum of squares
+        if (settled(fit), -rss(fit)) > (settled(best), -rss(best) * (1 - 1e-12)):
+            best = fit
+    return best
+
+
 def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None,
                 pad_inputs=None):
     """The nonlinear fit with the sign constraints as an active set: a coefficient whose free
@@ -153,6 +187,12 @@ def refit(
     whose free fit breaks its sign is fixed at 0, the bound, and the rest refitted (an active
     set, one coefficient at a time); `Refit.p_at_bound` says which, with standard error 0.
 
+    **Restarts:** a fit that did not converge from `order0`, or whose active set held every
+    input's coefficient at 0 (the order then moves nothing and the solver stops where it
+    started), is run again from the orders at 10, 30, 50, 70 and 90 % of `order_bounds`; the
+    converged fit with the least (weighted) sum of squares is returned, so the answer does not
+    depend on the start.
+
     **Errors under correlated residuals:** the Gauss–Newton errors assume independent
     residuals; where they are correlated (lag-1 ρ above ``2/√n``) every error is inflated by
     ``√((1 + ρ)/(1 − ρ))`` (`Refit.error_inflation`). With `warn`, a `RefitWarning` says when
@@ -202,7 +242,7 @@ def refit(
 
     solver = dict(order0=order0, bounds=bounds, estimate=estimate, rtol=rtol, atol=atol,
                   max_steps=max_steps, throw=throw)
-    out, active = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
+    out, active = _settled_fit(mem, u2, v, big_y, sw, signs, num_knots, solver)
     all_times = times if grid is None or origin is None else np.asarray(grid)
     return _result(out, active, x0, estimate, trim, np.asarray(sw), bounds, all_times, warn)
 
