@@ -73,7 +73,7 @@ def test_window_is_a_mask_and_an_open_window_changes_nothing(ringing):
         np.testing.assert_array_equal(np.asarray(getattr(a, k)), np.asarray(getattr(b, k)))
     np.testing.assert_equal(vars(a.diagnostics), vars(b.diagnostics))  # NaN equals NaN
     first, stop = np.flatnonzero(late)[[0, -1]] + [0, 1]
-    assert a.fitted == (first, stop)
+    assert a.fitted == b.fitted == (first, stop)
     # the summary's final order is the window's last, not the record's (after the window the
     # states follow the random walk: the same mean, a slightly wider band)
     s = a.summary()

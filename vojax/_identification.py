@@ -71,8 +71,9 @@ class Identification(eqx.Module):
     parameters: str | None = eqx.field(static=True, default=None)
     # the tracker's conditional answer (see `Conditional`); None for the law
     conditional: Conditional | None = None
-    # the samples fitted, ``(first, stop)`` (a fit window: `identify(..., window=)`); None:
-    # every sample. The summary and the verdict line speak of this range.
+    # the samples fitted, ``(first, stop)``: from the first fitted sample to one past the last
+    # (a fit window or a mask, `identify(..., window=, mask=)`); None: every sample. The
+    # summary and the verdict line speak of this range.
     fitted: tuple[int, int] | None = eqx.field(static=True, default=None)
 
     def _fitted(self, a):
@@ -83,8 +84,9 @@ class Identification(eqx.Module):
     def summary(self, names=None):
         """The headline numbers as a `vojax.Summary` (a dict that prints as a table): the final
         order with its standard deviation, the order's median over the second half, the band's
-        half-width, each parameter's final value (over the fitted samples, with a fit window) (named by `names`, default ``p1``, ``p2``…),
-        the offset, and the verdict with its reason."""
+        half-width, each parameter's final value (named by `names`, default ``p1``, ``p2``…),
+        the offset, and the verdict with its reason; with a fit window or a mask, over the
+        fitted samples (`fitted`)."""
         from ._results import Summary, parameter_names, row
 
         alpha, std = self._fitted(self.alpha), self._fitted(self.alpha_std)

@@ -47,7 +47,7 @@ def adaptive_part(res, y, physical):
         "x0_std": float(res.x0_std),
         **diagnostics_dict(res.diagnostics),
     }
-    if fitted is not None:
+    if fitted is not None and tuple(fitted) != (0, alpha.shape[0]):  # a window, not padding
         part["fitted_samples"] = [int(fitted[0]), int(fitted[1])]
     if res.method == "kalman":
         part["answer"] = res.verdict_line()

@@ -170,7 +170,7 @@ class Tracker:
             memory=self.memory, method="kalman", diagnostics=diagnostics, tuning=res.tuning,
             parameters=self.parameters,
             conditional=None if res.conditional is None else Conditional(*res.conditional),
-            fitted=None if window is None else _fitted_range(mask, length),
+            fitted=None if mask is None else _fitted_range(mask, length),
         )
 
     def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True):
