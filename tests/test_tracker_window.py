@@ -143,3 +143,9 @@ def test_command_line_window_is_the_python_window(ringing, tmp_path, capsys):
     assert main(["identify", str(path), *cols, "--fit-from", "102", "--method", "gradient",
                  "--out", str(tmp_path / "o2")]) == 1
     assert "the paper's law (--method gradient) fits every sample" in capsys.readouterr().err
+    # a window outside the record is refused in the file's times, before anything is fitted
+    assert main(["identify", str(path), *cols, "--fit-from", "150", "--out",
+                 str(tmp_path / "o3")]) == 1
+    assert ("--fit-from 150 leaves 0 samples of the record, whose times run from 100 to 120 "
+            "in the file") in capsys.readouterr().err
+    assert not (tmp_path / "o3" / "summary.json").exists()

@@ -359,7 +359,8 @@ def _law_options(args):
     window = [f"--{k}" for k in ("fit-from", "fit-to") if getattr(args, k.replace("-", "_")) is not None]
     if window and args.method == "gradient":
         raise CLIError(
-            f"{' and '.join(window)} set the tracker and the refit; the paper's law (--method "
+            f"{' and '.join(window)} {'set' if len(window) > 1 else 'sets'} the tracker and "
+            "the refit; the paper's law (--method "
             "gradient) fits every sample: use --method kalman, refit or gradient+refit."
         )
     check_fit_window(args)

@@ -4,6 +4,7 @@
 import numpy as np
 
 from .._stats import delta_stderr
+from .._validate import window_mask
 from ._buckets import COMPILE_COST_SAMPLES as COMPILE_COST_SAMPLES
 from ._buckets import bucket_length as bucket_length
 from ._buckets import plan_buckets as plan_buckets
@@ -123,6 +124,7 @@ def identify_record(
     method = canonical_method(method)
     _check_record_options(record, model, method, origin, fit_from, fit_to)
     check_parameters(method, parameters, max_points, x0, time_scale, noise)
+    window = _window(record, fit_from, fit_to)  # on the record's clock
     u, y, names, physical = regressors(record, model, area, length)
     pad_to = pad_to if record.uniform else None  # a bucket pads a uniform clock only
     # the record's clock (from 0 at its first sample) and the file's own time
@@ -133,7 +135,7 @@ def identify_record(
         settings = dict(
             gamma=gamma, lam=lam, max_points=max_points, x0=x0, threads=threads,
             time_scale=time_scale, parameters=parameters, alpha_bounds=alpha_bounds,
-            noise=noise, window=_window(record, fit_from, fit_to),
+            noise=noise, window=window,
         )
         cols, summary[tracker] = _tracker_part(
             record, tracker, u, y, physical, pad_to, model, length, settings
@@ -177,14 +179,28 @@ def _check_record_options(record, model, method, origin, fit_from, fit_to):
         )
 
 
+MIN_WINDOW = 4  # the fewest samples a fit window may hold (a fit of one input and its offset)
+
+
 def _window(record, fit_from, fit_to):
     """The fit window ``(from, to)`` on the record's clock from times in the file's (an end
     None: open), or None."""
     if fit_from is None and fit_to is None:
         return None
     shift = record.time_offset
-    return (None if fit_from is None else float(fit_from) - shift,
-            None if fit_to is None else float(fit_to) - shift)
+    window = (None if fit_from is None else float(fit_from) - shift,
+              None if fit_to is None else float(fit_to) - shift)
+    inside = int(window_mask(window, record.time).sum())
+    if inside < MIN_WINDOW:
+        given = " and ".join(f"{name} {value:g}" for name, value in
+                             (("--fit-from", fit_from), ("--fit-to", fit_to)) if value is not None)
+        raise ValueError(
+            f"{given} leave{'s' if ' and ' not in given else ''} {inside} "
+            f"sample{'' if inside == 1 else 's'} of the "
+            f"record, whose times run from {shift:g} to {record.time[-1] + shift:g} in the "
+            f"file; a fit needs at least {MIN_WINDOW}."
+        )
+    return window
 
 
 def _tracker_part(record, tracker, u, y, physical, pad_to, model, length, settings):
