@@ -1409,6 +1409,12 @@ MUTATIONS = {
           "        if (settled(fit), rss(fit)) > (settled(best), rss(best) * (1 - 1e-12)):")],
         ["tests/test_refit_settles.py"],
     ),
+    "the decimal-comma hint on any cell that is not a number": (
+        "vojax/_data/_read.py",
+        [('            if decimal != "," and _is_number(text.replace(",", ".")):',
+          '            if decimal != ",":')],
+        ["tests/test_data_cli.py::test_a_decimal_comma_is_named_where_it_would_read"],
+    ),
 }
 
 

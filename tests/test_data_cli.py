@@ -105,6 +105,24 @@ def test_loader_errors_name_file_line_and_column(tmp_path, content, match):
         load_records(path, time="t", inputs=["F"], output="d")
 
 
+def test_a_decimal_comma_is_named_where_it_would_read(tmp_path):
+    """A cell that reads as a number with its comma taken as the decimal point gets the hint
+    (the option in both interfaces); one that would not ('x', '1,2,3') does not; with the
+    option the file reads, its values exact."""
+    path = tmp_path / "de.csv"
+    path.write_text("t;F;d\n0,0;1,5;0\n0,1;2,5;0,25\n0,2;3,5;0,5\n")
+    with pytest.raises(DataError, match=r"'0,0' is not a number; for decimal commas pass "
+                       r"--decimal , \(decimal=',' in Python\)"):
+        load_records(path, time="t", inputs=["F"], output="d", delimiter=";")
+    rec = load_records(path, time="t", inputs=["F"], output="d", delimiter=";", decimal=",")[0]
+    np.testing.assert_array_equal(rec.inputs[:, 0], [1.5, 2.5, 3.5])
+    np.testing.assert_array_equal(rec.output, [0.0, 0.25, 0.5])
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t;F;d\n0;1,2,3;0\n0.1;x;0\n0.2;3;0\n")
+    with pytest.raises(DataError, match=r"'1,2,3' is not a number\.$"):
+        load_records(bad, time="t", inputs=["F"], output="d", delimiter=";")
+
+
 def test_loader_bom_folders_and_exact_names(tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes("\ufefft,F,d\n0,1,0\n0.1,2,0\n0.2,3,0\n".encode("utf-8"))

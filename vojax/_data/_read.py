@@ -121,10 +121,21 @@ def _column(path, header, rows, line_numbers, name, numeric=True, decimal="."):
         try:
             values.append(float(text.replace(",", ".") if decimal == "," else text))
         except ValueError:
+            hint = ""
+            if decimal != "," and _is_number(text.replace(",", ".")):
+                hint = "; for decimal commas pass --decimal , (decimal=',' in Python)"
             raise DataError(
-                f"{path}, line {line}, column {name!r}: {text!r} is not a number."
+                f"{path}, line {line}, column {name!r}: {text!r} is not a number{hint}."
             ) from None
     return np.array(values, dtype=object if not numeric else float)
+
+
+def _is_number(text) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def row_groups(path, header, rows, lines, group_by, single=""):
