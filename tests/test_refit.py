@@ -278,7 +278,7 @@ def test_the_four_laws_share_a_program_and_padding_changes_no_fit(monkeypatch):
     its coefficients' covariance included."""
     import functools
 
-    from vojax import _refit
+    from vojax import _refit_active
     from vojax._refit import TRACES
 
     n = 263  # a length no other test fits: the first law traces, the others reuse it
@@ -297,8 +297,8 @@ def test_the_four_laws_share_a_program_and_padding_changes_no_fit(monkeypatch):
         before = TRACES["fit"]
         padded.append(fit(m))
         assert TRACES["fit"] == before + (k == 0), m  # after the first law: no trace
-    monkeypatch.setattr(_refit, "_active_set", functools.partial(
-        _refit._active_set, pad_direct=0, pad_inputs=0))
+    monkeypatch.setattr(_refit_active, "_active_set", functools.partial(
+        _refit_active._active_set, pad_direct=0, pad_inputs=0))
     for m, a in zip(laws, padded):
         b = fit(m)
         assert a.p_at_bound == b.p_at_bound

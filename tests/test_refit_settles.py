@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax import _refit
+from vojax import _refit_active
 
 jax.config.update("jax_enable_x64", True)
 
@@ -120,8 +120,8 @@ def test_an_unsettled_fit_is_run_again_and_the_least_squares_kept(monkeypatch):
             calls.append(solver["order0"])
             return outcomes[len(calls) - 1]
 
-        monkeypatch.setattr(_refit, "_active_set", fake)
-        out, _ = _refit._settled_fit(None, np.zeros((3, 1)), None, None, sw, None, 1,
+        monkeypatch.setattr(_refit_active, "_active_set", fake)
+        out, _ = _refit_active._settled_fit(None, np.zeros((3, 1)), None, None, sw, None, 1,
                                      dict(order0=0.42, bounds=(0.0, 1.0)))
         return float(out["order"][0]), calls
 

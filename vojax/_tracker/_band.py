@@ -68,10 +68,15 @@ def reference_variance(explanations, tuned, span):
     return var + spread - tuned.var
 
 
+def first_fitted(mask) -> int:
+    """The first fitted sample: a fit window's start (0 without a mask)."""
+    return 0 if mask is None else int(np.flatnonzero(np.asarray(mask) > 0)[0])
+
+
 def second_half(mask, span) -> int:
     """Where the second half of the fitted samples' range begins: the range from the first
-    fitted sample (a fit window's start; 0 without a mask) to `span`, halved."""
-    first = 0 if mask is None else int(np.flatnonzero(np.asarray(mask)[:span] > 0)[0])
+    fitted sample to `span`, halved."""
+    first = first_fitted(mask)
     return first + (span - first) // 2
 
 

@@ -15,6 +15,7 @@ from .._settings import TrackerSettings
 from .._stats import prediction_error_correlation
 from .._steps import Step
 from .._xla import to_device
+from ._band import first_fitted
 from ._blocks import block_size, fit_blocks
 from ._clock import second_clock, weigh_clock
 from ._fit import fit_points
@@ -212,7 +213,7 @@ class Tracker:
         data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None.
         The diagnostics cover the fitted range: from the first fitted point to the last."""
         fit_mask, span = fit["mask"], fit["span"]
-        first = 0 if fit_mask is None else int(np.flatnonzero(np.asarray(fit_mask)[:span])[0])
+        first = first_fitted(fit_mask)
         cut = slice(first, span)
         alpha, lower, upper = (np.asarray(fit[k])[cut] for k in ("alpha", "lower", "upper"))
         shift, conditional = None, fit.get("conditional")
@@ -261,4 +262,4 @@ def _windowed(mask, window, dt, t, shape):
 
 def _fitted_range(mask, length) -> tuple[int, int]:
     """``(first, stop)``: the first fitted sample and one past the last."""
-    return int(np.flatnonzero(np.asarray(mask))[0]), int(length)
+    return first_fitted(mask), int(length)
