@@ -189,9 +189,9 @@ MUTATIONS = {
         ["tests/test_refit.py"],
     ),
     "refit's tolerance passed as a Python number (a retrace per value)": (
-        'vojax/_refit.py',
+        'vojax/_refit_active.py',
         [
-            ('jnp.asarray(solver["rtol"], dtype),\n            jnp.asarray(solver["atol"], dtype),',
+            ('np.asarray(solver["rtol"], dtype),\n            np.asarray(solver["atol"], dtype),',
              'float(solver["rtol"]),\n            float(solver["atol"]),'),
         ],
         ['tests/test_retracing.py::test_refit_traces_once'],
@@ -258,7 +258,7 @@ MUTATIONS = {
         ["tests/test_models.py"],
     ),
     "resampling smooths away a fast phase": (
-        "vojax/_data/_records.py",
+        "vojax/_data/_record.py",
         [("if step > RESAMPLE_MAX_RATIO * steps[shortest]:", "if step > 1e9 * steps[shortest]:")],
         ["tests/test_data_cli.py"],
     ),
@@ -1023,7 +1023,7 @@ MUTATIONS = {
     "refit's order interval not widened with its errors": (
         'vojax/_refit.py',
         [
-            ('    out["order_upper"] = jnp.asarray(lo + (hi - lo) * sig(raw + 2 * raw_sd))',
+            ('    out["order_upper"] = lo + (hi - lo) * sig(raw + 2 * raw_sd)',
              '    pass'),
         ],
         ['tests/test_refit.py::test_correlated_residuals_inflate_the_gauss_newton_errors'],
@@ -1271,7 +1271,7 @@ MUTATIONS = {
         ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
     ),
     "a clock reaching 1e308 taken": (
-        "vojax/_data/_records.py",
+        "vojax/_data/_record.py",
         [("    far = np.abs(t) > TIME_LIMIT", "    far = np.abs(t) > np.inf")],
         ["tests/test_data_cli.py::test_hostile_cells_clocks_and_silent_inputs_get_one_sentence"],
     ),
@@ -1378,7 +1378,7 @@ MUTATIONS = {
     ),
     "the command's window not shifted to the record's clock": (
         "vojax/_data/_pipeline.py",
-        [("    shift = record.time_offset\n    return (None", "    shift = 0.0\n    return (None")],
+        [("    shift = record.time_offset\n    window = (None", "    shift = 0.0\n    window = (None")],
         ["tests/test_tracker_window.py::test_command_line_window_is_the_python_window"],
     ),
     "the command's summary over the whole record with a window": (
