@@ -85,7 +85,7 @@ def main():
     import vojax
 
     vojax.use_fast_cpu_loops()
-    from vojax import TrackerSettings, _refit
+    from vojax import TrackerSettings, _refit_active
     from vojax._data import load_records
     from vojax._data._pipeline import identify_record
     from vojax._integral import make_memory
@@ -110,13 +110,13 @@ def main():
         compare("tracker's first pass", first_pass, jax.jit(jax.vmap(first_pass)),
                 tracker_args(records[:count], memory))
         # the refit's arguments, captured from `identify_record` as the batch calls it
-        calls, fit = [], _refit._fit
-        _refit._fit = lambda *a: calls.append(a) or fit(*a)
+        calls, fit = [], _refit_active._fit
+        _refit_active._fit = lambda *a: calls.append(a) or fit(*a)
         try:
             for r in records[:count]:
                 identify_record(r, model="springpot", method="refit", pad_to=PAD)
         finally:
-            _refit._fit = fit
+            _refit_active._fit = fit
         c0 = calls[0]
         dynamic = (1, 2, 3, 4, 5, 6, 10, 11)  # the arrays; the rest is static and shared
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax import _identify, _integral, _refit, _tune
+from vojax import _identify, _integral, _refit_active, _tune
 from vojax._adaptive import _bands, _build
 from vojax._tracker import _start, _tuning
 
@@ -33,7 +33,7 @@ def _record(n, order, seed, dt=0.1):
 
 
 def test_refit_traces_once(monkeypatch):
-    fit = _once(monkeypatch, _refit, "_fit")
+    fit = _once(monkeypatch, _refit_active, "_fit")
     u, y = _record(150, 0.4, 0)
     vojax.refit(u, y, 0.1)
     u2, y2 = _record(150, 0.6, 1)
