@@ -285,7 +285,7 @@ MUTATIONS = {
         ["tests/test_batch.py::test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths"],
     ),
     "reused record figure keeps the colour cycle": (
-        "vojax/_plotting.py",
+        "vojax/_plotting_record.py",
         [("        ax.set_prop_cycle(None)  # colours from C0 again\n", "")],
         ["tests/test_figures.py::test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel"],
     ),
@@ -1414,6 +1414,74 @@ MUTATIONS = {
         [('            if decimal != "," and _is_number(text.replace(",", ".")):',
           '            if decimal != ",":')],
         ["tests/test_data_cli.py::test_a_decimal_comma_is_named_where_it_would_read"],
+    ),
+    "the record figure's residuals are the fit, not measured − fit": (
+        "vojax/_plotting_parts.py",
+        [("        r = y - np.asarray(fit, dtype=float)", "        r = np.asarray(fit, dtype=float)")],
+        ["tests/test_figures.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
+    ),
+    "the caption cuts the reason to its first clause": (
+        "vojax/_plotting_parts.py",
+        [('            lines.append("Why: " + finding.rstrip(".") + ".")',
+          '            lines.append("Why: " + finding.split(":")[0] + ".")')],
+        ["tests/test_figures.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
+    ),
+    "the caption's lines are not wrapped": (
+        "vojax/_plotting_parts.py",
+        [("int(CAPTION_CHARS * width)", "10_000")],
+        ["tests/test_figures.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
+    ),
+    "the caption forgets the stated assumptions": (
+        "vojax/_plotting_parts.py",
+        [('(f" ({assumed})." if assumed else ".")', '"."')],
+        ["tests/test_figures.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
+    ),
+    "eta's unit without the time to the order": (
+        "vojax/_plotting_parts.py",
+        [('unit = f"{stress}·{tau}{per}" if name == "eta" else f"{stress}{per}"',
+          'unit = f"{stress}{per}"')],
+        ["tests/test_figures.py::test_parameters_carry_their_units"],
+    ),
+    "a log-spaced clock on a linear axis": (
+        "vojax/_plotting_parts.py",
+        [("    return bool(np.median(steps[-quarter:]) > LOG_CLOCK * np.median(steps[:quarter]))",
+          "    return False")],
+        ["tests/test_figures.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
+    ),
+    "a reused figure keeps the last record's log axis": (
+        "vojax/_plotting_parts.py",
+        [('    else:\n        ax.set_xscale("linear")\n', '    else:\n')],
+        ["tests/test_figures.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
+    ),
+    "a constant input zoomed on its jitter": (
+        "vojax/_plotting_parts.py",
+        [("    flat = level > 0 and hi - lo < FLAT * level", "    flat = False")],
+        ["tests/test_figures.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
+    ),
+    "Identification.plot draws the order alone": (
+        "vojax/_identification.py",
+        [("        if ax is None:\n            from ._plotting_record", "        if False:\n            from ._plotting_record")],
+        ["tests/test_figures.py::test_identification_plot_shows_data_fit_residuals_and_the_verdict"],
+    ),
+    "the tracker forgets the measured output": (
+        "vojax/_tracker/_estimator.py",
+        [("_fitted_range(mask, length), y=y,", "_fitted_range(mask, length),")],
+        ["tests/test_figures.py::test_identification_plot_shows_data_fit_residuals_and_the_verdict"],
+    ),
+    "the overview says nothing where drift absorbs the fit": (
+        "vojax/_plotting.py",
+        [("    note = _absorbed_note(rows, tracker)", '    note = ""')],
+        ["tests/test_figures.py::test_the_overview_counts_in_whole_records_and_says_when_drift_absorbs_the_fit"],
+    ),
+    "the overview's counts on fractional ticks": (
+        "vojax/_plotting.py",
+        [("        ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts of records", "        pass")],
+        ["tests/test_figures.py::test_the_overview_counts_in_whole_records_and_says_when_drift_absorbs_the_fit"],
+    ),
+    "the study's Fig. 4 clips the law's excursions": (
+        "vojax/_plotting.py",
+        [("        _robust_limits(ax, series, percentiles=(0, 100))", "        _robust_limits(ax, series)")],
+        ["tests/test_figures.py::test_the_studys_figures_hide_no_data_and_clip_no_estimate"],
     ),
 }
 

@@ -156,7 +156,7 @@ def test_an_undetermined_parameter_is_written_not_failed(tmp_path):
 def test_record_figure_with_an_infinite_error_warns_nothing(tmp_path):
     """`record_figure` draws a parameter whose standard error is inf (undetermined) as a line
     without a band; under the tests' warnings-as-errors a NaN transform would fail here."""
-    from vojax._plotting import record_figure
+    from vojax._plotting_record import record_figure
 
     t = np.linspace(0.0, 10.0, 50)
     columns = {"time": t, "y": np.sin(t), "refit_alpha": np.full(50, 0.5),

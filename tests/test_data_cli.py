@@ -564,19 +564,19 @@ def test_units_label_the_figures_and_change_no_number(tmp_path, capsys, monkeypa
     """``--units stress=kPa,strain=1`` puts the units on the figure's axes and in
     summary.json and changes no number; a malformed spec or a column the record does not use
     is refused in one line, before anything is identified."""
-    from vojax import _plotting
+    from vojax import _plotting_record
     from vojax._cli import main
 
     _springpot_csv(tmp_path / "s.csv", n=60)
     labels = []
-    real = _plotting._save
+    real = _plotting_record._save
 
     def keep(fig, path, **kw):
         if path.name.startswith("identification"):
-            labels.append((fig.axes[0].get_ylabel(), fig.axes[1].get_ylabel()))
+            labels.append((fig.axes[0].get_ylabel(), fig.axes[2].get_ylabel()))
         real(fig, path, **kw)
 
-    monkeypatch.setattr(_plotting, "_save", keep)
+    monkeypatch.setattr(_plotting_record, "_save", keep)
     args = ["identify", str(tmp_path / "s.csv"), "--time", "time_s", "--input", "stress",
             "--output", "strain", "--method", "refit"]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0

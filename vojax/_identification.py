@@ -28,6 +28,7 @@ class Identification(eqx.Module):
     - `p` (N, n): the identified parameters p̂; `p_std` (N, n): their standard deviations.
     - `x0`, `x0_std`: the output offset x(0) used (``"gradient"``) or estimated (``"kalman"``).
     - `y_hat` (N,): the identified output x0 + p̂ᵀφ(α̂, t) (eq. 25).
+    - `y` (N,): the measured output the estimates were fitted to (for `plot`'s residuals).
     - `y_pred` (N,): the a-priori prediction, made before y_k is used (for a long record
       fitted as block means, `diagnostics.block` > 1: the blocks' predictions, linear
       between block times).
@@ -75,6 +76,8 @@ class Identification(eqx.Module):
     # (a fit window or a mask, `identify(..., window=, mask=)`); None: every sample. The
     # summary and the verdict line speak of this range.
     fitted: tuple[int, int] | None = eqx.field(static=True, default=None)
+    # the measured output (N,) the estimates were fitted to; None where it was not kept
+    y: Float[Array, " N"] | None = None
 
     def _fitted(self, a):
         """`a` (N, …) over the fitted samples."""
@@ -139,14 +142,27 @@ class Identification(eqx.Module):
         return head
 
     def plot(self, ax=None, *, t=None):
-        """The order with its ±2σ band against `t` (the sample times; default ``k·dt``), titled
-        with the verdict. Returns the matplotlib Axes."""
-        from ._results import plot_order
+        """The identification at a glance against `t` (the sample times; default ``k·dt``).
 
+        Without `ax`: a figure of three panels, the measured output with the identified fit
+        ŷ, the residuals y − ŷ, and the order with its ±2σ band (the conditional band where
+        the verdict is conditional, the fit window shaded), titled with the verdict and
+        captioned with the answer, what it assumes and why, in full. With `ax`: the order
+        panel alone, on that axes. Returns the order's Axes (its figure: ``ax.figure``)."""
         n = np.asarray(self.alpha).shape[0]
         times = float(self.dt) * np.arange(n) if t is None else np.asarray(t, dtype=float)
         if times.shape != (n,):
             raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
+        if ax is None:
+            from ._plotting_record import identification_figure
+
+            return identification_figure(self, times)
+        return self.plot_order(ax, times)
+
+    def plot_order(self, ax, times):
+        """The order with its ±2σ band on `ax`, titled with the verdict (see `plot`)."""
+        from ._results import plot_order
+
         name = {"kalman": "tracker", "gradient": "paper's law"}.get(self.method, self.method)
         ax = plot_order(
             times, self.alpha, self.alpha_lower, self.alpha_upper, ax=ax, label=name,

@@ -143,4 +143,5 @@ def law_identification(
         memory=memory,
         method="gradient",
         diagnostics=diagnostics,
+        y=None if y is None else put(np.asarray(y)[: alpha.shape[0]], dtype),
     )

@@ -6,7 +6,7 @@ import concurrent.futures
 import os
 import time
 
-from .._plotting import warm_record_figure
+from .._plotting_record import warm_record_figure
 from ._pipeline import (
     finish_outputs,
 )

@@ -197,7 +197,7 @@ def finish_outputs(out_dir, columns, summary, inputs=None, figure_format="png"):
     record's outputs as complete. Runs in a worker process in a batch."""
     out_dir = Path(out_dir)
     if inputs is not None:
-        from .._plotting import record_figure
+        from .._plotting_record import record_figure
 
         record_figure(columns, summary, inputs, out_dir / f"identification.{figure_format}")
     write_json(out_dir / "summary.json", summary)

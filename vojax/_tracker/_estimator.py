@@ -171,7 +171,7 @@ class Tracker:
             memory=self.memory, method="kalman", diagnostics=diagnostics, tuning=res.tuning,
             parameters=self.parameters,
             conditional=None if res.conditional is None else Conditional(*res.conditional),
-            fitted=None if mask is None else _fitted_range(mask, length),
+            fitted=None if mask is None else _fitted_range(mask, length), y=y,
         )
 
     def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True):
