@@ -1483,6 +1483,17 @@ MUTATIONS = {
         [("        _robust_limits(ax, series, percentiles=(0, 100))", "        _robust_limits(ax, series)")],
         ["tests/test_figures.py::test_the_studys_figures_hide_no_data_and_clip_no_estimate"],
     ),
+    "the tilt of an AFM baseline not removed": (
+        "vojax/_data/_contact.py",
+        [('        PREPROCESSING + ([] if slope is None else ["correct_force_slope"]),',
+          '        PREPROCESSING,')],
+        ["tests/test_afm_contact.py::test_a_tilted_baseline_is_corrected_with_baseline_tilt"],
+    ),
+    "--baseline not passed to the loader": (
+        "vojax/_cli/_args.py",
+        [('    if args.baseline is not None:\n        out["baseline"] = args.baseline\n', '')],
+        ["tests/test_afm_contact.py::test_the_baseline_option_from_python_and_the_command_line"],
+    ),
 }
 
 

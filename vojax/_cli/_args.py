@@ -107,7 +107,7 @@ def _afm_loader(args) -> dict:
 
     try:
         AfmOptions.checked(tip=args.tip, poisson=args.poisson, contact=args.contact,
-                           spring_constant=args.spring_constant)
+                           spring_constant=args.spring_constant, baseline=args.baseline)
     except ValueError as e:
         raise CLIError(str(e)) from None
     out = {}
@@ -123,6 +123,8 @@ def _afm_loader(args) -> dict:
         out["contact"] = args.contact
     if args.spring_constant is not None:
         out["spring_constant"] = args.spring_constant
+    if args.baseline is not None:
+        out["baseline"] = args.baseline
     return out
 
 

@@ -4,7 +4,7 @@ settings of a record's pipeline."""
 import argparse
 import sys
 
-from .._data._contact import CONTACT_METHODS
+from .._data._contact import BASELINES, CONTACT_METHODS
 from .._settings import TrackerSettings
 from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
 from ._args import check_fit_window
@@ -147,6 +147,13 @@ def _afm_options(p):
         help="AFM curves: how the contact point is found, 'fit' (the Hertz fit's free contact "
         "point; needs --tip) or one of nanite's estimators (default: 'fit' with --tip, else "
         "'deviation_from_baseline')",
+    )
+    p.add_argument(
+        "--baseline",
+        choices=BASELINES,
+        help="AFM curves: how the force's baseline is corrected before the contact point is "
+        "found: 'offset' (default) or 'tilt' (also a slope against the tip position, fitted "
+        "before contact and subtracted over the approach: a virtual deflection)",
     )
     p.add_argument(
         "--spring-constant",

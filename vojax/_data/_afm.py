@@ -95,11 +95,13 @@ def contact_strain(indentation, tip, poisson=0.5):
     return 2.0 * PYRAMID_FACTOR * math.tan(math.radians(size)) * d**2 / (1.0 - poisson)
 
 
-def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True):
+def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True, baseline=None):
     """The force curves of an AFM file, each as a dict of columns (`AFM_COLUMNS`) and a dict of
     metadata (``name``, ``spring_constant``, ``contact_index``, ``contact_time``,
     ``modality``, ``afm``: nanite's analysis, see `_contact.analyse`). `contact` names the
-    contact method (`_contact.check_contact`). ``analyse=False`` reads the file's own
+    contact method (`_contact.check_contact`), `baseline` the force baseline's correction
+    (`_contact.BASELINES`: ``"offset"``, the default, or ``"tilt"``).
+    ``analyse=False`` reads the file's own
     columns only (the last three NaN, no contact, nanite not needed)."""
     try:
         import afmformats
@@ -107,10 +109,11 @@ def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True):
         raise DataError(
             f'{path}: AFM files are read with afmformats: pip install "vojax[afm]".'
         ) from None
-    from ._contact import check_contact
+    from ._contact import check_baseline, check_contact
 
     tip = check_tip(tip, poisson)
     contact = check_contact(contact, tip)
+    baseline = check_baseline(baseline)
     path = Path(path)
     import logging
 
@@ -135,7 +138,8 @@ def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True):
         for k, curve in enumerate(curves):
             name = path.name[: -len(path.suffix)] if len(curves) == 1 else f"{path.stem}-{k}"
             try:
-                out.append(_curve(path, k, curve, name, tip, poisson, contact, analyse))
+                out.append(_curve(path, k, curve, name, tip, poisson, contact, analyse,
+                                  baseline))
             except DataError:
                 raise
             except fatal as e:  # noqa: BLE001 - a damaged channel: this file's error
@@ -151,7 +155,7 @@ def _first_line(error) -> str:
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
 
-def _curve(path, k, curve, name, tip, poisson, contact, analyse):
+def _curve(path, k, curve, name, tip, poisson, contact, analyse, baseline="offset"):
     """One force curve's columns and metadata (see `read_afm`)."""
     columns = set(curve.columns)
     for need in ("time", "force", "segment"):
@@ -190,7 +194,8 @@ def _curve(path, k, curve, name, tip, poisson, contact, analyse):
 
         label = f"{path}, curve {k}"
         try:
-            rise, delta, c, block = nanite_analysis(curve, label, tip, poisson, contact)
+            rise, delta, c, block = nanite_analysis(curve, label, tip, poisson, contact,
+                                                    baseline)
         except DataError:
             raise
         except Exception as e:  # noqa: BLE001 - nanite's own failure on this curve: one line

@@ -19,7 +19,8 @@ SPRING_CONSTANT = (1e-6, 1e4)  # N/m; outside these a unit mistake
 class AfmOptions:
     """How force curves become records: the `segments` kept, whether the samples before
     contact are dropped (`from_contact`), the `tip` and `poisson` of the Hertz fit and the
-    contact strain, the `contact` method, and the `spring_constant` (N/m) of a CSV export."""
+    contact strain, the `contact` method, the `spring_constant` (N/m) of a CSV export and the
+    force `baseline`'s correction (`_contact.BASELINES`)."""
 
     segments: tuple | None = None
     from_contact: bool = True
@@ -27,15 +28,18 @@ class AfmOptions:
     poisson: float = 0.5
     contact: str | None = None
     spring_constant: float | None = None
+    baseline: str | None = None
 
     @classmethod
     def checked(cls, segments=None, from_contact=True, tip=None, poisson=0.5, contact=None,
-                spring_constant=None):
+                spring_constant=None, baseline=None):
         from ._afm import check_tip
-        from ._contact import check_contact
+        from ._contact import check_baseline, check_contact
 
         tip = check_tip(tip, poisson)
         check_contact(contact, tip)
+        if baseline is not None:
+            baseline = check_baseline(baseline)
         if not isinstance(from_contact, (bool, np.bool_)):
             raise TypeError(f"`from_contact` must be True or False, got {from_contact!r}.")
         if segments is not None:
@@ -56,18 +60,19 @@ class AfmOptions:
                     f"{spring_constant!r}."
                 )
         return cls(segments, bool(from_contact), tip,
-                   poisson, contact, None if spring_constant is None else float(spring_constant))
+                   poisson, contact, None if spring_constant is None else float(spring_constant),
+                   baseline)
 
     @property
     def export(self) -> bool:
         """Whether a CSV is read as an AFM export (any AFM option given but `from_contact`)."""
         return (self.segments is not None or self.tip is not None or self.contact is not None
-                or self.spring_constant is not None)
+                or self.spring_constant is not None or self.baseline is not None)
 
     def analyse(self, wanted) -> bool:
         """Whether the curves need nanite's contact point."""
         return bool(self.from_contact or set(DERIVED) & set(wanted) or self.tip is not None
-                    or self.contact is not None)
+                    or self.contact is not None or self.baseline is not None)
 
 
 def file_records(path, wanted, afm, time, inputs, output, trim):
@@ -76,7 +81,7 @@ def file_records(path, wanted, afm, time, inputs, output, trim):
 
     _check_wanted(path, wanted, afm)
     curves = read_afm(path, tip=afm.tip, poisson=afm.poisson, contact=afm.contact,
-                      analyse=afm.analyse(wanted))
+                      analyse=afm.analyse(wanted), baseline=afm.baseline)
     return [_cut(path, cols, meta, wanted, afm, time, inputs, output, trim)
             for cols, meta in curves]
 
@@ -113,7 +118,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
         curve = _ExportCurve({names[c]: v[idx] for c, v in raw.items()},
                              {"spring constant": afm.spring_constant, "path": path, "enum": k})
         cols, meta = _curve(path, k, curve, name, afm.tip, afm.poisson, contact,
-                            afm.analyse(wanted))
+                            afm.analyse(wanted), afm.baseline or "offset")
         records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
     return records
 

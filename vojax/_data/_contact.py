@@ -33,6 +33,23 @@ CONTACT_METHODS = ("fit", *POC_METHODS)
 TIP_MODELS = {"sphere": ("hertz_para", "R"), "cone": ("hertz_cone", "alpha"),
               "pyramid": ("hertz_pyr3s", "alpha")}
 PREPROCESSING = ["compute_tip_position", "correct_force_offset", "correct_tip_offset"]
+# how the force's baseline is corrected before the contact point is found: its offset only,
+# or a slope as well, "tilt" (nanite's `correct_force_slope`: a line against the tip position
+# fitted to the baseline before contact and subtracted over the approach, an optical lever's
+# virtual deflection). nanite's temporal "drift" strategy is not offered: on a synthetic
+# curve with a linear drift in time it moved the contact point 19 samples from the truth
+BASELINES = {"offset": None, "tilt": {"region": "approach", "strategy": "shift"}}
+
+
+def check_baseline(baseline):
+    """The baseline correction, checked: one of `BASELINES` (None gives ``"offset"``)."""
+    if baseline is None:
+        return "offset"
+    if not isinstance(baseline, str) or baseline not in BASELINES:
+        raise ValueError(
+            f"the baseline correction must be one of {', '.join(BASELINES)}, got {baseline!r}."
+        )
+    return baseline
 
 
 def check_contact(contact, tip):
@@ -70,9 +87,9 @@ def loading_segment(force, segment):
     return segment[first]
 
 
-def analyse(curve, label, tip, poisson, contact):
+def analyse(curve, label, tip, poisson, contact, baseline="offset"):
     """nanite's analysis of one curve (an afmformats force-distance object) under `tip`
-    (checked, or None) and `contact` (checked).
+    (checked, or None), `contact` and `baseline` (checked, see `BASELINES`).
 
     **Returns:** ``(force_rise, indentation, contact_index, block)``, with `block` the
     summary's ``afm`` part: the contact method, index and point, the segment fitted and, with
@@ -83,7 +100,11 @@ def analyse(curve, label, tip, poisson, contact):
     if "height (measured)" not in data:  # the commanded height stands in for it
         data["height (measured)"] = data["height (piezo)"]
     idnt = nanite.Indentation(data, curve.metadata)
-    idnt.apply_preprocessing(PREPROCESSING)
+    slope = BASELINES[baseline]
+    idnt.apply_preprocessing(
+        PREPROCESSING + ([] if slope is None else ["correct_force_slope"]),
+        options={} if slope is None else {"correct_force_slope": dict(slope)},
+    )
     force = np.asarray(idnt["force"], float)
     z = np.asarray(idnt["tip position"], float)
     segment = np.asarray(idnt["segment"], float)
@@ -91,7 +112,8 @@ def analyse(curve, label, tip, poisson, contact):
         raise DataError(f"{label}: the force is constant, there is no contact to find.")
     seg = loading_segment(force, segment)
     part = np.flatnonzero(segment == seg)
-    block = {"contact_method": contact, "segment_fitted": int(seg), "poisson": poisson}
+    block = {"contact_method": contact, "segment_fitted": int(seg), "poisson": poisson,
+             "baseline": baseline}
     if tip is not None:
         block.update(_hertz(idnt, seg, tip, poisson))
     if contact == "fit":

@@ -36,6 +36,7 @@ def load_records(
     poisson: float = 0.5,
     contact: str | None = None,
     spring_constant: float | None = None,
+    baseline: str | None = None,
     units: dict | None = None,
     strain_from_length: float | None = None,
     length_column: str | None = None,
@@ -74,6 +75,10 @@ def load_records(
       ``segment``, ``force_N`` and ``height_measured_m`` or ``height_piezo_m``; one curve per
       `group_by` value) is read the same way when any of these options or
       `spring_constant` (the cantilever's, N/m, which the export needs) is given.
+      `baseline`: how the force's baseline is corrected before the contact point is found,
+      ``"offset"`` (its mean before contact, the default) or ``"tilt"`` (also a slope
+      against the tip position, fitted before contact and subtracted over the approach: an
+      optical lever's virtual deflection; nanite's ``correct_force_slope``).
     - `units`: the units of columns whose names do not end in one, for the figures' axis
       labels, e.g. ``{"stress": "kPa", "time": "ms"}`` (a name such as ``stress_kPa`` already
       says it). They change no number.
@@ -93,7 +98,8 @@ def load_records(
     pairs = check_units(units, [time, *inputs, output])
     scales = Scales.checked(strain_from_length, length_column, area_column, time, inputs,
                             output, group_by)
-    afm = AfmOptions.checked(segments, from_contact, tip, poisson, contact, spring_constant)
+    afm = AfmOptions.checked(segments, from_contact, tip, poisson, contact, spring_constant,
+                             baseline)
     return [scales.apply(dataclasses.replace(r, units=pairs)) for r in _read_records(
         path, time, inputs + scales.columns, output, group_by, strict, resample, trim_column,
         trim_below, delimiter, decimal, afm,
