@@ -45,7 +45,9 @@ Methods: ``tracker`` (`identify`'s default: the parameters may drift), ``tracker
 (``parameters="constant"``: the user states that they do not; false on the drift families,
 which measure what that costs), ``tracker-x0`` and ``tracker-constant-x0`` (the same with the
 output's offset stated, ``x0=0``: true of every draw, whose output starts from rest) and
-``law`` (the paper's law, automatic gains).
+``law`` (the paper's law, automatic gains); ``refit`` (the constant-order refit's 95 %
+interval, scored only on the records it models, a constant order with constant parameters,
+in a table of its own with its error inflation for correlated residuals).
 
     python scripts/bench_calibration.py [--per-family 12] [--methods tracker tracker-constant
         tracker-x0 tracker-constant-x0 law] [--families ...] [--workers 2] [--threads N]
@@ -331,6 +333,8 @@ def run_method(method, case, max_points=None, threads=None):
                                  **options)
         elif method == "law":
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, method="gradient")
+        elif method == "refit":
+            return _refit_method(case, grid)
         else:
             raise ValueError(method)
     d = res.diagnostics
@@ -353,6 +357,45 @@ def run_method(method, case, max_points=None, threads=None):
             conditional.alpha_upper))
     return (np.asarray(res.alpha), np.asarray(res.alpha_std), np.asarray(res.alpha_lower),
             np.asarray(res.alpha_upper), bool(d.identified), d.message, extra)
+
+
+def _refit_method(case, grid):
+    """The constant-order refit's 95 % interval as a band (its standard error as σ), on the
+    records whose truth it models: a constant order with constant parameters (None on the
+    others, which it misspecifies); its `error_inflation` for correlated residuals kept."""
+    import vojax
+
+    if case["shape"] != "constant" or case["drift"] != 0:
+        return None
+    fit = vojax.refit(case["u"], case["y"], **grid, warn=False)
+    n = case["t"].size
+    full = lambda v: np.full(n, float(v))  # noqa: E731
+    residuals = case["y"] - np.asarray(fit.y_hat)
+    extra = dict(residual_r1=_lag1(residuals), innovation_r1=float("nan"),
+                 error_inflation=float(fit.error_inflation), verdict="refit",
+                 breakdown_drift=float("nan"))
+    return (full(fit.order_value), full(fit.order_value_stderr), full(fit.order_lower[0]),
+            full(fit.order_upper[0]), False, "", extra)
+
+
+def _refit_table(rows, families):
+    """Per family and pooled, the refit on the records it models: their count, the pooled
+    coverage of its 95 % interval, the median z RMS, the median order RMS and error
+    inflation."""
+    lines = ["| method | family | cases | coverage (pooled) | z RMS (median) | order RMS "
+             "(median) | error inflation (median) |", "|---|---|---|---|---|---|---|"]
+    for family in [*families, "pooled"]:
+        sel = [r for r in rows if r["method"] == "refit" and r["count"]
+               and (family == "pooled" or r["family"] == family)]
+        if not sel:
+            continue
+        cov = sum(r["inside"] for r in sel) / sum(r["count"] for r in sel)
+        lines.append(
+            f"| refit | {family} | {len(sel)} | {cov:.2f} | "
+            f"{np.median([r['z_rms'] for r in sel]):.2f} | "
+            f"{np.median([r['rms'] for r in sel]):.4f} | "
+            f"{np.median([r['error_inflation'] for r in sel]):.2f} |")
+    return lines
 
 
 def _lag1(e):
@@ -421,6 +464,8 @@ def _worker(job):
         started = time.perf_counter()
         try:
             out = run_method(method, case, max_points, threads)
+            if out is None:  # a method that does not model this record (the refit)
+                continue
             row = score(case, out)
         except ValueError as e:  # a refusal by error counts as not identified
             row = dict(coverage=float("nan"), inside=0, count=0, z_rms=float("nan"),
@@ -441,8 +486,10 @@ _SIGNALS: dict = {}
 def summarise(rows, methods, families):
     """Per family and pooled, for each method: the table's lines; then the conditional
     answers' table."""
+    refit = [""] + _refit_table(rows, families) if "refit" in methods else []
+    methods = [m for m in methods if m != "refit"]
     return _stated_table(rows, methods, families) + [""] + _conditional_table(
-        rows, methods, families)
+        rows, methods, families) + refit
 
 
 def _conditional_table(rows, methods, families):
