@@ -1,12 +1,12 @@
 """Opt-in XLA:CPU setting under which vojax's scans run as one compiled kernel each.
 
 XLA:CPU's thunk runtime launches one kernel per fused operation; a step of the adaptive law is
-about fifty of them, so on a CPU its ~0.1 µs launch cost, not arithmetic, sets the time per
-sample. XLA compiles a *small* while loop (bytes touched per iteration below a threshold,
-default 1 KiB) as a single kernel instead. Raising the threshold to cover vojax's loops makes
-the tracker 2–3×, the paper's law's recursion about 5× and the exponential memory about 2–7×
-faster on a CPU, with results equal to rounding (see ``scripts/bench_first_call.py``,
-``scripts/bench_loop_threshold.py``, ``scripts/bench_memory.py``).
+dozens of them, so on a CPU the launch cost, not arithmetic, sets the time per sample. XLA
+compiles a *small* while loop (bytes touched per iteration below a threshold, default 1 KiB)
+as a single kernel instead. Raising the threshold to cover vojax's loops makes the tracker,
+the paper's law's recursion and the exponential memory several times faster on a CPU, with
+results equal to rounding (`docs/benchmarks.md`, "Should I call `use_fast_cpu_loops`?";
+``scripts/bench_first_call.py``, ``scripts/bench_loop_threshold.py``).
 
 The threshold is read from ``XLA_FLAGS`` when JAX creates its CPU backend, so it is a setting
 of the whole process, made before the first computation. vojax never sets it on import; the
@@ -123,8 +123,8 @@ def use_compilation_cache(path: str | None = None) -> str | None:
 def to_device(value):
     """A host value (NumPy array, NumPy or Python scalar) as a JAX array of its NumPy dtype,
     by a transfer. Newer JAX turns ``jnp.asarray`` of a host array into a small compiled
-    program (``stage``), one per shape and dtype: about 10 ms each on a first call, a dozen of
-    them in the tracker's first call."""
+    program (``stage``), one per shape and dtype, each compiled on a first call (a dozen in
+    the tracker's)."""
     import jax
     import numpy as np
 

@@ -6,9 +6,9 @@ backtracking Armijo search from a unit step, and termination when both the accep
 the change of the loss are small. Its iterates are optimistix's: on the tracker's refinement
 the two agree to the last bit (``scripts/bench_bfgs.py``); ``tests/test_bfgs.py`` checks the
 rules below, transcribed in NumPy, and optimistix's minima. Written out here, the program
-takes half the time to trace (0.08 s against 0.18 s at 400 samples: a first call of
-`identify` pays it, with the compilation cache warm or not); it compiles and runs in the same
-time (``scripts/bench_bfgs.py``).
+takes about half the time to trace (a first call of `identify` pays it, with the compilation
+cache warm or not); it compiles and runs in the same time (``scripts/bench_bfgs.py`` and its
+results).
 
 One evaluation of the loss per iteration, at the point ``y_eval``, linearised there:
 
