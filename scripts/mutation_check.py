@@ -175,7 +175,8 @@ MUTATIONS = {
     ),
     "the command prints the next steps in Python's words": (
         "vojax/_cli/_commands.py",
-        [('said = say(a["finding"], a["next_steps"], "cli")', 'said = a["message"]')],
+        [('block = say_block(answer, a["finding"], a["next_steps"], "cli")',
+          'block = [answer, a["message"]]')],
         ["tests/test_data_cli.py::test_cli_identify_end_to_end"],
     ),
     "the tracker forgets that the offset was given": (
@@ -1493,6 +1494,12 @@ MUTATIONS = {
         "vojax/_cli/_args.py",
         [('    if args.baseline is not None:\n        out["baseline"] = args.baseline\n', '')],
         ["tests/test_afm_contact.py::test_the_baseline_option_from_python_and_the_command_line"],
+    ),
+    "the command's next steps run together on one line": (
+        "vojax/_steps.py",
+        [('        lines += [f"    ({i}) {w}" for i, w in enumerate(words, 1)]',
+          '        lines.append("    " + "; ".join(words))')],
+        ["tests/test_data_cli.py::test_cli_identify_end_to_end"],
     ),
 }
 

@@ -221,9 +221,19 @@ def test_cli_identify_end_to_end(tmp_path, method):
         assert "no_confidence" in a["reasons"] and "kalman" in a["next_steps"]
     for key in set(summary) & {"kalman", "gradient"}:
         a = summary[key]
-        if a["message"]:  # said on stderr in the command's words, its steps numbered
+        if a["message"]:  # said on stderr in the command's words: the verdict line, why,
+            # then each next step numbered on a line of its own
             said = say(a["finding"], a["next_steps"], "cli")
-            assert said in proc.stderr, proc.stderr
+            steps = said.split(". Next: ")[1].split("; (") if ". Next: " in said else []
+            lines = proc.stderr.splitlines()
+            head = next(i for i, line in enumerate(lines) if line.startswith(
+                "vojax: warning: ") and line.endswith(a.get("answer") or "identified"))
+            assert lines[head + 1] == f"  why: {a['finding']}."
+            if steps:
+                assert lines[head + 2] == "  next steps:"
+                for k, step in enumerate(steps, 1):
+                    text = step.split(") ", 1)[1]
+                    assert lines[head + 2 + k] == f"    ({k}) {text}"
             assert "='" not in proc.stderr  # no Python keyword (method='kalman', …)
     if method.startswith("gradient"):
         assert "use --method kalman for an order with a confidence band" in proc.stderr

@@ -102,6 +102,22 @@ _WORDS = {
 INTERFACES = ("python", "cli")
 
 
+def say_block(answer: str, finding: str, steps, interface: str = "cli") -> list[str]:
+    """The verdict as a block of lines for a terminal: the `answer` (the verdict line), then
+    ``why:`` and the `finding`, then each of the `steps` on a line of its own, numbered, in
+    the words of `interface`."""
+    if interface not in INTERFACES:
+        raise ValueError(f"`interface` must be 'python' or 'cli', got {interface!r}.")
+    lines = [answer]
+    if finding:
+        lines.append(f"  why: {finding}.")
+    words = [_WORDS[Step(s)][INTERFACES.index(interface)] for s in steps]
+    if words:
+        lines.append("  next steps:")
+        lines += [f"    ({i}) {w}" for i, w in enumerate(words, 1)]
+    return lines
+
+
 def say(finding: str, steps, interface: str = "python") -> str:
     """`finding` followed by the numbered `steps` in the words of `interface` ("python" or
     "cli")."""

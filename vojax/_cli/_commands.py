@@ -6,7 +6,7 @@ import sys
 import time
 from pathlib import Path
 
-from .._steps import say
+from .._steps import say_block
 from ._args import _load, _loader, _select, _settings, check_fit_window
 from ._options import _law_options
 from ._types import CLIError
@@ -125,9 +125,11 @@ def identify_command(args) -> int:
                 f"(band ±{a['band_halfwidth']:.2g}), NRMSE {a['nrmse']:.3g}"
                 + (f"; {a['answer']}" if "answer" in a else "")
             )
-            if a["message"]:
-                said = say(a["finding"], a["next_steps"], "cli")
-                print(f"vojax: warning: {record.name}: {said}.", file=sys.stderr)
+            if a["message"]:  # the verdict, why, and the next steps, a line each
+                answer = a.get("answer") or ("identified" if a.get("identified")
+                                             else "not identified")
+                block = say_block(answer, a["finding"], a["next_steps"], "cli")
+                print(f"vojax: warning: {record.name}: " + "\n".join(block), file=sys.stderr)
             if a.get("settling_test"):
                 print(f"vojax: {record.name}: the test that would settle the order: "
                       f"{a['settling_test']['sentence']} (vojax.settling_test).",
