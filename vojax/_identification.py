@@ -157,9 +157,9 @@ class Identification(eqx.Module):
             from ._plotting_record import identification_figure
 
             return identification_figure(self, times)
-        return self.plot_order(ax, times)
+        return self._plot_order(ax, times)
 
-    def plot_order(self, ax, times):
+    def _plot_order(self, ax, times):
         """The order with its ±2σ band on `ax`, titled with the verdict (see `plot`)."""
         from ._results import plot_order
 

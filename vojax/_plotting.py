@@ -72,7 +72,7 @@ def study_figures(t, truth_alpha, truth_p, x_true, y, result, out_dir, tracker=N
         err.plot(t, np.asarray(tracker.y_hat) - x_true, "C0", lw=0.8,
                  label=r"$\hat x - x^*$, tracker")
     ax.set(ylabel="output x", title="Fig. 3: actual and identified output")
-    err.set(xlabel="t (s)", ylabel="error of $\\hat x$")
+    err.set(xlabel="t (s)", ylabel=f"error of $\\hat x$\n(y-limits after {SKIP_START:.0%})")
     _robust_limits(err, [np.asarray(result.y_hat) - x_true] + (
         [] if tracker is None else [np.asarray(tracker.y_hat) - x_true]), percentiles=(0, 100))
     for a in (ax, err):

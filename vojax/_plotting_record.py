@@ -181,7 +181,7 @@ def identification_figure(res, times):
     out.set(title="output and fit", ylabel="output x")
     plain_y(out, shown)
     out.legend(fontsize=8)
-    res.plot_order(order, times)
+    res._plot_order(order, times)
     for ax in (out, resid, order):
         set_time_axis(ax, times)
     d = res.diagnostics
