@@ -321,7 +321,7 @@ def test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut(tmp
     _plotting_record.record_figure(columns, {**summary, "kalman": part}, inputs, tmp_path / "f.png")
     (fig,) = kept
     out, resid = fig.axes[0], fig.axes[1]
-    assert resid.get_title() == "residuals (measured − fit)"
+    assert out.get_title() == "output and fit" and resid.get_title() == "residuals (measured − fit)"
     (line,) = [ln for ln in resid.get_lines() if ln.get_label().startswith("tracker")]
     np.testing.assert_array_equal(line.get_ydata(), columns["y"] - columns["y_hat"])
     rms = np.sqrt(np.mean((columns["y"] - columns["y_hat"]) ** 2))
