@@ -49,6 +49,10 @@ def _record_axes():
         if ax.get_legend() is not None:
             ax.get_legend().remove()
         ax.relim()  # no artists: empty data limits
+        # a linear time axis again before anything is drawn: under the last record's
+        # symmetric-log scale, a line spanning the axes (a refit's constant) falls below its
+        # threshold, which matplotlib 3.7 warns of
+        ax.set_xscale("linear")
         ax.set(xlim=(0.0, 1.0), ylim=(0.0, 1.0))  # a new axes' view, where no data sets it
         ax.set_autoscale_on(True)  # the last record's fixed y-limits are released
         ax.set_prop_cycle(None)  # colours from C0 again
