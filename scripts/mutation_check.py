@@ -1450,8 +1450,8 @@ MUTATIONS = {
         ["tests/test_figures.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
     ),
     "a reused figure keeps the last record's log axis": (
-        "vojax/_plotting_parts.py",
-        [('    else:\n        ax.set_xscale("linear")\n', '    else:\n')],
+        "vojax/_plotting_record.py",
+        [('        ax.set_xscale("linear")\n', '')],
         ["tests/test_figures.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
     ),
     "a constant input zoomed on its jitter": (

@@ -140,12 +140,20 @@ def axis_label(column: str, units=None) -> str:
     ``nominal_shear_stress_kPa`` → "nominal shear stress (kPa)", ``x_um`` → "x (µm)"; a unit
     given in `units` ({column: unit}) wins: ``stress`` with ``{"stress": "kPa"}`` → "stress
     (kPa)"; any other name is used as it is."""
+    unit = unit_of(column, units)
+    if unit is None:
+        return str(column)
+    quantity = str(column) if units and column in units else str(column).rpartition("_")[0]
+    return f"{quantity.replace('_', ' ')} ({unit})"
+
+
+def unit_of(column: str, units=None) -> str | None:
+    """The unit of a column: given in `units` ({column: unit}) or its name's last ``_`` part
+    when that is a unit (`UNITS`); None if neither."""
     if units and column in units:
-        return f"{str(column).replace('_', ' ')} ({units[column]})"
+        return units[column]
     quantity, _, unit = str(column).rpartition("_")
-    if quantity and unit in UNITS:
-        return f"{quantity.replace('_', ' ')} ({UNITS[unit]})"
-    return str(column)
+    return UNITS[unit] if quantity and unit in UNITS else None
 
 
 # the tracker's median NRMSE below this fraction of the refit's: its drifting parameters, not
@@ -158,9 +166,10 @@ def _absorbed_note(rows, tracker) -> str:
     median NRMSE below `ABSORBED` of the refit's on the records that have both), else ``""``."""
     import numpy as np
 
-    pairs = [(float(r[f"{tracker}_nrmse"]), float(r["refit_nrmse"])) for r in rows
-             if tracker == "kalman" and r.get("kalman_nrmse") is not None
-             and r.get("refit_nrmse") is not None]
+    if tracker != "kalman":  # the paper's law holds its parameters by its own gains
+        return ""
+    pairs = [(float(r["kalman_nrmse"]), float(r["refit_nrmse"])) for r in rows
+             if r.get("kalman_nrmse") is not None and r.get("refit_nrmse") is not None]
     pairs = np.array([p for p in pairs if all(np.isfinite(p))]).reshape(-1, 2)
     if not pairs.size or not np.median(pairs[:, 0]) < ABSORBED * np.median(pairs[:, 1]):
         return ""

@@ -6,7 +6,7 @@ import textwrap
 
 import numpy as np
 
-from ._plotting import UNITS
+from ._plotting import unit_of
 
 # a clock whose steps at its end are this many times those at its start is drawn on a
 # (symmetric) log time axis: on a linear one a 1 s ramp of a 60 s log-spaced record vanishes
@@ -36,7 +36,8 @@ def log_clock(t) -> bool:
 
 def set_time_axis(ax, t) -> None:
     """A symmetric-log time axis for a log-spaced clock (linear below its first step, so that
-    the first sample at 0 is drawn), else a linear one with at most six ticks."""
+    the first sample at 0 is drawn), else at most six ticks on the (linear) axis: a reused
+    figure's axes are linear again before a record is drawn."""
     from matplotlib.ticker import MaxNLocator
 
     t = np.asarray(t, dtype=float)
@@ -44,17 +45,7 @@ def set_time_axis(ax, t) -> None:
         ax.set_xscale("symlog", linthresh=float(t[1] - t[0]), linscale=0.3)
         ax.set_xlim(t[0], t[-1])  # no margin: below 0 a symmetric-log axis draws −10ⁿ decades
     else:
-        ax.set_xscale("linear")
         ax.xaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
-
-
-def unit_of(column: str, units=None) -> str | None:
-    """The unit of a column: given in `units` ({column: unit}) or its name's last ``_`` part
-    when that is a unit (`vojax._plotting.UNITS`); None if neither."""
-    if units and column in units:
-        return units[column]
-    quantity, _, unit = str(column).rpartition("_")
-    return UNITS[unit] if quantity and unit in UNITS else None
 
 
 def time_label(summary) -> str:

@@ -31,6 +31,8 @@ def _record_axes():
     emptied of the last record's artists. A plain `Figure` on an Agg canvas, not registered
     with pyplot (a notebook never shows it)."""
     if not _RECORD_FIGURE:
+        from matplotlib.ticker import MaxNLocator
+
         fig = _figure(figsize=(WIDTH, PANELS_HEIGHT))
         grid = fig.add_gridspec(3, 2, height_ratios=[2.0, 1.0, 2.0])
         out = fig.add_subplot(grid[0, 0])
@@ -41,6 +43,10 @@ def _record_axes():
             "order": fig.add_subplot(grid[2, 0]),
             "parameters": fig.add_subplot(grid[2, 1]),
         }
+        # at most six ticks on a y-axis (`set_time_axis` caps the time axes): tick labels
+        # are most of a figure's text, and text most of its time
+        for ax in axes.values():
+            ax.yaxis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
         _RECORD_FIGURE.append((fig, axes))
     fig, axes = _RECORD_FIGURE[0]
     for ax in axes.values():
@@ -194,5 +200,5 @@ def identification_figure(res, times):
         part["parameter_model"] = "free" if res.parameters == "drifting" else res.parameters
         part["offset_model"] = "known" if float(res.x0_std) == 0.0 else "estimated"
     fig.suptitle(f"order {d.verdict}", fontsize=12)
-    caption(fig, {"record": ""}, part, name, 6.6)
+    caption(fig, {}, part, name, 6.6)
     return order

@@ -90,7 +90,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
                    output, trim):
     """The records of a CSV export of force curves (one per `group_by` value, else one)."""
     from ._afm import _curve
-    from ._contact import check_contact
+    from ._contact import check_baseline, check_contact
     from ._read import _column, row_groups
 
     present = [h for h in EXPORT_HEIGHTS if h in header]
@@ -110,7 +110,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
     _check_wanted(path, wanted, afm)
     raw = {c: _column(path, header, rows, lines, c, decimal=decimal) for c in need + present}
     groups = row_groups(path, header, rows, lines, group_by, single=path.stem)
-    contact = check_contact(afm.contact, afm.tip)
+    contact, baseline = check_contact(afm.contact, afm.tip), check_baseline(afm.baseline)
     names = {"time_s": "time", "segment": "segment", "force_N": "force",
              "height_measured_m": "height (measured)", "height_piezo_m": "height (piezo)"}
     records = []
@@ -118,7 +118,7 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
         curve = _ExportCurve({names[c]: v[idx] for c, v in raw.items()},
                              {"spring constant": afm.spring_constant, "path": path, "enum": k})
         cols, meta = _curve(path, k, curve, name, afm.tip, afm.poisson, contact,
-                            afm.analyse(wanted), afm.baseline or "offset")
+                            afm.analyse(wanted), baseline)
         records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
     return records
 
