@@ -12,6 +12,7 @@ from ._adaptive import (
 from ._adaptive import (
     OrderGradient as OrderGradient,
 )
+from ._adaptive._estimator import LawEstimator as LawEstimator
 from ._compare import Comparison as Comparison
 from ._compare import compare as compare
 from ._design import Design as Design

@@ -1,23 +1,10 @@
 """`identify`: the paper's law (Theorem 1) or the Bayesian tracker over a whole record."""
 
-import warnings
-
-import jax.numpy as jnp
-
 from . import _validate as check
-from ._adaptive._build import (
-    DEFAULT_BOUNDS,
-    PAPER_LAM,
-    auto_r0,
-    build_law,
-    law_identification,
-    nominal_step,
-    run_law,
-)
-from ._diagnostics import IdentifiabilityWarning
+from ._adaptive._build import DEFAULT_BOUNDS
+from ._adaptive._estimator import LawEstimator
 from ._identification import Identification
 from ._settings import TrackerSettings
-from ._stats import noise_variance
 from ._tracker._estimator import KALMAN_BOUNDS, Tracker
 
 
@@ -177,10 +164,12 @@ def identify(
         noise=noise, window=window,
     )
     _check_law_arguments(tracker_only, mask, smooth)
-    return _identify_law(
-        u, y, dt, t, lam=lam, gamma=gamma, alpha0=alpha0, alpha_bounds=alpha_bounds,
-        memory=memory, rule=rule, x0=x0, r0=r0, tol=tol, warn=warn,
+    law = LawEstimator(
+        gamma="auto" if gamma is None else gamma, lam=lam,
+        alpha0=0.5 if alpha0 is None else alpha0, alpha_bounds=alpha_bounds, memory=memory,
+        rule=rule, x0=x0, r0=r0, tol=tol,
     )
+    return law._fit(u, y, dt, t, warn, stacklevel=3)
 
 
 def _check_law_arguments(tracker_only, mask, smooth):
@@ -196,54 +185,3 @@ def _check_law_arguments(tracker_only, mask, smooth):
         raise ValueError(
             "`smooth=False` sets the tracker (method='kalman'); the paper's law does not use it."
         )
-
-
-def _identify_law(u, y, dt, t, *, lam, gamma, alpha0, alpha_bounds, memory, rule, x0, r0, tol,
-                  warn):
-    """`identify` with ``method="gradient"``: the paper's law, its gains tuned unless given."""
-    gamma = "auto" if gamma is None else gamma
-    alpha0 = 0.5 if alpha0 is None else alpha0
-    r0 = "auto" if r0 is None else r0
-    if isinstance(gamma, str) and gamma != "auto":
-        raise ValueError(f"`gamma` must be a positive number or 'auto', got {gamma!r}.")
-    if isinstance(lam, str):
-        raise ValueError(f"`lam` must be a positive number or None, got {lam!r}.")
-    # validate once, before any (possibly long) tuning; the law and the tuner share the settings
-    u2, y, bounds, x0, r0 = check.check_options(
-        u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, t=t
-    )
-    step = nominal_step(dt, t)
-    if isinstance(r0, str):
-        r0 = auto_r0(u2, step, alpha0, memory, rule, tol, bounds, times=t)
-    shared = dict(alpha0=alpha0, alpha_bounds=bounds, memory=memory, rule=rule, r0=r0, tol=tol)
-    at_edge = ()
-    if isinstance(gamma, str):  # "auto", checked above
-        from ._tune import tune_gains
-
-        gains = tune_gains(u2, y, dt, t=t, x0=x0, lam=lam, **shared)
-        gamma, lam = gains.gamma, gains.lam
-        at_edge = gains.at_edge
-    elif lam is None:
-        lam = PAPER_LAM
-    check.positive(gamma, "gamma")
-    law = build_law(step, u2.shape[0], lam=lam, gamma=gamma, times=t, **shared)
-    out = run_law(law, u2, y - x0)
-    bad = check.first_bad(out.alpha, out.p, out.dp, out.y_hat)
-    if bad is not None:
-        raise ValueError(
-            f"the adaptive law diverged at sample {bad} (non-finite estimate): the inputs do not "
-            f"excite every parameter within the forgetting horizon 1/λ = {1 / float(lam):.3g}; "
-            "use a smaller `lam`, fewer inputs, or r0='auto'."
-        )
-    from ._adaptive._bands import law_covariance
-
-    var_alpha, var_p = law_covariance(law, u2, y - x0, jnp.asarray(noise_variance(y - x0)))
-    res = law_identification(
-        out, var_alpha, var_p, x0, law.order.gamma, law.lsff.lam, law.order.alpha0,
-        law.lsff.dt, bounds, memory, at_edge, y=y,
-    )
-    if warn and res.diagnostics.message:
-        warnings.warn(
-            f"vojax.identify: {res.diagnostics.message}.", IdentifiabilityWarning, stacklevel=3
-        )
-    return res

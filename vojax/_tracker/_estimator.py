@@ -112,13 +112,15 @@ class Tracker:
         if not isinstance(self.settings, TrackerSettings):
             raise TypeError(f"`settings` must be a vojax.TrackerSettings, got {self.settings!r}.")
 
-    def fit(self, u, y, dt=None, *, t=None, mask=None, window=None, warn=True) -> Identification:
+    def fit(self, u, y=None, dt=None, *, t=None, mask=None, window=None,
+            warn=True) -> Identification:
         """Identifies the order and the parameters of ``D^{α(t)} x = pᵀu`` from the inputs
         `u` (N,) or (N, n) and the output `y` (N,) on the step `dt` or at the sample times
-        `t`; `mask` (N,) of 0/1 leaves samples with 0 unfitted; `window` ``(from, to)`` fits
-        the samples with ``from ≤ t_k ≤ to`` only (an end None: open), the whole input history
-        still driving the memory. Returns an `Identification`; with `warn`, an
+        `t` (or from a `Record` alone, on its own clock); `mask` (N,) of 0/1 leaves samples
+        with 0 unfitted; `window` ``(from, to)`` fits the samples with ``from ≤ t_k ≤ to``
+        only (an end None: open), the whole input history still driving the memory. Returns an `Identification`; with `warn`, an
         `IdentifiabilityWarning` where the order is not identified."""
+        u, y, dt, t = check.record_arguments(u, y, dt, t, call="Tracker.fit")
         return self._fit(u, y, dt, t, mask, warn, stacklevel=3, window=window)
 
     def _fit(self, u, y, dt, t, mask, warn, stacklevel, window=None):
