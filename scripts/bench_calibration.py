@@ -45,16 +45,19 @@ Methods: ``tracker`` (`identify`'s default: the parameters may drift), ``tracker
 (``parameters="constant"``: the user states that they do not; false on the drift families,
 which measure what that costs), ``tracker-x0`` and ``tracker-constant-x0`` (the same with the
 output's offset stated, ``x0=0``: true of every draw, whose output starts from rest) and
-``law`` (the paper's law, automatic gains); ``refit`` (the constant-order refit's 95 %
+``tracker-constant-span`` and ``tracker-constant-x0-span`` (the same statements with the
+unit of time in which the parameters are constant stated too, ``time_scale=`` the record's
+span: the whole truth of the draws), ``law`` (the paper's law, automatic gains); ``refit`` (the constant-order refit's 95 %
 interval, scored only on the records it models, a constant order with constant parameters,
 in a table of its own with its error inflation for correlated residuals).
 
     python scripts/bench_calibration.py [--per-family 12] [--methods tracker tracker-constant
         tracker-x0 tracker-constant-x0 law] [--families ...] [--workers 2] [--threads N]
-        [--out scripts/results/bench_calibration.txt]
+        [--set NAME=VALUE ...] [--out scripts/results/bench_calibration.txt]
 """
 
 import argparse
+import ast
 import csv
 import json
 import os
@@ -309,26 +312,36 @@ TRACKERS = {
     "tracker-x0": dict(x0=0.0),
     "tracker-constant-x0": dict(parameters="constant", x0=0.0),
 }
+# the same statements made whole: the draws' parameters are constant in units of the record's
+# span (with a moving order, "constant" in seconds would be another statement), so these
+# state that unit too (``time_scale=`` the span), as a user who knows the parameters constant
+# would state the unit in which they are
+SPAN = ("tracker-constant-span", "tracker-constant-x0-span")
 # the stated-drift family's own statement: the drift bound drawn with the record
 STATED = ("tracker-stated",)
 
 
-def run_method(method, case, max_points=None, threads=None):
+def run_method(method, case, max_points=None, threads=None, sets=None):
     """``(alpha, std, lower, upper, identified, message)`` of one method on one case;
     `max_points`: the tracker's (None: `identify`'s default); `threads`: the most threads of
-    one record's smoothings (None: the tracker's default)."""
+    one record's smoothings (None: the tracker's default); `sets`: other `TrackerSettings`
+    fields, by name (None: the defaults)."""
     import vojax
     from vojax._stats import noise_variance
 
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
     if max_points is not None and method.startswith("tracker"):
         grid["max_points"] = max_points
-    if threads and method.startswith("tracker"):
-        grid["settings"] = vojax.TrackerSettings(run_threads=threads)
+    if (threads or sets) and method.startswith("tracker"):
+        grid["settings"] = vojax.TrackerSettings(
+            **(sets or {}), **({"run_threads": threads} if threads else {}))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if method in TRACKERS or method in STATED:
-            options = TRACKERS.get(method) or dict(parameters=case["stated"] or "free")
+        if method in TRACKERS or method in STATED or method in SPAN:
+            options = (TRACKERS.get(method) or TRACKERS.get(method.removesuffix("-span"))
+                       or dict(parameters=case["stated"] or "free"))
+            if method in SPAN:
+                options = dict(options, time_scale=float(case["t"][-1] - case["t"][0]))
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid,
                                  **options)
         elif method == "law":
@@ -439,7 +452,7 @@ def score(case, out):
 
 
 def _worker(job):
-    family, index, methods, data, max_points, reuse, threads = job
+    family, index, methods, data, max_points, reuse, threads, sets = job
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -463,7 +476,7 @@ def _worker(job):
             continue
         started = time.perf_counter()
         try:
-            out = run_method(method, case, max_points, threads)
+            out = run_method(method, case, max_points, threads, sets)
             if out is None:  # a method that does not model this record (the refit)
                 continue
             row = score(case, out)
@@ -581,6 +594,11 @@ def main(argv=None):
         "taken from there (e.g. the law's rows, after a change to the tracker only)",
     )
     parser.add_argument("--note", default="", help="a line for the table's header")
+    parser.add_argument(
+        "--set", nargs="*", default=[], metavar="NAME=VALUE",
+        help="a TrackerSettings field for the tracker's runs (a Python literal), e.g. "
+        "envelope_evidence=20: a candidate setting measured against the defaults",
+    )
     args = parser.parse_args(argv)
     if not Path(args.data).is_dir():
         sys.exit(f"no data folder at {args.data}: the suite draws its inputs from ../shared/data")
@@ -595,7 +613,8 @@ def main(argv=None):
     if partial is not None and partial.exists():
         done = [json.loads(line) for line in partial.read_text().splitlines() if line.strip()]
     finished = {(r["family"], r["index"]) for r in done}
-    jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse, args.threads)
+    sets = {k: ast.literal_eval(v) for k, _, v in (a.partition("=") for a in args.set)}
+    jobs = [(f, i, tuple(args.methods), args.data, args.max_points, reuse, args.threads, sets)
             for i in range(args.first, args.first + args.per_family) for f in args.families
             if (f, i) not in finished]
     started = time.perf_counter()
@@ -639,7 +658,8 @@ def main(argv=None):
            "max_points and identify's default taken from the run at the default")
         + ("" if not kept else f"; {len(kept)} rows ({', '.join(methods[len(args.methods):])})"
            " kept from an earlier run")
-        + (f"; {args.note}" if args.note else ""),
+        + (f"; {args.note}" if args.note else "")
+        + (f"; settings {', '.join(args.set)}" if args.set else ""),
         *summarise(rows, methods, args.families),
     ]
     print("\n".join(lines))

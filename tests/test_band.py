@@ -122,13 +122,37 @@ def test_integrated_alternatives_are_weighed_not_unioned():
     w = np.exp(-1.0) / (1.0 + np.exp(-1.0))
     want = (1 - w) * 0.01 + w * (0.02 + 0.25)
     np.testing.assert_allclose(reference_variance([above, level], above, N), want)
+    # by evidence (`level_weights="evidence"`): 5 nats below, 1 : e^−5
+    w = np.exp(-5.0) / (1.0 + np.exp(-5.0))
+    want = (1 - w) * 0.01 + w * (0.02 + 0.25)
+    np.testing.assert_allclose(reference_variance([above, level], above, N, "evidence"), want)
+
+
+def test_a_held_scale_weighs_by_its_evidence_not_by_a_fit_below_the_noise():
+    """By evidence (``level_weights="evidence"``), a held scale that fits below the noise as
+    the tuned run does still weighs by the evidence between them: 3 nats, 1 : e^−3, where the
+    χ² rule weighs the two alike (below). A held scale of higher evidence than the tuned run
+    outweighs it, and the variance is then mostly its spread about the tuned mode. Where an
+    evidence is not finite the χ² rule decides."""
+    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF - 40.0)
+    level = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=-3.0)
+    w = np.exp(-3.0) / (1.0 + np.exp(-3.0))
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N, "evidence"),
+                               (1 - w) * 0.01 + w * (0.02 + 0.25))
+    better = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=2.0)
+    w = 1.0 / (1.0 + np.exp(-2.0))
+    np.testing.assert_allclose(reference_variance([tuned, better], tuned, N, "evidence"),
+                               (1 - w) * 0.01 + w * (0.02 + 0.25))
+    lost = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=np.nan)
+    np.testing.assert_allclose(reference_variance([tuned, lost], tuned, N, "evidence"),
+                               0.5 * 0.01 + 0.5 * (0.02 + 0.25))
 
 
 def test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile():
-    """A χ² below its degrees of freedom fits the noise, not the signal: the tuned run's and
-    a held scale's χ² count as no better than dof, so two runs below the noise weigh alike
-    (exp(−Δχ²/2) on the raw χ², 40 against 10 below dof, would give the held scale e^−15);
-    one below and one 4 above weigh 1 : e^−2."""
+    """By χ² (the default): a χ² below its degrees of freedom fits the noise, not
+    the signal: the tuned run's and a held scale's χ² count as no better than dof, so two
+    runs below the noise weigh alike (exp(−Δχ²/2) on the raw χ², 40 against 10 below dof,
+    would give the held scale e^−15); one below and one 4 above weigh 1 : e^−2."""
     tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF - 40.0)
     level = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=-5.0)
     want = 0.5 * 0.01 + 0.5 * (0.02 + 0.25)
@@ -137,6 +161,21 @@ def test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile():
     w = np.exp(-2.0) / (1.0 + np.exp(-2.0))
     want = (1 - w) * 0.01 + w * (0.02 + 0.25)
     np.testing.assert_allclose(reference_variance([tuned, worse], tuned, N), want)
+
+
+def test_the_band_weighs_held_scales_as_its_setting_says():
+    """`bands` passes `level_weights` on: with the parameters stated constant, a held scale
+    1 nat of evidence below the tuned run widens the band by the equal weight of a fit below
+    the noise by χ² (the default), and by its weight e^−1 : 1 by evidence."""
+    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF - 40.0)
+    level = ex("level", 1.0, var=0.01, chi2=DOF - 10.0, evidence=-1.0)
+    by_evidence = bands([tuned, level], BOUNDS, N, 0.0, level_weights="evidence")
+    by_chi2 = bands([tuned, level], BOUNDS, N, 0.0)
+    w = np.exp(-1.0) / (1.0 + np.exp(-1.0))
+    np.testing.assert_allclose(by_evidence.stated[3] ** 2 / (order_of_np(0.0, BOUNDS)[1] ** 2),
+                               0.01 + w * 1.0, rtol=1e-12)
+    np.testing.assert_allclose(by_chi2.stated[3] ** 2 / (order_of_np(0.0, BOUNDS)[1] ** 2),
+                               0.01 + 0.5 * 1.0, rtol=1e-12)
 
 
 def test_relative_drift():
@@ -232,3 +271,13 @@ def test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty():
     exact = chi2_dist.sf(dof + 2 * np.sqrt(2 * dof), dof)
     assert exact == pytest.approx(0.0264, abs=0.0005)
     assert rate == pytest.approx(exact, abs=0.004)
+
+
+def test_the_level_weights_setting_is_checked():
+    import vojax
+
+    assert vojax.TrackerSettings().level_weights == "chi2"
+    with pytest.raises(ValueError, match="`level_weights` must be 'evidence' or 'chi2', got 'aic'"):
+        vojax.TrackerSettings(level_weights="aic")
+    with pytest.raises(ValueError, match="TrackerSettings.level_pin must hold finite numbers"):
+        vojax.TrackerSettings(level_pin="evidence")

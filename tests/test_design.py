@@ -257,6 +257,12 @@ def test_settling_test_picks_the_narrowest_band_its_sampling_allows():
     assert test.band == pytest.approx(bands[best], rel=1e-10)
     assert test.band < test.band_without
     assert (0.0, 40) not in bands  # 40 cycles over 240 samples: 6 a cycle, too few
+    # the sentence: its numbers, and what the band assumes (a slow drift, not any drift)
+    said = test.sentence("s")
+    assert f"10 % of the load's RMS ({0.1 * np.sqrt(np.mean(u**2)):.3g})" in said
+    assert f"at {test.frequency:.3g} Hz from t = {test.start:.3g} s" in said
+    assert f"±{test.band:.2g} with the parameters drifting slowly" in said
+    assert "whatever the parameters do" not in said
     # only cycles too fast for the sampling from every start: no test, said so
     with pytest.raises(ValueError, match="8 samples a cycle"):
         vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, cycles=(40,))

@@ -11,12 +11,13 @@ from ._design import fisher_information
 
 
 class SettlingTest:
-    """An oscillation to superpose on a load so that the order is determined whatever the
-    parameters do (`settling_test`): ``u + amplitude·sin(2π·frequency·(t − start))`` from
+    """An oscillation to superpose on a load so that the order is determined while the
+    parameters drift slowly (`settling_test`): ``u + amplitude·sin(2π·frequency·(t − start))`` from
     `start` on, with `cycles` cycles to the end of the test; `band`: the order's predicted
     ±2σ half-width with it, `band_without`: without it (∞ where the test alone does not
-    determine the order), both with the parameters free to drift; `design`: its
-    `fisher_information`."""
+    determine the order), both with the parameters free to drift on hat functions (the
+    Cramér–Rao bound: no estimator does better; the tracker's band also covers faster
+    drift); `design`: its `fisher_information`."""
 
     def __init__(self, amplitude, frequency, start, cycles, band, band_without, design,
                  fraction=None):
@@ -33,14 +34,19 @@ class SettlingTest:
         return u + self.amplitude * (wave if u.ndim == 1 else wave[:, None])
 
     def sentence(self, unit="") -> str:
-        """The test in words, e.g. "a 10 % oscillation at 0.5 Hz from t = 20 s would give
-        about ±0.03 whatever the parameters do"."""
+        """The test in words, e.g. "an oscillation of 10 % of the load's RMS at 0.5 Hz from
+        t = 20 s would give about ±0.03 with the parameters drifting slowly; …". The band is
+        the Cramér–Rao bound with the parameters drifting on a few hat functions: the
+        tracker's own band, which also covers parameters that drift faster, can be several
+        times wider (`docs/calibration.md`, *The settling test's promise*)."""
         per = {"s": " Hz", "": " per unit of time"}.get(unit, f" per {unit}")
         size = (f"{100 * self.fraction:.0f} % of the load's RMS ({self.amplitude:.3g})"
                 if self.fraction else f"{self.amplitude:.3g}")
         return (f"an oscillation of {size} at {self.frequency:.3g}{per} from t = "
                 f"{self.start:.3g}{' ' + unit if unit else ''} would give about ±{self.band:.2g} "
-                "whatever the parameters do (under the model, at the noise measured)")
+                "with the parameters drifting slowly (the best any estimator can do, under the "
+                "model, at the noise measured; the tracker's band, which also covers faster "
+                "drift, can be several times wider)")
 
     def __repr__(self):
         return (f"SettlingTest(amplitude={self.amplitude:.3g}, frequency={self.frequency:.3g}, "

@@ -48,12 +48,14 @@ def _orders(beta, var, bounds, scale, floor=0.0):
             slope * sd)
 
 
-def reference_variance(explanations, tuned, span):
+def reference_variance(explanations, tuned, span, level_weights="chi2"):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
-    integrated over it (each held scale weighted by exp(−Δχ²/2) from the best, a χ² below its
-    degrees of freedom counted as dof: a run that fits below the noise has fitted noise, and
-    that earns it no weight over a held scale that fits as well as the noise allows)."""
+    integrated over it. `level_weights`: how each held scale is weighed against the tuned run:
+    ``"chi2"``, by exp(−Δχ²/2) from the best, a χ² below its degrees of freedom counted as dof
+    (a run that fits below the noise has fitted noise, and that earns it no weight over a held
+    scale that fits as well as the noise allows); ``"evidence"``, by its Laplace evidence
+    (where every member's is finite; else by χ²)."""
     mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
@@ -61,8 +63,12 @@ def reference_variance(explanations, tuned, span):
     if not levels:
         return var
     members = [tuned] + levels
-    chi2 = np.array([max(e.chi2, e.dof) for e in members])
-    w = np.exp(-(chi2 - chi2.min()) / 2)
+    if level_weights == "evidence" and all(np.isfinite(e.evidence) for e in members):
+        score = np.array([e.evidence for e in members])
+        w = np.exp(score - score.max())
+    else:
+        chi2 = np.array([max(e.chi2, e.dof) for e in members])
+        w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
     spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))
     return var + spread - tuned.var
@@ -97,7 +103,7 @@ def union(band, member):
 
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
-          floor=0.0, evidence_floor=np.inf, half=None):
+          floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2"):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -107,7 +113,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     parameters whose Laplace evidence lies more than this many nats below the tuned one's
     does not count, however well it fits (such runs fit almost any record, their order's
     level free); `half`: where the second half of the fitted samples begins (None:
-    ``span // 2``, every sample fitted)."""
+    ``span // 2``, every sample fitted); `level_weights`: see `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
     # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
@@ -117,7 +123,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         ref_band = _orders(held.beta, held.var, bounds, scale, floor)
     else:
         reference = tuned
-        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span), bounds,
+        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
+                                                         level_weights), bounds,
                            scale, floor)
     plausible = lambda e: not (  # noqa: E731
         e.kind in ("param_drift", "held_order") and np.isfinite(tuned.evidence)

@@ -222,7 +222,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         found = bands(explanations, problem.bounds, problem.span,
                       0.0 if hold else stated_drift(parameters), s.band_scale, s.drift_floor,
                       floor=s.band_floor, evidence_floor=s.envelope_evidence,
-                      half=second_half(problem.mask, problem.span))
+                      half=second_half(problem.mask, problem.span),
+                      level_weights=s.level_weights)
     res = assemble(st, problem, theta, cov, beta_var, None if hold else trade, y_hat_n,
                    y_pred_n, sm.phi if y_hat_n is None else None, converged, tuning,
                    alpha_held, weights, found, time_scale)
