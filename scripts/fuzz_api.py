@@ -91,6 +91,17 @@ def _calls():
     vary("identify[law]", vojax.identify, law,
          dict(y=_arrays(Y), gamma=SCALARS, lam=SCALARS, alpha0=SCALARS,
               alpha_bounds=PAIRS, x0=SCALARS, r0=SCALARS, method=TEXTS))
+    vary("LawEstimator", lambda **kw: vojax.LawEstimator(**kw).fit(U, Y, DT, warn=False),
+         dict(gamma=0.5),
+         dict(gamma=SCALARS + TEXTS, lam=SCALARS + TEXTS, alpha0=SCALARS, alpha_bounds=PAIRS,
+              memory=TEXTS, rule=TEXTS, x0=SCALARS, r0=SCALARS + TEXTS, tol=SCALARS))
+    vary("LawEstimator.fit", lambda **kw: vojax.LawEstimator(gamma=0.5).fit(**kw),
+         dict(u=U, y=Y, dt=DT, warn=False),
+         dict(u=_arrays(U), y=_arrays(Y), dt=SCALARS, t=_arrays(T)))
+    vary("Tracker", lambda **kw: vojax.Tracker(**kw), {},
+         dict(parameters=TEXTS + SCALARS, x0=SCALARS, alpha_bounds=PAIRS, memory=TEXTS,
+              rule=TEXTS, max_points=COUNTS, tol=SCALARS, time_scale=SCALARS,
+              noise=[None, {}, {"order_drift": 1.0}, 5, "x"], settings=TEXTS))
     tracker = dict(u=U, y=Y, dt=DT, warn=False)
     vary("identify[tracker]", vojax.identify, tracker,
          dict(u=_arrays(U), dt=SCALARS, t=_arrays(T), x0=SCALARS[:8],

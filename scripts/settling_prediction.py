@@ -16,7 +16,9 @@ parameters do". Here the promise is tried on semi-synthetic records with a known
    band (``cond.``: the band that holds while the parameters drift less than the breakdown
    drift, ``breaks``) beside it.
 
-The table gives, per record, the predicted and realised bands and their ratio; the median
+The table gives, per record, the tracker's band before (``before``), the band the Fisher
+information predicts without the oscillation (``without``) and with it (``predicted``), the
+realised band and its ratio to the prediction; the median
 ratio per family and pooled. Records whose first run identified the order get no settling
 test (the batch does not propose one) and are listed as such.
 
@@ -72,7 +74,8 @@ def one(case):
         second = vojax.identify(u2, y2, dt, warn=False)
     alpha = np.asarray(second.alpha)
     inside = (truth >= np.asarray(second.alpha_lower)) & (truth <= np.asarray(second.alpha_upper))
-    row.update(predicted=float(test["band"]), realised=_band(second, half),
+    row.update(predicted=float(test["band"]), without=float(test["band_without"]),
+               realised=_band(second, half),
                cycles=int(test["cycles"]), coverage=float(np.mean(inside[half])),
                rms=float(np.sqrt(np.mean((alpha - truth)[half] ** 2))),
                verdict_after=second.diagnostics.verdict,
@@ -99,7 +102,7 @@ def main(argv=None):
     if not signals:
         sys.exit(f"no recorded signals under {args.data}")
     lines = [f"{'family':<8}{'#':>3} {'input':<26}{'shape':<9}{'N':>6}{'before':>9}"
-             f"{'predicted':>10}{'realised':>10}{'ratio':>7}{'cover':>7}{'rms':>8}{'cond.':>8}"
+             f"{'without':>9}{'predicted':>10}{'realised':>10}{'ratio':>7}{'cover':>7}{'rms':>8}{'cond.':>8}"
              f"{'breaks':>8}  after"]
     rows = []
     start = time.perf_counter()
@@ -110,7 +113,8 @@ def main(argv=None):
             if "predicted" in row:
                 lines.append(
                     f"{family:<8}{index:>3} {row['input'][:25]:<26}{row['shape']:<9}"
-                    f"{row['samples']:>6}{row['band_before']:>9.3f}{row['predicted']:>10.3f}"
+                    f"{row['samples']:>6}{row['band_before']:>9.3f}{row['without']:>9.3f}"
+                    f"{row['predicted']:>10.3f}"
                     f"{row['realised']:>10.3f}{row['ratio']:>7.2f}{row['coverage']:>7.2f}"
                     f"{row['rms']:>8.4f}{row.get('conditional', np.nan):>8.3f}"
                     f"{row['breakdown']:>8.2f}  {row['verdict_after']}")

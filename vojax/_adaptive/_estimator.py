@@ -99,7 +99,7 @@ class LawEstimator:
         shared = dict(alpha0=self.alpha0, alpha_bounds=bounds, memory=self.memory,
                       rule=self.rule, r0=r0, tol=self.tol)
         gamma, lam, at_edge = self.gamma, self.lam, ()
-        if gamma == "auto":
+        if isinstance(gamma, str):  # "auto", checked when built
             from .._tune import tune_gains
 
             gains = tune_gains(u2, y, dt, t=t, x0=x0, lam=lam, **shared)
