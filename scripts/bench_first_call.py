@@ -47,7 +47,7 @@ second = time.perf_counter()
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the simulation and identify
 law = recursion = float("nan")
 if len(sys.argv) > 4 and sys.argv[4] == "law":  # one pass of the paper's law, given its gains
-    import vojax._identify as ident
+    import vojax._adaptive._estimator as ident
     run_law, spent = ident.run_law, []
 
     def timed_run_law(*args):  # the recursion alone, without the band computed after it

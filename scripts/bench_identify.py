@@ -23,7 +23,7 @@ def one(n: int, memory: str, repeat: int) -> dict:
     import numpy as np
 
     import vojax
-    from vojax._identify import build_law, run_law
+    from vojax._adaptive._build import build_law, run_law
 
     dt = 300.0 / n
     t, u, alpha, p = vojax.study_signals(dt)

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax import _identify, _integral, _refit_active, _tune
-from vojax._adaptive import _bands, _build
+from vojax import _integral, _refit_active, _tune
+from vojax._adaptive import _build, _estimator
 from vojax._tracker import _start, _tuning
 
 from .helpers import paper_inputs
@@ -55,8 +55,8 @@ def test_tune_gains_traces_once(monkeypatch):
 
 @pytest.mark.slow
 def test_identify_with_given_gains_traces_once(monkeypatch):
-    law = _once(monkeypatch, _identify, "run_law")
-    band = _once(monkeypatch, _bands, "law_covariance")
+    law = _once(monkeypatch, _estimator, "run_law")
+    band = _once(monkeypatch, _estimator, "law_covariance")
     scan = _once(monkeypatch, _build, "scan_memory")  # the automatic R₀
     u, y = _record(130, 0.4, 4)
     vojax.identify(u, y, 0.1, gamma=0.5, warn=False, method="gradient")
