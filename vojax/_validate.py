@@ -182,6 +182,24 @@ def grid(dt, t, num_samples: int):
     return dt, t
 
 
+def law_settings(lam, alpha0, alpha_bounds, memory, rule):
+    """The settings of a record's fit that need no record: λ, α̂(0) inside the order bounds,
+    the memory and the rule. Returns the bounds as checked."""
+    if lam is not None and not isinstance(lam, str):
+        positive(lam, "lam")
+    bounds = interval(alpha_bounds, "alpha_bounds")
+    a0 = (
+        float(np.asarray(step(alpha0, "alpha0")))
+        if not isinstance(alpha0, jax.core.Tracer)
+        else None
+    )
+    if a0 is not None and not bounds[0] <= a0 <= bounds[1]:
+        raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
+    choice(memory, MEMORIES, "memory")
+    choice(rule, RULES, "rule")
+    return bounds
+
+
 def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, t=None):
     """Validates the arguments shared by `identify`, `tune_gains` and `refit` (the grid: the
     step `dt`, or the sample times `t` where given); returns prepared arrays."""
@@ -211,18 +229,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
                 "identified (its parameter is undetermined); leave that input out."
             )
     grid(dt, t, u2.shape[0])
-    if lam is not None and not isinstance(lam, str):
-        positive(lam, "lam")
-    bounds = interval(alpha_bounds, "alpha_bounds")
-    a0 = (
-        float(np.asarray(step(alpha0, "alpha0")))
-        if not isinstance(alpha0, jax.core.Tracer)
-        else None
-    )
-    if a0 is not None and not bounds[0] <= a0 <= bounds[1]:
-        raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {a0}.")
-    choice(memory, MEMORIES, "memory")
-    choice(rule, RULES, "rule")
+    bounds = law_settings(lam, alpha0, alpha_bounds, memory, rule)
     if x0 is None:  # (NumPy on concrete data: an eager slice would compile per length)
         x0 = y[0] if isinstance(y, jax.core.Tracer) else to_device(np.asarray(y)[0])
     else:

@@ -5,7 +5,6 @@ where asked, runs the law in one scan and returns an `Identification` with the l
 import dataclasses
 import warnings
 
-import jax
 import jax.numpy as jnp
 
 from .. import _validate as check
@@ -62,15 +61,8 @@ class LawEstimator:
             check.positive(self.gamma, "gamma")
         if isinstance(self.lam, str):
             raise ValueError(f"`lam` must be a positive number or None, got {self.lam!r}.")
-        if self.lam is not None:
-            check.positive(self.lam, "lam")
-        bounds = check.interval(self.alpha_bounds, "alpha_bounds")
-        object.__setattr__(self, "alpha_bounds", bounds)
-        alpha0 = check.step(self.alpha0, "alpha0")
-        if not isinstance(alpha0, jax.core.Tracer) and not bounds[0] <= float(alpha0) <= bounds[1]:
-            raise ValueError(f"`alpha0` must lie inside `alpha_bounds` {bounds}, got {alpha0}.")
-        check.choice(self.memory, check.MEMORIES, "memory")
-        check.choice(self.rule, check.RULES, "rule")
+        object.__setattr__(self, "alpha_bounds", check.law_settings(
+            self.lam, self.alpha0, self.alpha_bounds, self.memory, self.rule))
         if self.x0 is not None:
             check.magnitude(check.scalar(self.x0, "x0"), "x0", tiny=True)
         if self.r0 is None:
