@@ -338,8 +338,9 @@ def run_method(method, case, max_points=None, threads=None, sets=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if method in TRACKERS or method in STATED or method in SPAN:
-            options = (TRACKERS.get(method) or TRACKERS.get(method.removesuffix("-span"))
-                       or dict(parameters=case["stated"] or "free"))
+            base = method.removesuffix("-span")
+            options = (TRACKERS[base] if base in TRACKERS  # ("tracker" states nothing: {})
+                       else dict(parameters=case["stated"] or "free"))
             if method in SPAN:
                 options = dict(options, time_scale=float(case["t"][-1] - case["t"][0]))
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid,
