@@ -1529,7 +1529,7 @@ def _run_one(tmp: Path, index: int, name: str, path: str, edits, tests, timeout:
         started = time.perf_counter()
         try:
             proc = subprocess.run(
-                [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider",
+                [sys.executable, "-m", "pytest", "-q", "-x", "-n", "0", "-p", "no:cacheprovider",
                  "-m", "slow or not slow", *tests],  # both tiers
                 cwd=work, env=env, capture_output=True, text=True, timeout=timeout,
             )
@@ -1549,7 +1549,8 @@ def main() -> int:
     parser.add_argument("--list", action="store_true")
     parser.add_argument("--timeout", type=int, default=900)
     parser.add_argument("--workers", type=int, default=1,
-                        help="planted bugs tested at once, each in its own copy")
+                        help="planted bugs tested at once, each in its own copy and one "
+                        "process (the tests of one bug are too few to gain from pytest-xdist)")
     args = parser.parse_args()
     chosen = {k: v for k, v in MUTATIONS.items() if not args.only or k in args.only}
     if args.list:
