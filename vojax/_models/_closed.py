@@ -1,21 +1,29 @@
 """Closed forms of the constant-order laws: the relaxation modulus G(t), the creep compliance
-J(t) and the complex modulus G*(ω), through the Mittag-Leffler function ``E_α(−x)``.
+J(t) and the complex modulus G*(ω), through the Mittag-Leffler function ``E_{α,β}(−x)``.
 
-``E_α(−x)`` for ``x ≥ 0``, ``0 < α ≤ 1`` is computed three ways, each where it is accurate
-to a few units of rounding:
+``E_{α,β}(−x)`` for ``x ≥ 0``, ``0 < α ≤ 1`` and β = 1, 2, 1 + α or 2 + α (the step and the
+ramp responses of the laws, `vojax._models._respond`) is computed three ways, each where it
+is accurate to a few units of rounding:
 
-- ``x ≤ 0.5``: the power series ``Σ (−x)^k / Γ(αk + 1)`` (the terms' sum of moduli is at
+- ``x ≤ 0.5``: the power series ``Σ (−x)^k / Γ(αk + β)`` (the terms' sum of moduli is at
   most ``E_α(0.5) ≤ 2``, so cancellation costs at most a few ulps);
-- ``x ≥ 10⁴``: the asymptotic series ``−Σ_{k≥1} (−x)^{−k} / Γ(1 − αk)`` (its terms fall by
-  about k/x each; the exponentially small part, ``exp(−x^{1/α})``, is below rounding there);
-- between: ``E_α(−x) = (1/(απ)) ∫_0^∞ e^{−w} φ(w) dw`` with
-  ``φ(w) = atan2(sin(απ) w^α, x + cos(απ) w^α)``, which follows from the spectral
-  representation of ``E_α(−t^α)`` (a Laplace transform of a positive density) by the
-  substitution ``u = w^α/x`` and an integration by parts. The integrand is bounded by απ;
-  it is computed by Gauss–Legendre panels graded geometrically towards ``w = 0`` (where φ
-  grows like ``w^α``) and, for α > 1/2, towards ``w_c = (x/|cos απ|)^{1/α}``, where φ rises
-  from about 0 to about απ over a relative width ``|tan απ|/α`` (a step at ``w = x`` when
-  α = 1, which gives ``e^{−x}`` exactly).
+- ``x ≥ 10⁴``: the asymptotic series ``−Σ_{k≥1} (−x)^{−k} / Γ(β − αk)`` (its terms fall by
+  about k/x each; for α < 1 there is no exponential part on the negative axis);
+- between, for β = 1 and 2, an integral of a bounded, positive integrand. The spectral
+  representation ``E_α(−t^α) = ∫_0^∞ e^{−rt} K(r) dr`` (K a positive density) with the
+  substitution ``w = r x^{1/α}`` and an integration by parts gives
+
+      E_α(−x) = (1/(απ)) ∫_0^∞ e^{−w} θ(w) dw,
+      E_{α,2}(−x) = (1/(απ)) ∫_0^∞ (1 − e^{−w}(1 + w))/w² θ(w) dw,
+
+  with ``θ(w) = atan2(sin(απ) w^α, x + cos(απ) w^α)``, which rises from 0 to απ (the second
+  from ``t E_{α,2}(−t^α) = ∫_0^t E_α(−s^α) ds``). The integrands are computed by
+  Gauss–Legendre panels graded geometrically towards ``w = 0`` (where θ grows like ``w^α``)
+  and, for α > 1/2, towards ``w_c = (x/|cos απ|)^{1/α}``, where θ rises from about 0 to about
+  απ over a relative width ``|tan απ|/α`` (a step at ``w = x`` when α = 1, which gives
+  ``e^{−x}`` exactly). The second's tail beyond ``W_MAX`` is ``∫_0^{1/W_MAX} θ(1/v) dv``;
+- β = 1 + α and 2 + α from β = 1 and 2 by ``E_{α,β+α}(−x) = (1/Γ(β) − E_{α,β}(−x))/x``
+  (at x > 0.5 the difference loses less than a digit).
 """
 
 import math
@@ -42,33 +50,42 @@ def check_alpha(alpha, upper_open=False):
     return alpha
 
 
-def mittag_leffler(alpha, x):
-    """``E_α(−x)``, the one-parameter Mittag-Leffler function at minus `x` (an array of
-    numbers ≥ 0), for ``0 < α ≤ 1``: 1 at x = 0, decreasing, ``e^{−x}`` at α = 1 and
-    ``1/(x Γ(1 − α))`` for large x. Accurate to a few units of rounding (see the module's
-    description); NumPy, not traced by JAX."""
+def mittag_leffler(alpha, x, beta=1.0):
+    """``E_{α,β}(−x)``, the Mittag-Leffler function at minus `x` (an array of numbers ≥ 0),
+    for ``0 < α ≤ 1`` and β = 1 (the default, ``E_α``: 1 at x = 0, decreasing, ``e^{−x}`` at
+    α = 1 and ``1/(x Γ(1 − α))`` for large x), 2, 1 + α or 2 + α. Accurate to a few units of
+    rounding (see the module's description); NumPy, not traced by JAX."""
     alpha = check_alpha(alpha)
     x = np.asarray(x, dtype=float)
     if not np.all(np.isfinite(x)) or np.any(x < 0):
         raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
+    if isinstance(beta, bool) or not isinstance(beta, (int, float, np.floating)):
+        raise TypeError(f"beta must be a number, got {beta!r}.")
+    beta = float(beta)
+    base = 1.0 if beta in (1.0, 1.0 + alpha) else 2.0 if beta in (2.0, 2.0 + alpha) else None
+    if base is None:
+        raise ValueError(f"beta must be 1, 2, 1 + alpha or 2 + alpha, got {beta!r}.")
     out = np.empty_like(x)
     flat, res = x.ravel(), out.ravel()
-    for mask, method in ((flat <= SERIES_LIMIT, _series),
-                         (flat >= ASYMPTOTIC_LIMIT, _asymptotic),
-                         ((flat > SERIES_LIMIT) & (flat < ASYMPTOTIC_LIMIT), _integral)):
+    middle = (flat > SERIES_LIMIT) & (flat < ASYMPTOTIC_LIMIT)
+    for mask, method in ((flat <= SERIES_LIMIT, _series), (flat >= ASYMPTOTIC_LIMIT, _asymptotic)):
         if mask.any():
-            res[mask] = method(alpha, flat[mask])
+            res[mask] = method(alpha, flat[mask], beta)
+    if middle.any():
+        xm = flat[middle]
+        value = _integral(alpha, xm, base)
+        res[middle] = value if beta == base else (1.0 / math.gamma(base) - value) / xm
     return out
 
 
-def _series(alpha, x, terms=80):
+def _series(alpha, x, beta=1.0, terms=80):
     k = np.arange(terms)
-    coef = np.array([1.0 / math.gamma(alpha * j + 1.0) for j in k])
+    coef = np.array([_rgamma(alpha * j + beta) for j in k])
     return (np.power.outer(-x, k) * coef).sum(axis=1)
 
 
-def _asymptotic(alpha, x, terms=12):
-    coef = [_rgamma(1.0 - alpha * j) for j in range(1, terms + 1)]
+def _asymptotic(alpha, x, beta=1.0, terms=12):
+    coef = [_rgamma(beta - alpha * j) for j in range(1, terms + 1)]
     k = np.arange(1, terms + 1)
     return -(np.power.outer(-1.0 / x, k) * np.array(coef)).sum(axis=1)
 
@@ -82,9 +99,10 @@ def _rgamma(z):
     return (-1) ** (n % 2) * math.sin(math.pi * (z - n)) * math.gamma(1.0 - z) / math.pi
 
 
-def _integral(alpha, x):
+def _integral(alpha, x, beta=1.0):
+    """``E_{α,β}(−x)`` for β = 1 or 2 by the integrals of the module's description."""
     if alpha == 1.0:
-        return np.exp(-x)
+        return np.exp(-x) if beta == 1.0 else -np.expm1(-x) / x
     # sin απ and cos απ from 1 − α (exact for α ≥ 1/2): near α = 1, απ's own rounding
     # would be most of sin απ's size
     if alpha > 0.5:
@@ -92,22 +110,44 @@ def _integral(alpha, x):
     else:
         s, c = math.sin(alpha * math.pi), math.cos(alpha * math.pi)
     halves = 2.0 ** -np.arange(GRADING + 1)
-    graded = [0.0, *(2.0 ** np.arange(-GRADING, 11))]  # towards w = 0, up to W_MAX
+    graded = 2.0 ** np.arange(-GRADING, 11)  # towards w = 0, up to W_MAX
     out = np.empty_like(x)
     for i, xi in enumerate(x):
-        points = list(graded)
-        if c < 0:  # the steep rise of φ near w_c (a step at α = 1)
+        points = [0.0, *graded]
+        rise = []
+        if c < 0:  # the steep rise of θ near w_c (a step at α = 1)
             wc = (xi / -c) ** (1.0 / alpha)
-            if wc < W_MAX:
-                width = max(s / -c / alpha, 1e-17) * wc
-                points += [wc, *(wc - width * 2 ** 20 * halves), *(wc + width * 2 ** 20 * halves)]
-        b = np.unique(np.clip(points, 0.0, W_MAX))
-        lo, hi = b[:-1, None], b[1:, None]
-        w = 0.5 * (hi - lo) * _GL_X + 0.5 * (hi + lo)
+            width = max(s / -c / alpha, 1e-17) * wc
+            rise = [wc, *(wc - width * 2**20 * halves), *(wc + width * 2**20 * halves)]
+        w, weight = _nodes(points + rise, W_MAX)
         wa = w**alpha
-        phi = np.arctan2(s * wa, xi + c * wa)
-        out[i] = np.sum(0.5 * (hi - lo) * _GL_W * np.exp(-w) * phi) / (alpha * math.pi)
+        theta = np.arctan2(s * wa, xi + c * wa)
+        if beta == 1.0:
+            total = np.sum(weight * np.exp(-w) * theta)
+        else:  # the weight (1 − e^{−w}(1 + w))/w², then the tail beyond W_MAX in v = 1/w
+            total = np.sum(weight * _ramp_weight(w) * theta)
+            tail = [0.0, *(graded / W_MAX**2)] + [1.0 / r for r in rise if r > W_MAX]
+            v, weight = _nodes(tail, 1.0 / W_MAX)
+            total += np.sum(weight * np.arctan2(s, xi * v**alpha + c))
+        out[i] = total / (alpha * math.pi)
     return out
+
+
+def _nodes(points, end):
+    """Gauss–Legendre nodes and weights of the panels between the `points` inside [0, end]."""
+    b = np.unique(np.clip(points, 0.0, end))
+    lo, hi = b[:-1, None], b[1:, None]
+    return 0.5 * (hi - lo) * _GL_X + 0.5 * (hi + lo), 0.5 * (hi - lo) * _GL_W
+
+
+def _ramp_weight(w):
+    """``(1 − e^{−w}(1 + w))/w²``: below 1 its series ``Σ (−1)^k (k+1) w^k/(k+2)!``, which
+    keeps the digits the difference would lose."""
+    small = w < 1.0
+    ws = np.where(small, w, 0.0)
+    series = sum((-1) ** k * (k + 1) / math.factorial(k + 2) * ws**k for k in range(24))
+    wl = np.where(small, 1.0, w)
+    return np.where(small, series, (-np.expm1(-wl) - wl * np.exp(-wl)) / wl**2)
 
 
 def _inputs(model, grid, name, q, params):

@@ -90,6 +90,25 @@ class AbstractViscoelasticModel(eqx.Module):
 
         return complex_modulus(self, omega, q, parameters)
 
+    def strain_response(self, stress, dt=None, *, t=None, q, **parameters):
+        """The strain of the law under the `stress` history (N,) sampled every `dt` or at the
+        times `t`, for the constant order `q` in (0, 1) and the physical parameters (`names`),
+        from rest: exact for a stress linear between its samples (a step from 0 to its first
+        value at the first sample), through the law's step and ramp responses in closed form
+        (`vojax._models._respond`). O(N) on a uniform step, O(N²) time and memory on `t`."""
+        from ._respond import STRESS, respond
+
+        return respond(self, stress, dt, t, q, parameters, STRESS)
+
+    def stress_response(self, strain, dt=None, *, t=None, q, **parameters):
+        """The stress of the law under the `strain` history (as `strain_response`). A strain
+        that starts away from 0 is a jump, which a law without a spring in series
+        (`Springpot`, `KelvinVoigt`) meets with an infinite stress: the first value is then
+        ``inf``."""
+        from ._respond import STRAIN, respond
+
+        return respond(self, strain, dt, t, q, parameters, STRAIN)
+
     def parameters_stderr(self, p, cov) -> dict:
         """Standard errors of the physical parameters at ``p`` (n,) given the covariance
         ``cov`` (n, n) of ``p`` (e.g. `Refit.p_cov`), by the delta method."""

@@ -1,0 +1,155 @@
+"""Exact responses of the constant-order laws to a loading history: the strain of a stress
+history and the stress of a strain history (`AbstractViscoelasticModel.strain`, `.stress`).
+
+Every law here is ``ε = c σ + I^q(a σ + b ε)`` from rest (`coefficients`), so in Laplace
+variables the strain of a stress is ``(c s^q + a)/(s^q − b)`` times it and the stress of a
+strain its inverse. The history ``f`` is taken linear between its samples and 0 before the
+first, which it reaches by a step at ``t_0`` (as vojax's integrals take it); it is then a
+sum of one step and ramps,
+
+    f(t) = f_0 H(t − t_0) + Σ_j s_j [(t − t_j)_+ − (t − t_{j+1})_+],   s_j = Δf_j / Δt_j,
+
+and the response is the same sum of the law's step response ``S`` and ramp response
+``R = ∫ S``. Both are closed forms (`_kernels`): for ``(A s^q + B)/(s^q + ν)``
+
+    S(t) = A E_q(−ν t^q) + B t^q E_{q,1+q}(−ν t^q),
+    R(t) = A t E_{q,2}(−ν t^q) + B t^{1+q} E_{q,2+q}(−ν t^q),
+
+and, for the stress of a law without a spring in series (springpot, Kelvin–Voigt),
+``(s^q + λ)/a``: ``S = (t^{−q}/Γ(1−q) + λ)/a`` and ``R = (t^{1−q}/Γ(2−q) + λ t)/a``. The
+response is therefore exact for such a history to the rounding of the Mittag-Leffler
+function — no step size, no start-up error at the ``t^q`` cusp. The cost is one evaluation
+a distinct lag ``t_n − t_j``: O(N) on a uniform step, O(N²) on other clocks.
+"""
+
+import math
+
+import numpy as np
+
+from ._closed import check_alpha, mittag_leffler
+
+STRAIN, STRESS = "strain", "stress"  # the response asked for
+
+
+def coefficients(model, params):
+    """``(a, b, c)`` of ``ε = c σ + I^q(a σ + b ε)`` for the law's physical parameters (the
+    law's `regression`, in double precision on the host whatever JAX's setting)."""
+    law, eta = type(model).__name__, params["eta"]
+    if law == "Springpot":
+        return 1.0 / eta, 0.0, 0.0
+    if law == "KelvinVoigt":
+        return 1.0 / eta, -params["k"] / eta, 0.0
+    if law == "FractionalMaxwell":
+        return 1.0 / eta, 0.0, 1.0 / params["E"]
+    e0, e1 = params["E0"], params["E1"]
+    total = e0 + e1
+    return e1 / (eta * total), -e0 * e1 / (eta * total), 1.0 / total
+
+
+def _ratio_kernels(q, big_a, big_b, nu, lags):
+    """S and R of ``(A s^q + B)/(s^q + ν)`` at the lags (≥ 0)."""
+    tq = lags**q
+    x = nu * tq
+
+    def ml(beta):
+        return mittag_leffler(q, x, beta)
+
+    step = big_a * ml(1.0) + big_b * tq * ml(1.0 + q)
+    ramp = big_a * lags * ml(2.0) + big_b * lags * tq * ml(2.0 + q)
+    return step, ramp
+
+
+def _derivative_kernels(q, a, lam, lags):
+    """S and R of ``(s^q + λ)/a`` at the lags (S is infinite at lag 0)."""
+    with np.errstate(divide="ignore"):
+        step = (lags**-q / math.gamma(1.0 - q) + lam) / a
+    ramp = (lags ** (1.0 - q) / math.gamma(2.0 - q) + lam * lags) / a
+    return step, ramp
+
+
+def kernels(model, q, params, given, lags):
+    """The step and ramp responses of the law at the lags, for the history `given`."""
+    a, b, c = coefficients(model, params)
+    if given == STRESS:  # the strain of a stress: (c s^q + a)/(s^q − b)
+        return _ratio_kernels(q, c, a, -b, lags)
+    if c != 0.0:  # the stress of a strain: (1/c)(s^q − b)/(s^q + a/c)
+        return _ratio_kernels(q, 1.0 / c, -b / c, a / c, lags)
+    return _derivative_kernels(q, a, -b, lags)
+
+
+def respond(model, history, dt, t, q, params, given):
+    """The response of the law to `history` on the clock `dt` or `t` (see the module)."""
+    name = STRESS if given == STRESS else STRAIN
+    f = _host_array(history, name)
+    if f.ndim != 1 or f.shape[0] < 2:
+        raise ValueError(f"`{name}` must have shape (N,) with N ≥ 2, got shape {f.shape}.")
+    q = check_alpha(q, upper_open=True)
+    if (dt is None) == (t is None):
+        raise TypeError("give exactly one of `dt` (a uniform step) and `t` (the sample times), "
+                        + ("got neither." if dt is None else "got both."))
+    if t is None:
+        h = _host_array(dt, "dt")
+        if h.ndim != 0 or not h > 0:
+            raise ValueError(f"`dt` must be a positive finite number, got {dt!r}.")
+    else:
+        times = _host_array(t, "t")
+        if times.shape != f.shape:
+            raise ValueError(f"`t` must have shape {f.shape} to match `{name}`, got {times.shape}.")
+        if np.any(np.diff(times) <= 0):
+            i = int(np.argmax(np.diff(times) <= 0))
+            raise ValueError(f"`t` must be strictly increasing, but t[{i + 1}] = "
+                             f"{times[i + 1]!r} follows t[{i}] = {times[i]!r}.")
+    names = set(type(model).names)
+    if set(params) != names:
+        raise TypeError(
+            f"{type(model).__name__} takes the parameters {', '.join(sorted(names))} (and q), "
+            f"got {', '.join(sorted(params)) or 'none'}."
+        )
+    for key, value in params.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not (
+            0 < value < math.inf
+        ):
+            raise ValueError(f"the parameter {key} must be a number above 0, got {value!r}.")
+    params = {k: float(v) for k, v in params.items()}
+    num = f.shape[0]
+    if t is None:
+        return _uniform(model, f, float(dt), q, params, given)
+    lag = times[:, None] - times[None, :]  # t_n − t_j
+    below = np.tril(np.ones((num, num), bool))
+    lags, where = np.unique(np.where(below, lag, 0.0), return_inverse=True)
+    step, ramp = kernels(model, q, params, given, lags)
+    ramp_at = np.where(below, ramp[where.reshape(num, num)], 0.0)
+    slopes = np.diff(f) / np.diff(times)
+    # Σ_j s_j [R(t_n − t_j) − R(t_n − t_{j+1})], the ramp on at t_j and off at t_{j+1}
+    out = (ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes
+    return out + _first_step(f[0], step[where.reshape(num, num)][:, 0])
+
+
+def _host_array(x, name):
+    """`x` as a finite NumPy float array, or one sentence saying what is wrong."""
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be numbers, got {type(x).__name__}.") from None
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"`{name}` must be finite: it holds NaN or inf.")
+    return arr
+
+
+def _uniform(model, f, h, q, params, given):
+    """`respond` on ``t_k = k h``: the lags are ``k h``, the sum a convolution."""
+    num = f.shape[0]
+    lags = h * np.arange(num)
+    step, ramp = kernels(model, q, params, given, lags)
+    slopes = np.diff(f) / h
+    # the ramp on at t_j and off at t_{j+1}: R(kh) − R((k−1)h) at lag k = n − j ≥ 1
+    pulse = np.diff(ramp)
+    out = np.zeros(num)
+    out[1:] = np.convolve(slopes, pulse)[: num - 1]
+    return out + _first_step(f[0], step)
+
+
+def _first_step(f0, step):
+    """The step from 0 to ``f_0`` at ``t_0`` (nothing where ``f_0 = 0``, even where S is
+    infinite)."""
+    return f0 * step if f0 != 0.0 else np.zeros_like(step)
