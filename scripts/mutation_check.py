@@ -1501,6 +1501,28 @@ MUTATIONS = {
           '        lines.append("    " + "; ".join(words))')],
         ["tests/test_data_cli.py::test_cli_identify_end_to_end"],
     ),
+    "a law's response convolves the ramp response, not its pulses": (
+        "vojax/_models/_respond.py",
+        [("out[1:] = np.convolve(slopes, pulse)[: num - 1]",
+          "out[1:] = np.convolve(slopes, ramp[1:])[: num - 1]")],
+        ["tests/test_responses.py"],
+    ),
+    "a stress response's rate inverted (c/a for a/c)": (
+        "vojax/_models/_respond.py",
+        [("return _ratio_kernels(q, 1.0 / c, -b / c, a / c, lags)",
+          "return _ratio_kernels(q, 1.0 / c, -b / c, c / a, lags)")],
+        ["tests/test_responses.py"],
+    ),
+    "a response on a general clock turns its ramps off before on": (
+        "vojax/_models/_respond.py",
+        [("(ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes", "(ramp_at[:, 1:] - ramp_at[:, :-1]) @ slopes")],
+        ["tests/test_responses.py"],
+    ),
+    "E_{α,2}'s weight series cut short": (
+        "vojax/_models/_closed.py",
+        [("for k in range(24))", "for k in range(6))")],
+        ["tests/test_responses.py"],
+    ),
 }
 
 
