@@ -175,3 +175,27 @@ def test_bad_input_is_refused_in_one_sentence():
         law.strain_response(ones, 0.1, q=0.5, eta=2.0, k=-1.0)
     with pytest.raises(ValueError, match="beta must be 1, 2"):
         mittag_leffler(0.5, np.ones(2), 1.7)
+
+
+@pytest.mark.parametrize("q", [0.15, 0.55, 0.95])
+def test_a_springpot_response_equals_vojax_integral_kernel(q):
+    """With no feedback of the strain, a springpot's exact response is the fractional integral
+    of a history linear between samples — which is what `vojax.simulate`'s scan kernel (direct
+    product integration, trapezoid rule) computes by other formulas: they agree to 1e-12, on a
+    uniform step and on an irregular clock."""
+    import jax
+
+    import vojax
+
+    jax.config.update("jax_enable_x64", True)
+    rng = np.random.default_rng(7)
+    n = 300
+    stress = np.cumsum(rng.normal(size=n))
+    law = Springpot()
+    kernel = np.asarray(vojax.simulate(stress, q, np.array([0.5]), 0.02))
+    exact = law.strain_response(stress, 0.02, q=q, eta=2.0)
+    np.testing.assert_allclose(exact, kernel, rtol=0, atol=1e-12 * np.abs(kernel).max())
+    t = np.cumsum(rng.uniform(0.005, 0.05, n)) - 0.005
+    kernel = np.asarray(vojax.simulate(stress, q, np.array([0.5]), t=t))
+    exact = law.strain_response(stress, t=t - t[0], q=q, eta=2.0)
+    np.testing.assert_allclose(exact, kernel, rtol=0, atol=1e-12 * np.abs(kernel).max())
