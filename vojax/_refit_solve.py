@@ -23,10 +23,6 @@ TRACES = {"fit": 0}
 # largest is not determined by the data: the coefficients along it get an infinite variance
 UNDETERMINED_RCOND = 1e-10
 
-# the largest unit of a knot's unbounded order in the solver (`_order_units`): a step of one
-# unit then spans most of the order's range (the logistic map's slope is at most 1/4)
-MAX_ORDER_UNIT = 4.0
-
 # a fitted coefficient whose contribution to the weighted fit (|p_j|·‖column j‖) is below this
 # fraction of ‖y‖ is reported as exactly 0: it is rounding, not a measurement
 ROUNDING = 1e-12
@@ -108,32 +104,28 @@ def _fit(
         beta = _order_curve(raw, num, bounds, span)
         return design(phi_of(beta)) @ p
 
-    def order_columns(raw, p):  # ∂ŷ/∂raw by the chain rule (no Jacobian traced through the
-        # memory): ∂ŷ_k/∂raw_i = (∂Φ_k/∂b · p) ∂β_k/∂raw_i, from one readout with its sensitivity
-        _, dphi = phi_of(_order_curve(raw, num, bounds, span), True)
-        dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw)
-        return (dphi @ (p[:width] * active[:width]))[:, None] * dbeta
-
     # a start for p: linear least squares at the initial order (0 for held coefficients)
     phi0 = design(phi_of(_order_curve(raw0, num, bounds, span)))
     p0 = jnp.linalg.lstsq(phi0 * sw[:, None], big_y * sw)[0]
     y_scale, p_unit = _solver_units(sw, big_y, phi0)
-    raw_unit = _order_units(order_columns(raw0, p0), sw, y_scale)
-    units = jnp.concatenate([raw_unit, p_unit])
     sol = optx.least_squares(
-        lambda th, _: (model(th * units) - big_y) * sw / y_scale,
+        lambda th, _: (model(jnp.concatenate([th[:num_knots], th[num_knots:] * p_unit])) - big_y)
+        * sw / y_scale,
         optx.LevenbergMarquardt(rtol=rtol, atol=atol),
-        jnp.concatenate([raw0, p0]) / units,
+        jnp.concatenate([raw0, p0 / p_unit]),
         max_steps=max_steps,
         throw=throw,
     )
-    theta = sol.value * units
+    theta = jnp.concatenate([sol.value[:num_knots], sol.value[num_knots:] * p_unit])
     fit = model(theta)
     residuals = big_y - fit
-    # the Jacobian: ∂ŷ/∂p = the design, ∂ŷ/∂raw by the chain rule
+    # the Jacobian by the chain rule: ∂ŷ/∂p = the design, ∂ŷ_k/∂raw_i = (∂Φ_k/∂b · p) ∂β_k/∂raw_i
+    # (one readout with its order sensitivity, no Jacobian traced through the memory)
     raw_t, p_t = theta[:num_knots], theta[num_knots:]
-    phi_t = phi_of(_order_curve(raw_t, num, bounds, span))
-    jac = jnp.concatenate([order_columns(raw_t, p_t), design(phi_t)], axis=1) * sw[:, None]
+    phi_t, dphi_t = phi_of(_order_curve(raw_t, num, bounds, span), True)
+    dbeta = jax.jacfwd(lambda r: _order_curve(r, num, bounds, span))(raw_t)
+    by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta
+    jac = jnp.concatenate([by_order, design(phi_t)], axis=1) * sw[:, None]
     free = jnp.concatenate([jnp.ones((num_knots,), sw.dtype), keep])
     inverse, loose = _gauss_newton(jac, free)
     determined = jnp.sum(free) - jnp.sum(loose, dtype=sw.dtype)
@@ -177,18 +169,6 @@ def _solver_units(sw, big_y, phi0):
     y_scale = jnp.where(y_scale > 0, y_scale, 1.0)
     col = jnp.sqrt(jnp.sum((phi0 * sw[:, None]) ** 2, axis=0) / fitted)
     return y_scale, y_scale / jnp.where(col > 0, col, y_scale)
-
-
-def _order_units(columns, sw, y_scale):
-    """The unit of each knot's unbounded order for the solver: the one that gives its column
-    of the Jacobian at the start the same RMS (in units of the data's RMS) as the
-    coefficients' (`_solver_units`), at most `MAX_ORDER_UNIT`. Levenberg–Marquardt damps
-    every variable alike: where the fit barely depends on the order (tiny coefficients, a
-    flat profile) an unscaled knot's step was damped to almost nothing and the solver
-    stopped where it started."""
-    fitted = jnp.maximum(jnp.sum(sw > 0), 1).astype(sw.dtype)
-    col = jnp.sqrt(jnp.sum((columns * sw[:, None]) ** 2, axis=0) / fitted) / y_scale
-    return jnp.where(col > 0, jnp.minimum(1.0 / jnp.where(col > 0, col, 1.0), MAX_ORDER_UNIT), 1.0)
 
 
 def _raw_order_errors(theta, cov, loose, num_knots, num, span):
