@@ -131,6 +131,18 @@ def _calls():
     vary("simulate_study", vojax.simulate_study, dict(dt=0.05),
          dict(dt=SCALARS, seed=COUNTS + ["a"], noise_std=SCALARS))
 
+    kv = vojax.KelvinVoigt()
+    law_params = dict(q=0.4, eta=2.0, k=3.0)
+    # a strain from 0 (a jump of strain is an infinite stress in this law, by design)
+    for method, name, load in (("strain_response", "stress", U), ("stress_response", "strain", T)):
+        vary(f"KelvinVoigt.{method}", getattr(kv, method), dict(law_params, **{name: load, "dt": DT}),
+             {name: _arrays(load), "dt": SCALARS, "t": _arrays(T), "q": SCALARS, "eta": SCALARS,
+              "k": SCALARS})
+    vary("KelvinVoigt.creep_compliance", kv.creep_compliance, dict(law_params, t=T[1:]),
+         dict(t=_arrays(T[1:]), q=SCALARS, eta=SCALARS))
+    vary("mittag_leffler", vojax.mittag_leffler, dict(alpha=0.4, x=T, beta=1.0),
+         dict(alpha=SCALARS, x=_arrays(T), beta=SCALARS + [2.0, 1.4, 2.4, 1.5]))
+
     # methods of the results
     fit = vojax.refit(two, np.asarray(vojax.simulate(two, 0.4, [1.0, 0.5], DT)), DT, warn=False)
     res = vojax.identify(two, np.asarray(vojax.simulate(two, 0.4, [1.0, 0.5], DT)), DT,

@@ -163,6 +163,8 @@ def test_bad_input_is_refused_in_one_sentence():
         (dict(stress=np.ones((5, 2)), dt=0.1), ValueError, "shape (N,)"),
         (dict(stress=np.ones(1), dt=0.1), ValueError, "N ≥ 2"),
         (dict(stress="abc", dt=0.1), TypeError, "must be numbers"),
+        (dict(stress=ones, dt=True), TypeError, "`dt` must be a number"),
+        (dict(stress=ones, dt=1e300), ValueError, "the strain overflows double precision"),
     ]
     for kwargs, error, words in cases:
         with pytest.raises(error, match=words.replace("(", r"\(").replace(")", r"\)")):

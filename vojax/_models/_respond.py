@@ -88,6 +88,8 @@ def respond(model, history, dt, t, q, params, given):
         raise TypeError("give exactly one of `dt` (a uniform step) and `t` (the sample times), "
                         + ("got neither." if dt is None else "got both."))
     if t is None:
+        if isinstance(dt, bool):
+            raise TypeError(f"`dt` must be a number, got {dt!r}.")
         h = _host_array(dt, "dt")
         if h.ndim != 0 or not h > 0:
             raise ValueError(f"`dt` must be a positive finite number, got {dt!r}.")
@@ -111,9 +113,20 @@ def respond(model, history, dt, t, q, params, given):
         ):
             raise ValueError(f"the parameter {key} must be a number above 0, got {value!r}.")
     params = {k: float(v) for k, v in params.items()}
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = (_uniform(model, f, float(dt), q, params, given) if t is None
+               else _general(model, f, times, q, params, given))
+    if not np.all(np.isfinite(out[1:])) or np.isnan(out[0]):
+        raise ValueError(
+            f"the {STRAIN if given == STRESS else STRESS} overflows double precision: the "
+            f"{name}, the clock or the parameters are too large for one another."
+        )
+    return out
+
+
+def _general(model, f, times, q, params, given):
+    """`respond` on any clock: one evaluation of the kernels a distinct lag."""
     num = f.shape[0]
-    if t is None:
-        return _uniform(model, f, float(dt), q, params, given)
     lag = times[:, None] - times[None, :]  # t_n − t_j
     below = np.tril(np.ones((num, num), bool))
     lags, where = np.unique(np.where(below, lag, 0.0), return_inverse=True)
