@@ -164,11 +164,12 @@ def test_bad_input_is_refused_in_one_sentence():
         (dict(stress=np.ones(1), dt=0.1), ValueError, "N ≥ 2"),
         (dict(stress="abc", dt=0.1), TypeError, "must be numbers"),
         (dict(stress=ones, dt=True), TypeError, "`dt` must be a number"),
-        (dict(stress=ones, dt=1e300), ValueError, "the strain overflows double precision"),
     ]
     for kwargs, error, words in cases:
         with pytest.raises(error, match=words.replace("(", r"\(").replace(")", r"\)")):
             law.strain_response(**kwargs, q=0.5, **params)
+    with pytest.raises(ValueError, match="the strain overflows double precision"):
+        Springpot().strain_response(np.full(5, 1e10), 0.1, q=0.5, eta=1e-300)
     with pytest.raises(ValueError, match="order must lie in"):
         law.strain_response(ones, 0.1, q=1.0, **params)
     with pytest.raises(TypeError, match="takes the parameters eta, k"):

@@ -56,26 +56,34 @@ def mittag_leffler(alpha, x, beta=1.0):
     α = 1 and ``1/(x Γ(1 − α))`` for large x), 2, 1 + α or 2 + α. Accurate to a few units of
     rounding (see the module's description); NumPy, not traced by JAX."""
     alpha = check_alpha(alpha)
-    x = np.asarray(x, dtype=float)
-    if not np.all(np.isfinite(x)) or np.any(x < 0):
-        raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
     if isinstance(beta, bool) or not isinstance(beta, (int, float, np.floating)):
         raise TypeError(f"beta must be a number, got {beta!r}.")
     beta = float(beta)
     base = 1.0 if beta in (1.0, 1.0 + alpha) else 2.0 if beta in (2.0, 2.0 + alpha) else None
     if base is None:
         raise ValueError(f"beta must be 1, 2, 1 + alpha or 2 + alpha, got {beta!r}.")
-    out = np.empty_like(x)
-    flat, res = x.ravel(), out.ravel()
+    plain, shifted = mittag_leffler_pair(alpha, x, base)
+    return plain if beta == base else shifted
+
+
+def mittag_leffler_pair(alpha, x, base):
+    """``(E_{α,base}(−x), E_{α,base+α}(−x))`` for base 1 or 2, from one evaluation of the
+    integral between the series (`mittag_leffler`)."""
+    x = np.asarray(x, dtype=float)
+    if not np.all(np.isfinite(x)) or np.any(x < 0):
+        raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
+    plain, shifted = np.empty_like(x), np.empty_like(x)
+    flat, p, s = x.ravel(), plain.ravel(), shifted.ravel()
     middle = (flat > SERIES_LIMIT) & (flat < ASYMPTOTIC_LIMIT)
     for mask, method in ((flat <= SERIES_LIMIT, _series), (flat >= ASYMPTOTIC_LIMIT, _asymptotic)):
         if mask.any():
-            res[mask] = method(alpha, flat[mask], beta)
+            p[mask] = method(alpha, flat[mask], base)
+            s[mask] = method(alpha, flat[mask], base + alpha)
     if middle.any():
         xm = flat[middle]
-        value = _integral(alpha, xm, base)
-        res[middle] = value if beta == base else (1.0 / math.gamma(base) - value) / xm
-    return out
+        p[middle] = _integral(alpha, xm, base)
+        s[middle] = (1.0 / math.gamma(base) - p[middle]) / xm
+    return plain, shifted
 
 
 def _series(alpha, x, beta=1.0, terms=80):

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from ._closed import check_alpha, mittag_leffler
+from ._closed import check_alpha, mittag_leffler_pair
 
 STRAIN, STRESS = "strain", "stress"  # the response asked for
 
@@ -49,14 +49,9 @@ def coefficients(model, params):
 def _ratio_kernels(q, big_a, big_b, nu, lags):
     """S and R of ``(A s^q + B)/(s^q + ν)`` at the lags (≥ 0)."""
     tq = lags**q
-    x = nu * tq
-
-    def ml(beta):
-        return mittag_leffler(q, x, beta)
-
-    step = big_a * ml(1.0) + big_b * tq * ml(1.0 + q)
-    ramp = big_a * lags * ml(2.0) + big_b * lags * tq * ml(2.0 + q)
-    return step, ramp
+    e1, e1q = mittag_leffler_pair(q, nu * tq, 1.0)  # E_{q,1}, E_{q,1+q}
+    e2, e2q = mittag_leffler_pair(q, nu * tq, 2.0)  # E_{q,2}, E_{q,2+q}
+    return big_a * e1 + big_b * tq * e1q, lags * (big_a * e2 + big_b * tq * e2q)
 
 
 def _derivative_kernels(q, a, lam, lags):
