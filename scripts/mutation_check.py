@@ -1105,7 +1105,7 @@ MUTATIONS = {
     ),
     "Mittag-Leffler integral without the grading at w_c": (
         "vojax/_models/_closed.py",
-        [("        if c < 0:  # the steep rise of φ near w_c (a step at α = 1)",
+        [("        if c < 0:  # the steep rise of θ near w_c (a step at α = 1)",
           "        if False:")],
         ["tests/test_closed_forms.py"],
     ),
@@ -1117,7 +1117,8 @@ MUTATIONS = {
     ),
     "Mittag-Leffler asymptotic series one term short": (
         "vojax/_models/_closed.py",
-        [("def _asymptotic(alpha, x, terms=12):", "def _asymptotic(alpha, x, terms=1):")],
+        [("def _asymptotic(alpha, x, beta=1.0, terms=12):",
+          "def _asymptotic(alpha, x, beta=1.0, terms=1):")],
         ["tests/test_closed_forms.py"],
     ),
     "Zener creep rate E1/η instead of E0E1/((E0+E1)η)": (
