@@ -164,6 +164,12 @@ def _inputs(model, grid, name, q, params):
     grid = np.asarray(grid, dtype=float)
     if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(grid <= 0):
         raise ValueError(f"`{name}` must hold finite numbers above 0.")
+    return type(model).__name__, grid, q, check_parameters(model, params)
+
+
+def check_parameters(model, params):
+    """The law's physical parameters, each a number above 0, as floats; one sentence where
+    one is missing, unknown or out of range."""
     names = set(type(model).names)
     if set(params) != names:
         raise TypeError(
@@ -175,7 +181,7 @@ def _inputs(model, grid, name, q, params):
             0 < value < math.inf
         ):
             raise ValueError(f"the parameter {key} must be a number above 0, got {value!r}.")
-    return type(model).__name__, grid, q, {k: float(v) for k, v in params.items()}
+    return {k: float(v) for k, v in params.items()}
 
 
 def relaxation_modulus(model, t, q, params):

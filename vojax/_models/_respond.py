@@ -1,5 +1,6 @@
 """Exact responses of the constant-order laws to a loading history: the strain of a stress
-history and the stress of a strain history (`AbstractViscoelasticModel.strain`, `.stress`).
+history and the stress of a strain history (`AbstractViscoelasticModel.strain_response`,
+`.stress_response`).
 
 Every law here is ``ε = c σ + I^q(a σ + b ε)`` from rest (`coefficients`), so in Laplace
 variables the strain of a stress is ``(c s^q + a)/(s^q − b)`` times it and the stress of a
@@ -10,7 +11,7 @@ sum of one step and ramps,
     f(t) = f_0 H(t − t_0) + Σ_j s_j [(t − t_j)_+ − (t − t_{j+1})_+],   s_j = Δf_j / Δt_j,
 
 and the response is the same sum of the law's step response ``S`` and ramp response
-``R = ∫ S``. Both are closed forms (`_kernels`): for ``(A s^q + B)/(s^q + ν)``
+``R = ∫ S``. Both are closed forms (`kernels`): for ``(A s^q + B)/(s^q + ν)``
 
     S(t) = A E_q(−ν t^q) + B t^q E_{q,1+q}(−ν t^q),
     R(t) = A t E_{q,2}(−ν t^q) + B t^{1+q} E_{q,2+q}(−ν t^q),
@@ -19,14 +20,15 @@ and, for the stress of a law without a spring in series (springpot, Kelvin–Voi
 ``(s^q + λ)/a``: ``S = (t^{−q}/Γ(1−q) + λ)/a`` and ``R = (t^{1−q}/Γ(2−q) + λ t)/a``. The
 response is therefore exact for such a history to the rounding of the Mittag-Leffler
 function — no step size, no start-up error at the ``t^q`` cusp. The cost is one evaluation
-a distinct lag ``t_n − t_j``: O(N) on a uniform step, O(N²) on other clocks.
+of the kernels a distinct lag ``t_n − t_j`` (N on a uniform step, N²/2 on other clocks, with
+as much memory) and the sum itself, N²/2 multiply–adds.
 """
 
 import math
 
 import numpy as np
 
-from ._closed import check_alpha, mittag_leffler_pair
+from ._closed import check_alpha, check_parameters, mittag_leffler_pair
 
 STRAIN, STRESS = "strain", "stress"  # the response asked for
 
@@ -96,18 +98,7 @@ def respond(model, history, dt, t, q, params, given):
             i = int(np.argmax(np.diff(times) <= 0))
             raise ValueError(f"`t` must be strictly increasing, but t[{i + 1}] = "
                              f"{times[i + 1]!r} follows t[{i}] = {times[i]!r}.")
-    names = set(type(model).names)
-    if set(params) != names:
-        raise TypeError(
-            f"{type(model).__name__} takes the parameters {', '.join(sorted(names))} (and q), "
-            f"got {', '.join(sorted(params)) or 'none'}."
-        )
-    for key, value in params.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not (
-            0 < value < math.inf
-        ):
-            raise ValueError(f"the parameter {key} must be a number above 0, got {value!r}.")
-    params = {k: float(v) for k, v in params.items()}
+    params = check_parameters(model, params)
     with np.errstate(over="ignore", invalid="ignore"):
         out = (_uniform(model, f, float(dt), q, params, given) if t is None
                else _general(model, f, times, q, params, given))
