@@ -1510,8 +1510,8 @@ MUTATIONS = {
     ),
     "a stress response's rate inverted (c/a for a/c)": (
         "vojax/_models/_respond.py",
-        [("return _ratio_kernels(q, 1.0 / c, -b / c, a / c, lags)",
-          "return _ratio_kernels(q, 1.0 / c, -b / c, c / a, lags)")],
+        [("return _ratio_kernels(q, 1.0 / c, -b / c, a / c)",
+          "return _ratio_kernels(q, 1.0 / c, -b / c, c / a)")],
         ["tests/test_responses.py"],
     ),
     "a response on a general clock turns its ramps off before on": (

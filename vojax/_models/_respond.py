@@ -48,30 +48,43 @@ def coefficients(model, params):
     return e1 / (eta * total), -e0 * e1 / (eta * total), 1.0 / total
 
 
-def _ratio_kernels(q, big_a, big_b, nu, lags):
-    """S and R of ``(A s^q + B)/(s^q + ν)`` at the lags (≥ 0)."""
-    tq = lags**q
-    e1, e1q = mittag_leffler_pair(q, nu * tq, 1.0)  # E_{q,1}, E_{q,1+q}
-    e2, e2q = mittag_leffler_pair(q, nu * tq, 2.0)  # E_{q,2}, E_{q,2+q}
-    return big_a * e1 + big_b * tq * e1q, lags * (big_a * e2 + big_b * tq * e2q)
+def _ratio_kernels(q, big_a, big_b, nu):
+    """S and R of ``(A s^q + B)/(s^q + ν)`` as functions of the lags (≥ 0)."""
 
+    def step(lags):
+        tq = lags**q
+        e1, e1q = mittag_leffler_pair(q, nu * tq, 1.0)  # E_{q,1}, E_{q,1+q}
+        return big_a * e1 + big_b * tq * e1q
 
-def _derivative_kernels(q, a, lam, lags):
-    """S and R of ``(s^q + λ)/a`` at the lags (S is infinite at lag 0)."""
-    with np.errstate(divide="ignore"):
-        step = (lags**-q / math.gamma(1.0 - q) + lam) / a
-    ramp = (lags ** (1.0 - q) / math.gamma(2.0 - q) + lam * lags) / a
+    def ramp(lags):
+        tq = lags**q
+        e2, e2q = mittag_leffler_pair(q, nu * tq, 2.0)  # E_{q,2}, E_{q,2+q}
+        return lags * (big_a * e2 + big_b * tq * e2q)
+
     return step, ramp
 
 
-def kernels(model, q, params, given, lags):
-    """The step and ramp responses of the law at the lags, for the history `given`."""
+def _derivative_kernels(q, a, lam):
+    """S and R of ``(s^q + λ)/a`` as functions of the lags (S is infinite at lag 0)."""
+
+    def step(lags):
+        with np.errstate(divide="ignore"):
+            return (lags**-q / math.gamma(1.0 - q) + lam) / a
+
+    def ramp(lags):
+        return (lags ** (1.0 - q) / math.gamma(2.0 - q) + lam * lags) / a
+
+    return step, ramp
+
+
+def kernels(model, q, params, given):
+    """The law's step and ramp responses, functions of the lag, for the history `given`."""
     a, b, c = coefficients(model, params)
     if given == STRESS:  # the strain of a stress: (c s^q + a)/(s^q − b)
-        return _ratio_kernels(q, c, a, -b, lags)
+        return _ratio_kernels(q, c, a, -b)
     if c != 0.0:  # the stress of a strain: (1/c)(s^q − b)/(s^q + a/c)
-        return _ratio_kernels(q, 1.0 / c, -b / c, a / c, lags)
-    return _derivative_kernels(q, a, -b, lags)
+        return _ratio_kernels(q, 1.0 / c, -b / c, a / c)
+    return _derivative_kernels(q, a, -b)
 
 
 def respond(model, history, dt, t, q, params, given):
@@ -111,17 +124,18 @@ def respond(model, history, dt, t, q, params, given):
 
 
 def _general(model, f, times, q, params, given):
-    """`respond` on any clock: one evaluation of the kernels a distinct lag."""
+    """`respond` on any clock: the ramp response once a distinct lag, the step response at
+    the lags from the first sample only."""
     num = f.shape[0]
-    lag = times[:, None] - times[None, :]  # t_n − t_j
+    step, ramp = kernels(model, q, params, given)
     below = np.tril(np.ones((num, num), bool))
-    lags, where = np.unique(np.where(below, lag, 0.0), return_inverse=True)
-    step, ramp = kernels(model, q, params, given, lags)
-    ramp_at = np.where(below, ramp[where.reshape(num, num)], 0.0)
+    lag = np.where(below, times[:, None] - times[None, :], 0.0)  # t_n − t_j
+    lags, where = np.unique(lag, return_inverse=True)
+    ramp_at = np.where(below, ramp(lags)[where.reshape(num, num)], 0.0)
     slopes = np.diff(f) / np.diff(times)
     # Σ_j s_j [R(t_n − t_j) − R(t_n − t_{j+1})], the ramp on at t_j and off at t_{j+1}
     out = (ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes
-    return out + _first_step(f[0], step[where.reshape(num, num)][:, 0])
+    return out + _first_step(f[0], step, lag[:, 0])
 
 
 def _host_array(x, name):
@@ -139,16 +153,16 @@ def _uniform(model, f, h, q, params, given):
     """`respond` on ``t_k = k h``: the lags are ``k h``, the sum a convolution."""
     num = f.shape[0]
     lags = h * np.arange(num)
-    step, ramp = kernels(model, q, params, given, lags)
+    step, ramp = kernels(model, q, params, given)
     slopes = np.diff(f) / h
     # the ramp on at t_j and off at t_{j+1}: R(kh) − R((k−1)h) at lag k = n − j ≥ 1
-    pulse = np.diff(ramp)
+    pulse = np.diff(ramp(lags))
     out = np.zeros(num)
     out[1:] = np.convolve(slopes, pulse)[: num - 1]
-    return out + _first_step(f[0], step)
+    return out + _first_step(f[0], step, lags)
 
 
-def _first_step(f0, step):
+def _first_step(f0, step, lags):
     """The step from 0 to ``f_0`` at ``t_0`` (nothing where ``f_0 = 0``, even where S is
-    infinite)."""
-    return f0 * step if f0 != 0.0 else np.zeros_like(step)
+    infinite, and S is then not evaluated)."""
+    return f0 * step(lags) if f0 != 0.0 else np.zeros_like(lags)
