@@ -1519,6 +1519,21 @@ MUTATIONS = {
         [("(ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes", "(ramp_at[:, 1:] - ramp_at[:, :-1]) @ slopes")],
         ["tests/test_responses.py"],
     ),
+    "the command forgets to quiet XLA's log lines": (
+        "vojax/_cli/_main.py",
+        [("    quiet_xla_logs()\n", "")],
+        ["tests/test_quiet_logs.py"],
+    ),
+    "XLA's log level set by the variable alone (newer jaxlib reads it once)": (
+        "vojax/_xla.py",
+        [("        set_level(3)", "        pass")],
+        ["tests/test_quiet_logs.py"],
+    ),
+    "the user's own XLA log level overridden": (
+        "vojax/_xla.py",
+        [('not in ("", "1")', 'not in ("", "1", "0", "2")')],
+        ["tests/test_quiet_logs.py"],
+    ),
     "E_{α,2}'s weight series cut short": (
         "vojax/_models/_closed.py",
         [("for k in range(24))", "for k in range(6))")],

@@ -13,7 +13,8 @@ of the whole process, made before the first computation. vojax never sets it on 
 ``vojax`` command sets it for itself (``VOJAX_FAST_CPU_LOOPS=0`` turns that off), and a
 notebook or script opts in with `use_fast_cpu_loops` before its first JAX computation.
 
-Also here, for the first call's cost: `use_compilation_cache` (compiled programs kept on
+Also here: `quiet_xla_logs` (the command's stderr without XLA's own log lines), and for the
+first call's cost: `use_compilation_cache` (compiled programs kept on
 disk) and `to_device` (host arrays moved to the device by a transfer, not by a compiled
 program).
 """
@@ -81,6 +82,35 @@ def use_fast_cpu_loops(threshold_bytes: int = DEFAULT_THRESHOLD) -> bool:
     else:
         flags = f"{flags} --xla_backend_extra_options={item}".strip()
     os.environ["XLA_FLAGS"] = flags
+    return True
+
+
+LOG_ENV = "TF_CPP_MIN_LOG_LEVEL"
+
+
+def quiet_xla_logs() -> bool:
+    """Keeps XLA's own C++ log lines off stderr: a slow constant folding or a slow compile
+    (``slow_operation_alarm``) prints a paragraph there, past Python's logging. The ``vojax``
+    command calls it for itself; the library never does (a notebook's logging is its own).
+
+    It sets ``TF_CPP_MIN_LOG_LEVEL=3`` (only fatal lines) for this process and the processes it
+    starts, and, where jaxlib reads that variable only once when it loads (newer versions,
+    through absl), sets the same level at run time.
+
+    **Returns:** True if the level was set, False if ``TF_CPP_MIN_LOG_LEVEL`` was set to
+    another level than JAX's own default (1, which ``import jax`` sets where it is unset): the
+    user's choice is left as it is, so ``TF_CPP_MIN_LOG_LEVEL=0 vojax ...`` shows every line.
+    """
+    if os.environ.get(LOG_ENV, "") not in ("", "1"):
+        return False
+    os.environ[LOG_ENV] = "3"
+    try:
+        from jax._src.lib import utils
+    except ImportError:  # a jaxlib without it: the variable alone, read at its first log line
+        return True
+    set_level = getattr(utils, "absl_set_min_log_level", None)
+    if set_level is not None:
+        set_level(3)
     return True
 
 

@@ -257,8 +257,9 @@ def _batch_parser(sub) -> None:
 def main(argv=None) -> int:
     import jax
 
-    from .._xla import CACHE_ENV, use_compilation_cache, use_fast_cpu_loops
+    from .._xla import CACHE_ENV, quiet_xla_logs, use_compilation_cache, use_fast_cpu_loops
 
+    quiet_xla_logs()
     if os.environ.get("VOJAX_FAST_CPU_LOOPS", "1") != "0":
         try:
             use_fast_cpu_loops()
