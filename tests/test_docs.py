@@ -122,3 +122,21 @@ def test_the_calibration_report_holds_the_benchmarks_tables():
         text = " ".join((ROOT / name).read_text().split())
         assert f"identified {identified} held-out records, {wrong.split('/')[0]} of them " \
                "confidently wrong" in text, name
+
+
+def test_the_readmes_two_commands_are_what_ci_runs():
+    """The README's two commands (the indented lines under "Install and run") are lines of
+    `.ci/run`, literally, and the times the README states are those its script measures:
+    the demo's within 1.5× of `scripts/results/bench_readme.txt`."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Install and run", 1)[1].split("\n## ", 1)[0]
+    commands = [line.strip() for line in section.splitlines() if line.startswith("    ")]
+    assert commands == ['pip install -e . && vojax demo',
+                        'pip install -e ".[test]" && python -m pytest']
+    ci = {line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()}
+    assert set(commands) <= ci
+    measured = (ROOT / "scripts" / "results" / "bench_readme.txt").read_text()
+    cold = float(re.search(r"\| vojax demo, compilation cache empty \| ([\d.]+) \|",
+                           measured).group(1))
+    stated = float(re.search(r"the demo takes about (\d+) s", " ".join(section.split())).group(1))
+    assert cold / 1.5 <= stated <= cold * 1.5
