@@ -11,9 +11,9 @@ import argparse
 
 import numpy as np
 import pymittagleffler
+from _bench import publish
 
 import vojax
-from _bench import publish
 
 ALPHAS = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99)
 X = np.geomspace(1e-6, 1e6, 241)
