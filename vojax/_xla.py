@@ -14,9 +14,8 @@ of the whole process, made before the first computation. vojax never sets it on 
 notebook or script opts in with `use_fast_cpu_loops` before its first JAX computation.
 
 Also here: `quiet_xla_logs` (the command's stderr without XLA's own log lines), and for the
-first call's cost: `use_compilation_cache` (compiled programs kept on
-disk) and `to_device` (host arrays moved to the device by a transfer, not by a compiled
-program).
+first call's cost: `use_compilation_cache` (compiled programs kept on disk) and `to_device`
+(host arrays moved to the device by a transfer, not by a compiled program).
 """
 
 import os
