@@ -70,3 +70,23 @@ def make_problem(memory, u, y, *, dt=None, times=None, mask=None, bounds=(0.01, 
     m0, p0 = prior(u.shape[1], u.dtype, settings, offset_known=offset_known)
     return Problem(memory, u, y, mask, steps, horizon, m0, p0, bounds, times, last, settings,
                    batched=batched)
+
+
+def mittag_leffler_series(alpha, x, offset=1, plus_alpha=False):
+    """E_{α,β}(−x), β = `offset` (+ α where `plus_alpha`), by mpmath's power series at enough
+    digits to absorb its cancellation (the largest term is about e^{x^{1/α}}; α·k and β are
+    formed in mpmath, since a double's rounding of them, amplified by the cancellation,
+    would cost the reference 1e-9). Needs mpmath."""
+    import mpmath
+
+    digits = 30 + int(x ** (1 / alpha) / 2.3)
+    with mpmath.workdps(digits):
+        xs, a = mpmath.mpf(float(x)), mpmath.mpf(alpha)
+        b = offset + (a if plus_alpha else 0)
+        total, k = mpmath.mpf(0), 0
+        while True:
+            term = (-xs) ** k / mpmath.gamma(a * k + b)
+            total += term
+            if k > 10 and abs(term) < mpmath.mpf(10) ** (-digits):
+                return float(total)
+            k += 1
