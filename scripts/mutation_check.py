@@ -1508,6 +1508,11 @@ MUTATIONS = {
           "out[1:] = np.convolve(slopes, ramp[1:])[: num - 1]")],
         ["tests/test_responses.py"],
     ),
+    "Kelvin–Voigt's response coefficients with k's sign flipped": (
+        "vojax/_models/_viscoelastic.py",
+        [("return 1.0 / eta, -k / eta, 0.0", "return 1.0 / eta, k / eta, 0.0")],
+        ["tests/test_responses.py"],
+    ),
     "a stress response's rate inverted (c/a for a/c)": (
         "vojax/_models/_respond.py",
         [("return _ratio_kernels(q, 1.0 / c, -b / c, a / c)",

@@ -2,7 +2,7 @@
 history and the stress of a strain history (`AbstractViscoelasticModel.strain_response`,
 `.stress_response`).
 
-Every law here is ``ε = c σ + I^q(a σ + b ε)`` from rest (`coefficients`), so in Laplace
+Every law here is ``ε = c σ + I^q(a σ + b ε)`` from rest (each law's `coefficients`), so in Laplace
 variables the strain of a stress is ``(c s^q + a)/(s^q − b)`` times it and the stress of a
 strain its inverse. The history ``f`` is taken linear between its samples and 0 before the
 first, which it reaches by a step at ``t_0`` (as vojax's integrals take it); it is then a
@@ -31,21 +31,6 @@ import numpy as np
 from ._closed import check_alpha, check_parameters, mittag_leffler_pair
 
 STRAIN, STRESS = "strain", "stress"  # the response asked for
-
-
-def coefficients(model, params):
-    """``(a, b, c)`` of ``ε = c σ + I^q(a σ + b ε)`` for the law's physical parameters (the
-    law's `regression`, in double precision on the host whatever JAX's setting)."""
-    law, eta = type(model).__name__, params["eta"]
-    if law == "Springpot":
-        return 1.0 / eta, 0.0, 0.0
-    if law == "KelvinVoigt":
-        return 1.0 / eta, -params["k"] / eta, 0.0
-    if law == "FractionalMaxwell":
-        return 1.0 / eta, 0.0, 1.0 / params["E"]
-    e0, e1 = params["E0"], params["E1"]
-    total = e0 + e1
-    return e1 / (eta * total), -e0 * e1 / (eta * total), 1.0 / total
 
 
 def _ratio_kernels(q, big_a, big_b, nu):
@@ -79,7 +64,7 @@ def _derivative_kernels(q, a, lam):
 
 def kernels(model, q, params, given):
     """The law's step and ramp responses, functions of the lag, for the history `given`."""
-    a, b, c = coefficients(model, params)
+    a, b, c = model.coefficients(**params)
     if given == STRESS:  # the strain of a stress: (c s^q + a)/(s^q − b)
         return _ratio_kernels(q, c, a, -b)
     if c != 0.0:  # the stress of a strain: (1/c)(s^q − b)/(s^q + a/c)

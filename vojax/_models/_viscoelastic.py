@@ -90,6 +90,12 @@ class AbstractViscoelasticModel(eqx.Module):
 
         return complex_modulus(self, omega, q, parameters)
 
+    def coefficients(self, **physical) -> tuple[float, float, float]:
+        """``(a, b, c)`` of the law written as ``ε = c σ + I^q(a σ + b ε)`` from rest, for its
+        physical parameters as Python floats (the entries of `regression`, with 0 for those
+        the law lacks; in double precision on the host, whatever JAX's setting)."""
+        raise NotImplementedError
+
     def strain_response(self, stress, dt=None, *, t=None, q, **parameters):
         """The strain of the law under the `stress` history (N,) sampled every `dt` or at the
         times `t`, for the constant order `q` in (0, 1) and the physical parameters (`names`),
@@ -135,6 +141,9 @@ class Springpot(AbstractViscoelasticModel):
     def regression(self, *, eta):
         return jnp.array([1.0 / eta])
 
+    def coefficients(self, *, eta):
+        return 1.0 / eta, 0.0, 0.0
+
 
 class KelvinVoigt(AbstractViscoelasticModel):
     """``σ = k ε + η D^{q(t)} ε``: ``u = [σ, ε]``, ``p = [1/η, −k/η]`` (docs/method.md §6)."""
@@ -153,6 +162,9 @@ class KelvinVoigt(AbstractViscoelasticModel):
 
     def regression(self, *, eta, k):
         return jnp.array([1.0 / eta, -k / eta])
+
+    def coefficients(self, *, eta, k):
+        return 1.0 / eta, -k / eta, 0.0
 
 
 class FractionalMaxwell(AbstractViscoelasticModel):
@@ -176,6 +188,9 @@ class FractionalMaxwell(AbstractViscoelasticModel):
 
     def regression(self, *, eta, E):
         return jnp.array([1.0 / eta, 1.0 / E])
+
+    def coefficients(self, *, eta, E):
+        return 1.0 / eta, 0.0, 1.0 / E
 
 
 class FractionalZener(AbstractViscoelasticModel):
@@ -206,5 +221,8 @@ class FractionalZener(AbstractViscoelasticModel):
             return {"eta": e1 / (p[..., 0] * total), "E0": e0, "E1": e1}
 
     def regression(self, *, eta, E0, E1):
+        return jnp.array(self.coefficients(eta=eta, E0=E0, E1=E1))
+
+    def coefficients(self, *, eta, E0, E1):
         total = E0 + E1
-        return jnp.array([E1 / (eta * total), -E0 * E1 / (eta * total), 1.0 / total])
+        return E1 / (eta * total), -E0 * E1 / (eta * total), 1.0 / total
