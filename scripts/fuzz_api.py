@@ -142,6 +142,8 @@ def _calls():
          dict(t=_arrays(T[1:]), q=SCALARS, eta=SCALARS))
     vary("mittag_leffler", vojax.mittag_leffler, dict(alpha=0.4, x=T, beta=1.0),
          dict(alpha=SCALARS, x=_arrays(T), beta=SCALARS + [2.0, 1.4, 2.4, 1.5]))
+    vary("mittag_leffler_jax", vojax.mittag_leffler_jax, dict(alpha=0.4, x=T, beta=1),
+         dict(alpha=SCALARS, x=_arrays(T), beta=SCALARS + [2, 1.4, 3]))
 
     # methods of the results
     fit = vojax.refit(two, np.asarray(vojax.simulate(two, 0.4, [1.0, 0.5], DT)), DT, warn=False)

@@ -1121,6 +1121,30 @@ MUTATIONS = {
           "def _asymptotic(alpha, x, beta=1.0, terms=1):")],
         ["tests/test_closed_forms.py"],
     ),
+    "JAX Mittag-Leffler without the panels about w_c": (
+        "vojax/_models/_closed_jax.py",
+        [("    points = jnp.concatenate([jnp.zeros(1), jnp.asarray(graded), rise])",
+          "    points = jnp.concatenate([jnp.zeros(1), jnp.asarray(graded)])")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler 1/Γ's reflection with the sign of n + 1": (
+        "vojax/_models/_closed_jax.py",
+        [("    sign = jnp.where(jnp.mod(n, 2) == 0, 1.0, -1.0)",
+          "    sign = jnp.where(jnp.mod(n, 2) == 1, 1.0, -1.0)")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler w^α at w = 0 without the guard": (
+        "vojax/_models/_closed_jax.py",
+        [("    return jnp.where(positive, jnp.where(positive, w, 1.0) ** alpha, 0.0)",
+          "    return w**alpha")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler ramp tail dropped": (
+        "vojax/_models/_closed_jax.py",
+        [("        total += jnp.sum(weight * jnp.arctan2(s, x * _power(v, alpha) + c))",
+          "        total += 0.0")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
     "Zener creep rate E1/η instead of E0E1/((E0+E1)η)": (
         "vojax/_models/_closed.py",
         [("    rate = e0 * e1 / (total * p[\"eta\"])", "    rate = e1 / p[\"eta\"]")],

@@ -61,6 +61,7 @@ from ._models import (
     stress_strain as stress_strain,
 )
 from ._models._closed import mittag_leffler as mittag_leffler
+from ._models._closed_jax import mittag_leffler_jax as mittag_leffler_jax
 from ._refit import Refit as Refit
 from ._refit import RefitWarning as RefitWarning
 from ._refit import refit as refit
