@@ -1139,6 +1139,12 @@ MUTATIONS = {
           "    return w**alpha")],
         ["tests/test_mittag_leffler_jax.py"],
     ),
+    "JAX route of G*(ω) with the phase πq instead of πq/2": (
+        "vojax/_models/_closed.py",
+        [("        s = lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))",
+          "        s = lax.complex(w * jnp.cos(jnp.pi * q), w * jnp.sin(jnp.pi * q))")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
     "JAX Mittag-Leffler ramp tail dropped": (
         "vojax/_models/_closed_jax.py",
         [("        total += jnp.sum(weight * jnp.arctan2(s, x * _power(v, alpha) + c))",

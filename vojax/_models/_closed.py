@@ -159,12 +159,38 @@ def _ramp_weight(w):
 
 
 def _inputs(model, grid, name, q, params):
-    """The law's name, the grid (> 0) as an array, q in (0, 1) and its parameters, checked."""
-    q = check_alpha(q, upper_open=True)
-    grid = np.asarray(grid, dtype=float)
+    """The law's name, the grid (> 0) as an array, q in (0, 1) and its parameters, checked,
+    and the functions ``(E_q(−x), Γ)`` to use: NumPy's, or JAX's where the grid, q or a
+    parameter is a JAX array (traced: `jax.grad` and `jax.jit` go through; a traced value is
+    not checked, a concrete one is)."""
+    import jax
+
+    if not any(isinstance(v, jax.Array) for v in (grid, q, *params.values())):
+        q = check_alpha(q, upper_open=True)
+        grid = np.asarray(grid, dtype=float)
+        _check_grid(grid, name)
+        return type(model).__name__, grid, q, check_parameters(model, params), (
+            mittag_leffler, math.gamma)
+    import jax.numpy as jnp
+    from jax.scipy.special import gammaln
+
+    from ._closed_jax import mittag_leffler_jax
+
+    concrete = lambda v: not isinstance(v, jax.core.Tracer)  # noqa: E731
+    if concrete(q):
+        check_alpha(float(q) if np.ndim(q) == 0 else q, upper_open=True)
+    if concrete(grid):
+        _check_grid(np.asarray(grid, dtype=float), name)
+    check_parameters(model, {k: (float(v) if concrete(v) and np.ndim(v) == 0 else
+                                 v if concrete(v) else 1.0) for k, v in params.items()})
+    grid = jnp.asarray(grid, dtype=jnp.result_type(float))
+    return type(model).__name__, grid, q, params, (mittag_leffler_jax,
+                                                   lambda z: jnp.exp(gammaln(z)))
+
+
+def _check_grid(grid, name):
     if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(grid <= 0):
         raise ValueError(f"`{name}` must hold finite numbers above 0.")
-    return type(model).__name__, grid, q, check_parameters(model, params)
 
 
 def check_parameters(model, params):
@@ -186,34 +212,42 @@ def check_parameters(model, params):
 
 def relaxation_modulus(model, t, q, params):
     """G(t): the stress after a unit step of strain at t = 0."""
-    law, t, q, p = _inputs(model, t, "t", q, params)
+    law, t, q, p, (ml, gamma) = _inputs(model, t, "t", q, params)
     if law == "Springpot":
-        return p["eta"] * t**-q / math.gamma(1 - q)
+        return p["eta"] * t**-q / gamma(1 - q)
     if law == "KelvinVoigt":
-        return p["k"] + p["eta"] * t**-q / math.gamma(1 - q)
+        return p["k"] + p["eta"] * t**-q / gamma(1 - q)
     if law == "FractionalMaxwell":
-        return p["E"] * mittag_leffler(q, p["E"] / p["eta"] * t**q)
-    return p["E0"] + p["E1"] * mittag_leffler(q, p["E1"] / p["eta"] * t**q)
+        return p["E"] * ml(q, p["E"] / p["eta"] * t**q)
+    return p["E0"] + p["E1"] * ml(q, p["E1"] / p["eta"] * t**q)
 
 
 def creep_compliance(model, t, q, params):
     """J(t): the strain after a unit step of stress at t = 0."""
-    law, t, q, p = _inputs(model, t, "t", q, params)
+    law, t, q, p, (ml, gamma) = _inputs(model, t, "t", q, params)
     if law == "Springpot":
-        return t**q / (p["eta"] * math.gamma(1 + q))
+        return t**q / (p["eta"] * gamma(1 + q))
     if law == "KelvinVoigt":
-        return (1 - mittag_leffler(q, p["k"] / p["eta"] * t**q)) / p["k"]
+        return (1 - ml(q, p["k"] / p["eta"] * t**q)) / p["k"]
     if law == "FractionalMaxwell":
-        return 1 / p["E"] + t**q / (p["eta"] * math.gamma(1 + q))
+        return 1 / p["E"] + t**q / (p["eta"] * gamma(1 + q))
     e0, e1, total = p["E0"], p["E1"], p["E0"] + p["E1"]
     rate = e0 * e1 / (total * p["eta"])
-    return 1 / total + e1 / (e0 * total) * (1 - mittag_leffler(q, rate * t**q))
+    return 1 / total + e1 / (e0 * total) * (1 - ml(q, rate * t**q))
 
 
 def complex_modulus(model, omega, q, params):
     """G*(ω) = G'(ω) + i G''(ω), the stress of a strain ``e^{iωt}`` in the steady state."""
-    law, omega, q, p = _inputs(model, omega, "omega", q, params)
-    s = (1j * omega) ** q
+    law, omega, q, p, _ = _inputs(model, omega, "omega", q, params)
+    if isinstance(omega, np.ndarray):
+        s = (1j * omega) ** q
+    else:  # JAX: (iω)^q = ω^q e^{iπq/2}, and the parameters made complex, explicitly
+        from jax import lax
+        from jax import numpy as jnp
+
+        w = omega**q
+        s = lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))
+        p = {k: jnp.asarray(v).astype(s.dtype) for k, v in p.items()}
     if law == "Springpot":
         return p["eta"] * s
     if law == "KelvinVoigt":
