@@ -30,8 +30,9 @@ _RAMP_TERMS = 24
 def mittag_leffler_jax(alpha, x, beta=1):
     """``E_{α,β}(−x)`` for ``0 < α < 1`` and x ≥ 0, β = 1 or 2, in JAX: `alpha` (a scalar)
     and `x` (an array) may be traced, and `jax.grad` differentiates through both. Agrees with
-    `vojax.mittag_leffler` to about 1e-13 relative in double precision (enable it:
-    ``jax.config.update("jax_enable_x64", True)``). ``E_{α,β+α}(−x) = (1/Γ(β) − E_{α,β}(−x))/x``
+    `vojax.mittag_leffler` to a few units of rounding (2e-15 relative measured over α
+    0.05–0.99, x 0–1e6) in double precision (enable it:
+    ``jax.config.update("jax_enable_x64", True)``; single precision gives single's digits). ``E_{α,β+α}(−x) = (1/Γ(β) − E_{α,β}(−x))/x``
     gives β = 1 + α and 2 + α. `beta` is a Python number (it chooses the formula); the order
     and the argument are checked only where they are concrete (a traced value is the
     caller's to keep in range; out of range gives NaN)."""

@@ -71,7 +71,9 @@ class AbstractViscoelasticModel(eqx.Module):
     def relaxation_modulus(self, t, *, q, **parameters):
         """``G(t)`` at the times `t` (> 0) after a unit step of strain, for the constant
         order `q` in (0, 1) and the law's physical parameters (`names`), e.g.
-        ``FractionalMaxwell().relaxation_modulus(t, q=0.3, eta=2.0, E=5.0)``."""
+        ``FractionalMaxwell().relaxation_modulus(t, q=0.3, eta=2.0, E=5.0)``. Where `t`, `q`
+        or a parameter is a JAX array, computed in JAX (`vojax.mittag_leffler_jax`): `jax.grad`
+        and `jax.jit` go through it, for a refit of the closed form by gradient."""
         from ._closed import relaxation_modulus
 
         return relaxation_modulus(self, t, q, parameters)
