@@ -1140,9 +1140,9 @@ MUTATIONS = {
         ["tests/test_mittag_leffler_jax.py"],
     ),
     "JAX route of G*(ω) with the phase πq instead of πq/2": (
-        "vojax/_models/_closed.py",
-        [("        s = lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))",
-          "        s = lax.complex(w * jnp.cos(jnp.pi * q), w * jnp.sin(jnp.pi * q))")],
+        "vojax/_models/_closed_jax.py",
+        [("    s = jax.lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))",
+          "    s = jax.lax.complex(w * jnp.cos(jnp.pi * q), w * jnp.sin(jnp.pi * q))")],
         ["tests/test_mittag_leffler_jax.py"],
     ),
     "JAX Mittag-Leffler ramp tail dropped": (

@@ -100,7 +100,7 @@ def test_a_relaxation_modulus_is_fitted_through_it_by_gradient():
 def test_bad_input_is_refused_in_one_sentence():
     with pytest.raises(ValueError, match="beta must be 1 or 2, got 3"):
         vojax.mittag_leffler_jax(0.5, 1.0, 3)
-    with pytest.raises(ValueError, match=r"the order alpha must be a number in \(0, 1\)"):
+    with pytest.raises(ValueError, match=r"the order must lie in \(0, 1\), got 1.0"):
         vojax.mittag_leffler_jax(1.0, 1.0)
     with pytest.raises(ValueError, match="must be finite and at least 0"):
         vojax.mittag_leffler_jax(0.5, [1.0, -1.0])
@@ -108,7 +108,7 @@ def test_bad_input_is_refused_in_one_sentence():
         vojax.mittag_leffler_jax(0.5, np.nan)
     with pytest.raises(ValueError, match="must be finite and at least 0"):
         vojax.mittag_leffler_jax(0.5, np.array([1.0 + 1e-3j]))  # not silently made real
-    with pytest.raises(ValueError, match=r"must be a number in \(0, 1\)"):
+    with pytest.raises(TypeError, match="the order must be a number, got True"):
         vojax.mittag_leffler_jax(True, 1.0)
 
 
@@ -134,8 +134,7 @@ def test_the_laws_closed_forms_take_jax_values_and_differentiate(law, params, fo
     h = 1e-6
 
     def part(values, q_):  # the real part: jax.grad wants a real scalar
-        out = jnp.sum(jnp.real(f(jnp.asarray(grid), q=q_, **values)))
-        return out
+        return jnp.sum(jnp.real(f(jnp.asarray(grid), q=q_, **values)))
 
     g_q, g_p = jax.grad(lambda q_, v: part(dict(params, **{name: v}), q_), argnums=(0, 1))(
         q, params[name])

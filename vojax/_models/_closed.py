@@ -50,6 +50,14 @@ def check_alpha(alpha, upper_open=False):
     return alpha
 
 
+def check_argument(x):
+    """The argument x of E_α(−x) as a float array: real, finite and at least 0."""
+    x = np.asarray(x)
+    if x.dtype.kind not in "iuf" or not np.all(np.isfinite(x)) or np.any(x < 0):
+        raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
+    return x.astype(float)
+
+
 def mittag_leffler(alpha, x, beta=1.0):
     """``E_{α,β}(−x)``, the Mittag-Leffler function at minus `x` (an array of numbers ≥ 0),
     for ``0 < α ≤ 1`` and β = 1 (the default, ``E_α``: 1 at x = 0, decreasing, ``e^{−x}`` at
@@ -69,9 +77,7 @@ def mittag_leffler(alpha, x, beta=1.0):
 def mittag_leffler_pair(alpha, x, base):
     """``(E_{α,base}(−x), E_{α,base+α}(−x))`` for base 1 or 2, from one evaluation of the
     integral between the series (`mittag_leffler`)."""
-    x = np.asarray(x, dtype=float)
-    if not np.all(np.isfinite(x)) or np.any(x < 0):
-        raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
+    x = check_argument(x)
     plain, shifted = np.empty_like(x), np.empty_like(x)
     flat, p, s = x.ravel(), plain.ravel(), shifted.ravel()
     middle = (flat > SERIES_LIMIT) & (flat < ASYMPTOTIC_LIMIT)
@@ -133,7 +139,7 @@ def _integral(alpha, x, beta=1.0):
         if beta == 1.0:
             total = np.sum(weight * np.exp(-w) * theta)
         else:  # the weight (1 − e^{−w}(1 + w))/w², then the tail beyond W_MAX in v = 1/w
-            total = np.sum(weight * _ramp_weight(w) * theta)
+            total = np.sum(weight * ramp_weight(w) * theta)
             tail = [0.0, *(graded / W_MAX**2)] + [1.0 / r for r in rise if r > W_MAX]
             v, weight = _nodes(tail, 1.0 / W_MAX)
             total += np.sum(weight * np.arctan2(s, xi * v**alpha + c))
@@ -148,14 +154,15 @@ def _nodes(points, end):
     return 0.5 * (hi - lo) * _GL_X + 0.5 * (hi + lo), 0.5 * (hi - lo) * _GL_W
 
 
-def _ramp_weight(w):
+def ramp_weight(w, xp=np):
     """``(1 − e^{−w}(1 + w))/w²``: below 1 its series ``Σ (−1)^k (k+1) w^k/(k+2)!``, which
-    keeps the digits the difference would lose."""
+    keeps the digits the difference would lose; `xp`: the array namespace (NumPy or
+    ``jax.numpy``)."""
     small = w < 1.0
-    ws = np.where(small, w, 0.0)
+    ws = xp.where(small, w, 0.0)
     series = sum((-1) ** k * (k + 1) / math.factorial(k + 2) * ws**k for k in range(24))
-    wl = np.where(small, 1.0, w)
-    return np.where(small, series, (-np.expm1(-wl) - wl * np.exp(-wl)) / wl**2)
+    wl = xp.where(small, 1.0, w)
+    return xp.where(small, series, (-xp.expm1(-wl) - wl * xp.exp(-wl)) / wl**2)
 
 
 def _inputs(model, grid, name, q, params):
@@ -170,22 +177,26 @@ def _inputs(model, grid, name, q, params):
         grid = np.asarray(grid, dtype=float)
         _check_grid(grid, name)
         return type(model).__name__, grid, q, check_parameters(model, params), (
-            mittag_leffler, math.gamma)
-    import jax.numpy as jnp
-    from jax.scipy.special import gammaln
+            mittag_leffler, math.gamma, _rotate)
+    from ._closed_jax import gamma_jax, mittag_leffler_jax, rotate_jax
 
-    from ._closed_jax import mittag_leffler_jax
+    def concrete(v):  # a concrete value as the NumPy route takes it (a scalar: a float)
+        return float(v) if np.ndim(v) == 0 else v
 
-    concrete = lambda v: not isinstance(v, jax.core.Tracer)  # noqa: E731
-    if concrete(q):
-        check_alpha(float(q) if np.ndim(q) == 0 else q, upper_open=True)
-    if concrete(grid):
+    traced = lambda v: isinstance(v, jax.core.Tracer)  # noqa: E731
+    if not traced(q):
+        check_alpha(concrete(q), upper_open=True)
+    if not traced(grid):
         _check_grid(np.asarray(grid, dtype=float), name)
-    check_parameters(model, {k: (float(v) if concrete(v) and np.ndim(v) == 0 else
-                                 v if concrete(v) else 1.0) for k, v in params.items()})
-    grid = jnp.asarray(grid, dtype=jnp.result_type(float))
-    return type(model).__name__, grid, q, params, (mittag_leffler_jax,
-                                                   lambda z: jnp.exp(gammaln(z)))
+    # a traced parameter stands in as 1 (its name is still checked)
+    check_parameters(model, {k: 1.0 if traced(v) else concrete(v) for k, v in params.items()})
+    grid = jax.numpy.asarray(grid, dtype=jax.numpy.result_type(float))
+    return type(model).__name__, grid, q, params, (mittag_leffler_jax, gamma_jax, rotate_jax)
+
+
+def _rotate(omega, q, p):
+    """``((iω)^q, p)``, NumPy's route of `complex_modulus`."""
+    return (1j * omega) ** q, p
 
 
 def _check_grid(grid, name):
@@ -212,7 +223,7 @@ def check_parameters(model, params):
 
 def relaxation_modulus(model, t, q, params):
     """G(t): the stress after a unit step of strain at t = 0."""
-    law, t, q, p, (ml, gamma) = _inputs(model, t, "t", q, params)
+    law, t, q, p, (ml, gamma, _) = _inputs(model, t, "t", q, params)
     if law == "Springpot":
         return p["eta"] * t**-q / gamma(1 - q)
     if law == "KelvinVoigt":
@@ -224,7 +235,7 @@ def relaxation_modulus(model, t, q, params):
 
 def creep_compliance(model, t, q, params):
     """J(t): the strain after a unit step of stress at t = 0."""
-    law, t, q, p, (ml, gamma) = _inputs(model, t, "t", q, params)
+    law, t, q, p, (ml, gamma, _) = _inputs(model, t, "t", q, params)
     if law == "Springpot":
         return t**q / (p["eta"] * gamma(1 + q))
     if law == "KelvinVoigt":
@@ -238,16 +249,8 @@ def creep_compliance(model, t, q, params):
 
 def complex_modulus(model, omega, q, params):
     """G*(ω) = G'(ω) + i G''(ω), the stress of a strain ``e^{iωt}`` in the steady state."""
-    law, omega, q, p, _ = _inputs(model, omega, "omega", q, params)
-    if isinstance(omega, np.ndarray):
-        s = (1j * omega) ** q
-    else:  # JAX: (iω)^q = ω^q e^{iπq/2}, and the parameters made complex, explicitly
-        from jax import lax
-        from jax import numpy as jnp
-
-        w = omega**q
-        s = lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))
-        p = {k: jnp.asarray(v).astype(s.dtype) for k, v in p.items()}
+    law, omega, q, p, (_, _, rotate) = _inputs(model, omega, "omega", q, params)
+    s, p = rotate(omega, q, p)
     if law == "Springpot":
         return p["eta"] * s
     if law == "KelvinVoigt":

@@ -12,19 +12,26 @@ gradient through `jnp.where`.
 """
 
 import functools
-import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.scipy.special import gammaln
 
-from ._closed import ASYMPTOTIC_LIMIT, GRADING, NODES, SERIES_LIMIT, W_MAX
+from ._closed import (
+    ASYMPTOTIC_LIMIT,
+    GRADING,
+    NODES,
+    SERIES_LIMIT,
+    W_MAX,
+    check_alpha,
+    check_argument,
+    ramp_weight,
+)
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(NODES)
 _SERIES_TERMS = 80
 _ASYMPTOTIC_TERMS = 12
-_RAMP_TERMS = 24
 
 
 def mittag_leffler_jax(alpha, x, beta=1):
@@ -40,12 +47,10 @@ def mittag_leffler_jax(alpha, x, beta=1):
         raise ValueError(f"beta must be 1 or 2, got {beta!r}.")
     if not isinstance(alpha, jax.core.Tracer):
         a = np.asarray(alpha)
-        if a.ndim != 0 or a.dtype.kind not in "iuf" or not 0.0 < float(a) < 1.0:
-            raise ValueError(f"the order alpha must be a number in (0, 1), got {alpha!r}.")
+        check_alpha(float(a) if a.ndim == 0 and a.dtype.kind in "iuf" else alpha,
+                    upper_open=True)
     if not isinstance(x, jax.core.Tracer):
-        xs = np.asarray(x)
-        if xs.dtype.kind not in "iuf" or not (np.all(np.isfinite(xs)) and np.all(xs >= 0)):
-            raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
+        check_argument(x)
     alpha = jnp.asarray(alpha, dtype=jnp.result_type(float))
     return _evaluate(alpha, jnp.asarray(x, dtype=alpha.dtype), float(beta))
 
@@ -91,13 +96,17 @@ def _nodes(points, end):
     return (0.5 * (hi - lo) * _GL_X + 0.5 * (hi + lo)).ravel(), (0.5 * (hi - lo) * _GL_W).ravel()
 
 
-def _ramp_weight(w):
-    """``(1 − e^{−w}(1 + w))/w²``, by its series below 1."""
-    small = w < 1.0
-    ws = jnp.where(small, w, 0.0)
-    series = sum((-1) ** k * (k + 1) / math.factorial(k + 2) * ws**k for k in range(_RAMP_TERMS))
-    wl = jnp.where(small, 1.0, w)
-    return jnp.where(small, series, (-jnp.expm1(-wl) - wl * jnp.exp(-wl)) / wl**2)
+def gamma_jax(z):
+    """Γ(z) for z > 0 in JAX (the laws' closed forms' Γ(1 ± q))."""
+    return jnp.exp(gammaln(z))
+
+
+def rotate_jax(omega, q, p):
+    """``((iω)^q, p)`` in JAX for `complex_modulus`: ``ω^q e^{iπq/2}``, and the parameters
+    made complex explicitly (JAX's strict promotion refuses ``1j * ω``)."""
+    w = omega**q
+    s = jax.lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))
+    return s, {k: jnp.asarray(v).astype(s.dtype) for k, v in p.items()}
 
 
 def _power(w, alpha):
@@ -127,7 +136,7 @@ def _integral(alpha, x, beta):
     if beta == 1.0:
         total = jnp.sum(weight * jnp.exp(-w) * theta)
     else:  # the weight (1 − e^{−w}(1 + w))/w², then the tail beyond W_MAX in v = 1/w
-        total = jnp.sum(weight * _ramp_weight(w) * theta)
+        total = jnp.sum(weight * ramp_weight(w, jnp) * theta)
         far = jnp.where(rise > W_MAX, 1.0 / jnp.maximum(rise, W_MAX), 0.0)
         tail = jnp.concatenate([jnp.zeros(1), jnp.asarray(graded / W_MAX**2), far])
         v, weight = _nodes(tail, 1.0 / W_MAX)
