@@ -1145,6 +1145,43 @@ MUTATIONS = {
           "    s = jax.lax.complex(w * jnp.cos(jnp.pi * q), w * jnp.sin(jnp.pi * q))")],
         ["tests/test_mittag_leffler_jax.py"],
     ),
+    "moving orders' columns interpolated linearly between two profiled orders": (
+        "vojax/_tracker/_moving.py",
+        [("    for m in range(4):\n        w = np.prod([(x - node) / (m - node) for node in range(4) if node != m], axis=0)",
+          "    for m in (1, 2):\n        w = np.prod([(x - node) / (m - node) for node in (1, 2) if node != m], axis=0)")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders' coarse inside design without the refinement": (
+        "vojax/_tracker/_moving.py",
+        [("    if level == 0:\n        inside = inside @ refinement(profile.settings.trade_knots)\n",
+          "")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders kept whatever their χ²": (
+        "vojax/_tracker/_moving.py",
+        [("                    if chi2 > limit:\n                        break\n", "")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders kept inside the band": (
+        "vojax/_tracker/_moving.py",
+        [("                    if outside(alpha[:span], band, half):\n", "                    if True:\n")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders' penalty rows left out of the shape fit's residuals": (
+        "vojax/_tracker/_moving.py",
+        [("    return np.concatenate([res, rows]), float(res @ res)", "    return res, float(res @ res)")],
+        ["tests/test_moving.py"],
+    ),
+    "a moving order inside the band joins the conditional band": (
+        "vojax/_tracker/_band.py",
+        [("        if e.kind in REACH_ONLY:\n            continue\n", "")],
+        ["tests/test_band.py::test_a_moving_order_lowers_the_breakdown_drift_and_widens_no_band"],
+    ),
+    "a moving order widens the stated band": (
+        "vojax/_tracker/_band.py",
+        [("            if e.kind not in REACH_ONLY and (", "            if True and (")],
+        ["tests/test_band.py::test_a_moving_order_lowers_the_breakdown_drift_and_widens_no_band"],
+    ),
     "JAX Mittag-Leffler ramp tail dropped": (
         "vojax/_models/_closed_jax.py",
         [("        total += jnp.sum(weight * jnp.arctan2(s, x * _power(v, alpha) + c))",

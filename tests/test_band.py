@@ -74,6 +74,29 @@ def test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits():
     assert b.breakdown_drift == np.inf
 
 
+def test_a_moving_order_lowers_the_breakdown_drift_and_widens_no_band():
+    """A moving order outside the band with less drift than the constant order outside sets
+    the breakdown drift; it widens neither the conditional band nor, with the parameters
+    free or stated to drift more than it, the stated band (its distance outside is a fixed
+    offset, not the data's); inside the band, it joins nothing either."""
+    tuned = ex("tuned", 0.0)
+    constant = ex("trade", 2.0, var=0.0, drift=0.3, accepted=True)
+    moving = ex("moving", -1.5, var=0.0, drift=0.12, accepted=True)
+    without = bands([tuned, constant], BOUNDS, N, np.inf)
+    b = bands([tuned, constant, moving], BOUNDS, N, np.inf)
+    assert without.breakdown_drift == pytest.approx(0.3)
+    assert b.breakdown_drift == pytest.approx(0.12)
+    for got, want in zip(b.conditional + b.stated, without.conditional + without.stated):
+        np.testing.assert_array_equal(got, want)
+    stated = bands([tuned, constant, moving], BOUNDS, N, 0.2)
+    assert halfwidth(stated.stated) == pytest.approx(halfwidth(
+        bands([tuned, constant], BOUNDS, N, 0.2).stated))
+    within = ex("moving", 0.15, var=0.0, drift=0.05, accepted=True)
+    c = bands([tuned, constant, within], BOUNDS, N, np.inf)
+    for got, want in zip(c.conditional, without.conditional):
+        np.testing.assert_array_equal(got, want)
+
+
 def test_an_explanation_as_drift_free_as_the_answer_never_breaks_it():
     """An order outside the band whose parameters drift no more than the answer's own (within
     the drift floor) is not a drifting alternative: it cannot set the breakdown drift."""

@@ -156,3 +156,28 @@ def test_the_law_is_never_identified_and_its_band_misses(suite):
     ]
     assert not any(r["identified"] for r in rows)
     assert sum(r["coverage"] < 0.5 for r in rows) >= 5
+
+
+def test_a_conditional_answer_promises_no_drift_its_moving_truth_breaks(suite):
+    """Draw 21 of the stated-drift family (held out: a myocardium stretch, the order moving
+    0.33 → 0.39 → 0.25, the gain drifting 25 %): the conditional answer's band misses the
+    truth over the second half, so its breakdown drift must lie below the true drift. The
+    constant orders alone put it at 28 % (a false promise); with moving orders it falls to
+    22 %."""
+    module, signals = suite
+    case = module.draw_case("stated-drift", 21, signals)
+    half = case["alpha"].size // 2
+
+    def run(settings=None):
+        res = vojax.identify(case["u"], case["y"], t=case["t"], warn=False,
+                             settings=settings)
+        c = res.conditional
+        lower, upper = (np.asarray(a)[half:] for a in (c.alpha_lower, c.alpha_upper))
+        return res.diagnostics, np.mean((case["alpha"][half:] < lower)
+                                        | (case["alpha"][half:] > upper))
+
+    diag, missed = run()
+    assert diag.verdict == "conditional" and missed > 0.5
+    assert diag.breakdown_drift < case["true_drift"]
+    constant_only, _ = run(vojax.TrackerSettings(moving_offsets=()))
+    assert constant_only.breakdown_drift > case["true_drift"]  # what the moving orders mend

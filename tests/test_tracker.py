@@ -1236,7 +1236,7 @@ def test_trade_interval_against_an_independent_profile(width, noise, fine):
     n, bounds = t.size, (0.01, 0.99)
     memory = make_memory("exponential", dt, n, order_range=bounds)
     problem = make_problem(memory, u[:, None], y, times=t, bounds=bounds)
-    got, explanations = trade_interval(problem, sd**2)
+    got, explanations, _ = trade_interval(problem, sd**2)
     s = t / t[-1]
     hats = [np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j]) for j in range(k)],
                      axis=1) for k in (8, 15)]
@@ -1289,7 +1289,7 @@ def test_trade_interval_against_an_independent_profile(width, noise, fine):
         else:
             assert end == pytest.approx(want, abs=0.01)
     assert got[0] <= 0.45 <= got[1]
-    assert trade_interval(problem, 1e-4 * sd**2) == (None, [])
+    assert trade_interval(problem, 1e-4 * sd**2)[:2] == (None, [])
 
 
 @pytest.mark.parametrize("inputs, fine", [(1, True), (2, False)])
@@ -1313,11 +1313,11 @@ def test_the_trade_offs_finer_drift_pays_two_per_coefficient_of_every_input(
         chi2 = np.full((alphas.size, 2, 2), np.inf)
         chi2[:, 0, 0] = 175.0 + 20 * abs(alphas - 0.5)  # linear: the crossing is exact
         chi2[:, 1, 0] = chi2[:, 0, 0] - 20.0
-        return chi2, [[[None, None]] * 2] * alphas.size
+        return chi2, [[[None, None]] * 2] * alphas.size, None
 
     monkeypatch.setattr(_trade, "drift_profile", profile)
     monkeypatch.setattr(_trade, "least_drift", lambda *a, **k: 0.0)
-    interval, explanations = _trade.trade_interval(problem, 1.0)
+    interval, explanations, _ = _trade.trade_interval(problem, 1.0)
     knots = 15 if fine else 8
     assert {e.dof for e in explanations} == {num - inputs * knots - 1.0}
     assert interval == pytest.approx((0.3, 0.7), abs=1e-12)

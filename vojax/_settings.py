@@ -10,7 +10,7 @@ import dataclasses
 import math
 
 # the settings that may be empty tuples (no alternatives of that kind, no level profile)
-MAY_BE_EMPTY = frozenset({"alt_order_drift", "alt_param_drift", "level_ratios"})
+MAY_BE_EMPTY = frozenset({"alt_order_drift", "alt_param_drift", "level_ratios", "moving_offsets"})
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,6 +66,9 @@ class TrackerSettings:
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
     trade_orders: int = 25  # constant orders profiled, evenly across the bounds
     trade_chi2: float = 4.0  # Δχ² from the best drifting fit within which an order fits as well
+    # moving orders (piecewise linear on `trade_knots` knots) tried where the constant ones
+    # set a breakdown drift: their second half placed this far outside the band
+    moving_offsets: tuple[float, ...] = (0.01, 0.05, 0.15)
     # the level profile: the parameters held at other scales (parameters constant)
     level_ratios: tuple[float, ...] = (0.5, 0.71, 1.41, 2.0)  # first held scales
     level_step: float = math.sqrt(2.0)  # the profile's step past an outer scale that fits …

@@ -9,7 +9,8 @@ of the tuned intensities' modes and order drifts, with the parameters' scale int
 the level profile where they are held. Going up in drift, each fitting explanation inside the
 band so far joins it; the first one outside it sets the breakdown drift: with that much drift
 an order outside the band explains the data as well, and no test of this record tells them
-apart.
+apart. Moving orders (`vojax._tracker._moving`) join the ladder where a constant order
+breaks the conditional answer: they can only lower the breakdown drift.
 """
 
 import dataclasses
@@ -22,6 +23,10 @@ from ._smoother import mix_modes
 # the alternatives that share the reference's assumption about the parameters: weighed into
 # its variance (by evidence, or the level profile's χ²), never unioned with it
 INTEGRATED = ("start", "order_drift", "level")
+# the alternatives that only set the breakdown drift, never widen a band: moving orders placed
+# outside the band by a fixed offset (`vojax._tracker._moving`), so a band that covered them
+# would be as wide as the offset, not as the data allow
+REACH_ONLY = ("moving",)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,6 +151,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         if max(e.drift - reference.drift, 0.0) > drift_floor and outside(m[0], band, half):
             breakdown = e.drift
             break
+        if e.kind in REACH_ONLY:
+            continue
         band = union(band, m)
         conditional_drifts |= e.drift > reference.drift + drift_floor
     conditional = tuple(np.concatenate([a, b[span:]]) for a, b in zip(band, ref_band))
@@ -160,7 +167,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     elif stated_drift > 0:
         others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged]
         for e in [*others, *ladder]:
-            if e.drift <= max(stated_drift, reference.drift) + drift_floor:
+            if e.kind not in REACH_ONLY and (
+                    e.drift <= max(stated_drift, reference.drift) + drift_floor):
                 stated = union(stated, member(e))
                 drifting |= e.drift > reference.drift + drift_floor
     return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting)

@@ -16,6 +16,7 @@ KINDS = {
     "held": "the tuned order drift with the parameters held (where the tuned ones drift)",
     "level": "the parameters held at another scale",
     "trade": "a constant order with the parameters drifting on hat functions",
+    "moving": "a moving order outside the band with the parameters drifting on hat functions",
 }
 
 

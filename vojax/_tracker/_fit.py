@@ -18,6 +18,7 @@ from ._filter import KalmanTracker
 from ._level import level_profile
 from ._mixture import held_order, mixture
 from ._model import Hyper, model_output, order_of_np
+from ._moving import moving_orders
 from ._problem import Problem, Scales, data_scales, prior
 from ._smoother import resolve_schedule
 from ._start import constant_fit, starting_trajectories
@@ -213,17 +214,28 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         theta, cov, y_hat_n, y_pred_n = out.mean, out.cov, out.y_hat, out.y_pred
         converged = True
         beta_var = np.asarray(cov)[:, 0, 0]
-    trade, traded = None, []
+    trade, traded, profile = None, [], None
     if weigh and (not hold or (smooth and tuning.tuned)):  # held: the breakdown drift only
-        trade, traded = trade_interval(problem, fit_noise, whiten, offset=not st.known)
+        trade, traded, profile = trade_interval(problem, fit_noise, whiten,
+                                                offset=not st.known)
     explanations = tuple(explanations + ([] if held is None else [held]) + traded)
     found = None
     if smooth and weigh and tuning.tuned:
-        found = bands(explanations, problem.bounds, problem.span,
-                      0.0 if hold else stated_drift(parameters), s.band_scale, s.drift_floor,
-                      floor=s.band_floor, evidence_floor=s.envelope_evidence,
-                      half=second_half(problem.mask, problem.span),
-                      level_weights=s.level_weights)
+        half = second_half(problem.mask, problem.span)
+
+        def band_of(explanations):
+            return bands(explanations, problem.bounds, problem.span,
+                         0.0 if hold else stated_drift(parameters), s.band_scale,
+                         s.drift_floor, floor=s.band_floor, evidence_floor=s.envelope_evidence,
+                         half=half, level_weights=s.level_weights)
+
+        found = band_of(explanations)
+        # a constant order outside the band fits with some drift: a moving one may need less
+        if profile is not None and np.isfinite(found.breakdown_drift):
+            moving = moving_orders(profile, found.conditional, half)
+            if moving:
+                explanations = explanations + tuple(moving)
+                found = band_of(explanations)
     res = assemble(st, problem, theta, cov, beta_var, None if hold else trade, y_hat_n,
                    y_pred_n, sm.phi if y_hat_n is None else None, converged, tuning,
                    alpha_held, weights, found, time_scale)

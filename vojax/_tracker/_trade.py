@@ -2,12 +2,39 @@
 the constant orders with which a parameter free to drift (piecewise linear on hat functions)
 explains the data as well as the best such fit."""
 
+import dataclasses
+
 import numpy as np
 
 from ._explanations import Explanation, relative_drift
 from ._mixture import chi2_fits
 from ._model import beta_of_np
 from ._start import least_squares, phi_columns
+
+
+@dataclasses.dataclass(frozen=True)
+class Profile:
+    """What the trade-off profile leaves for moving orders (`vojax._tracker._moving`): the
+    profiled constant orders `alphas` (A,) and their memory columns `memory` (A, N, n + n·k)
+    (see `drift_profile`), the drift's hat functions `bases` (coarse, fine), each form that
+    explains the data as ``(level, form, best χ², dof)`` (level 0 coarse, 1 fine; form 0 a
+    gain, 1 inside the integral), the data `y` and `mask`, the noise's `whiten` (or None) and
+    χ² `scale`, whether an `offset` is fitted, the fitted `span`, the order's `bounds`, the
+    order's own hat functions `shape` (N, `trade_knots`) and the `settings`."""
+
+    alphas: np.ndarray
+    memory: np.ndarray
+    bases: tuple
+    forms: tuple
+    y: np.ndarray
+    mask: np.ndarray
+    whiten: object
+    offset: bool
+    scale: float
+    span: int
+    bounds: tuple
+    shape: np.ndarray
+    settings: object
 
 
 def hat_basis(times, last, knots):
@@ -41,8 +68,10 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
     memory term (``y ≈ c + Σ a_jk B_k Φ_j``), then inside the integral
     (``y ≈ c + Σ a_jk I^α(B_k u_j)``); χ² where `whiten` is given (see `least_squares`).
     The integral is linear: the coarse hats' columns are sums of the fine ones'
-    (`refinement`), so one run of the memory a constant order serves both. Returns the χ²
-    and the designs: ``designs[a][knots][form]`` (N, n·k), a drifting coefficient a column."""
+    (`refinement`), so one run of the memory a constant order serves both. Returns the χ²,
+    the designs: ``designs[a][knots][form]`` (N, n·k), a drifting coefficient a column, and
+    each order's memory columns (A, N, n + n·k): the inputs', then the inputs times the fine
+    hats'."""
     s = problem.settings
     u, y, mask, fine = (np.asarray(a) for a in (problem.u, problem.y, problem.mask, fine))
     num, n = u.shape
@@ -52,9 +81,10 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
     inside_u = (u[:, :, None] * fine[:, None, :]).reshape(num, n * k)
     # one block of `phi_block` = k + 1 columns an input: its own and its k drifting ones
     columns = np.concatenate([u, inside_u], axis=1)
-    out, designs = [], []
+    out, designs, memory = [], [], []
     for alpha in alphas:
         both = phi_columns(problem.memory, columns, alpha, s.phi_block)
+        memory.append(both)
         phi, inside = both[:, :n], both[:, n:].reshape(num, n, k)
         row, design = [], []
         for basis, drifting in ((coarse, inside @ r), (fine, inside)):
@@ -64,7 +94,30 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
             design.append(xs)
         out.append(row)
         designs.append(design)
-    return np.asarray(out), designs
+    return np.asarray(out), designs, np.stack(memory)
+
+
+def penalised_system(x, y, mask, k, whiten=None, offset=True):
+    """The weighted least-squares system of the design `x` (N, n·k), k drifting coefficients
+    an input, with an offset column (``offset=False``: none) and, where given, `whiten`:
+    ``(a, b, penalty, unit)``, the weighted columns and data, the penalty ``Σ_j ‖Δa_j‖²`` on
+    each input's coefficients' first differences, and ``unit``, the ratio of the columns' and
+    the penalty's traces that puts λ on the data's scale."""
+    num = x.shape[0]
+    n = x.shape[1] // k
+    cols = np.concatenate([x, np.ones((num, 1))], axis=1) if offset else x
+    yy = y
+    if whiten is not None:
+        cols, yy = whiten(cols), whiten(y)
+    w = np.sqrt(np.asarray(mask, float))
+    a_mat, b = cols * w[:, None], yy * w
+    diff = np.diff(np.eye(k), axis=0)  # (k − 1, k): the coefficients' first differences
+    penalty = np.zeros((cols.shape[1], cols.shape[1]))
+    for j in range(n):
+        block = slice(j * k, (j + 1) * k)
+        penalty[block, block] = diff.T @ diff
+    unit = np.trace(a_mat.T @ a_mat) / max(np.trace(penalty), 1e-300)
+    return a_mat, b, penalty, unit
 
 
 def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True):
@@ -77,19 +130,8 @@ def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True)
     See `vojax._tracker._explanations.relative_drift`."""
     num, k = basis.shape
     n = x.shape[1] // k
-    cols = np.concatenate([x, np.ones((num, 1))], axis=1) if offset else x
-    yy = y
-    if whiten is not None:
-        cols, yy = whiten(cols), whiten(y)
-    w = np.sqrt(np.asarray(mask, float))
-    a_mat, b = cols * w[:, None], yy * w
+    a_mat, b, penalty, unit = penalised_system(x, y, mask, k, whiten, offset)
     gram, rhs = a_mat.T @ a_mat, a_mat.T @ b
-    diff = np.diff(np.eye(k), axis=0)  # (k − 1, k): the coefficients' first differences
-    penalty = np.zeros_like(gram)
-    for j in range(n):
-        block = slice(j * k, (j + 1) * k)
-        penalty[block, block] = diff.T @ diff
-    unit = np.trace(gram) / max(np.trace(penalty), 1e-300)
 
     def fit(lam):
         coef = np.linalg.lstsq(gram + lam * unit * penalty, rhs, rcond=None)[0]
@@ -101,10 +143,11 @@ def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True)
         return np.inf
     # the parameters constant (every a_j a multiple of ones: the hats sum to 1), fitted
     # exactly rather than as the λ → ∞ end of the ladder, whose χ² LAPACK builds differ on
-    tie = np.zeros((cols.shape[1], n + (cols.shape[1] - n * k)))
+    width = a_mat.shape[1]
+    tie = np.zeros((width, n + (width - n * k)))
     for j in range(n):
         tie[j * k : (j + 1) * k, j] = 1.0
-    tie[n * k :, n:] = np.eye(cols.shape[1] - n * k)  # the offset, where fitted
+    tie[n * k :, n:] = np.eye(width - n * k)  # the offset, where fitted
     const = a_mat @ tie
     res = b - const @ np.linalg.lstsq(const, b, rcond=None)[0]
     if float(res @ res) * scale <= limit:
@@ -130,19 +173,19 @@ def trade_interval(problem, noise, whiten=None, offset=True):
     `trade_knots_fine` where Akaike's criterion prefers them. ``offset=False``: the offset is
     known to be 0. Returns ``(interval, explanations)``: each grid order inside a form's
     interval as an `Explanation` of kind "trade", with the least drift its fits need
-    (`least_drift`)."""
+    (`least_drift`), and the `Profile` that moving orders start from."""
     s = problem.settings
     lo, hi = problem.bounds
     n = problem.n
     alphas = np.linspace(lo, hi, s.trade_orders + 2)[1:-1]
     fine = hat_basis(problem.times, problem.last, s.trade_knots_fine)
-    chi2, designs = drift_profile(problem, alphas, fine, whiten, offset)
+    chi2, designs, memory = drift_profile(problem, alphas, fine, whiten, offset)
     scale = 1.0 / noise if whiten is None else 1.0
     chi2 = chi2 * scale
     fitted = float(np.sum(np.asarray(problem.mask)))
     bases = (fine @ refinement(s.trade_knots), fine)
     y, mask = np.asarray(problem.y), np.asarray(problem.mask)
-    found, explanations = [], []
+    found, explanations, forms = [], [], []
     for form in range(chi2.shape[2]):
         c, knots, level = chi2[:, 0, form], s.trade_knots, 0
         c_fine = chi2[:, 1, form]
@@ -164,6 +207,7 @@ def trade_interval(problem, noise, whiten=None, offset=True):
         found.append(lo if i == 0 else crossing(i, i - 1))
         found.append(hi if j == alphas.size - 1 else crossing(j, j + 1))
         limit = c.min() + s.trade_chi2
+        forms.append((level, form, float(c.min()), dof))
         for a in inside:
             drift = least_drift(designs[a][level][form], y, mask, bases[level], problem.span,
                                 limit, scale, whiten, offset)
@@ -171,4 +215,7 @@ def trade_interval(problem, noise, whiten=None, offset=True):
             explanations.append(Explanation("trade", beta, np.zeros_like(beta), float(c[a]),
                                             dof, np.nan, drift, accepted=True))
     interval = (float(min(found)), float(max(found))) if found else None
-    return interval, explanations
+    profile = Profile(alphas, memory, bases, tuple(forms), y, mask, whiten, offset, scale,
+                      problem.span, problem.bounds, hat_basis(problem.times, problem.last,
+                                                              s.trade_knots), s)
+    return interval, explanations, profile

@@ -1,0 +1,155 @@
+"""Moving orders in the trade-off. Where a constant order outside the band fits the data with
+some drift of the parameters (the breakdown drift of `vojax._tracker._band`), an order that
+moves may need less: the breakdown drift is the least over both.
+
+The order is taken piecewise linear on the drift's `trade_knots` coarse knots, its second
+half's mean placed just outside the band (`moving_offsets`). Its shape is fitted by
+Levenberg–Marquardt while the drifting parameters are solved for at each shape by penalised
+least squares (variable projection); the penalty on their drift is raised, as in
+`least_drift`, while the χ² stays within `trade_chi2` of the best fit of the moving orders
+(or of the constant ones, where that is lower). The memory columns at a moving order are
+interpolated across the profiled constant orders (4-point Lagrange): the order acts where the
+memory is evaluated, so sample i's column at a trajectory is its column at the constant order
+the trajectory has there.
+"""
+
+import numpy as np
+
+from ._band import outside
+from ._explanations import Explanation, relative_drift
+from ._model import beta_of_np
+from ._trade import penalised_system, refinement
+
+LADDER = 10.0 ** np.arange(-6.0, 5.0)  # penalties on the drift tried, in its unit, rising
+TARGET_WEIGHT = 1e3  # the second half's mean held at its target: 1e-3 off costs χ² 1
+LM_ITERATIONS = 15  # Levenberg–Marquardt iterations of one shape fit
+LM_STEP = 1e-4  # the finite-difference step of its Jacobian, on the order's scale
+LM_TOL = 0.05  # … ending where a step lowers the χ² by less than this
+
+
+def columns_at(profile, alpha, columns=slice(None)):
+    """The memory columns (N, n + n·k) at the order trajectory `alpha` (N,), or those of
+    `columns`: each sample's from the four profiled constant orders about its order
+    (Lagrange), the trajectory kept within the profiled range."""
+    grid = profile.alphas
+    h = grid[1] - grid[0]
+    a = np.clip(alpha, grid[0], grid[-1])
+    j = np.clip(np.floor((a - grid[0]) / h).astype(int) - 1, 0, grid.size - 4)
+    x = (a - grid[j]) / h
+    rows = np.arange(a.size)
+    out = 0.0
+    for m in range(4):
+        w = np.prod([(x - node) / (m - node) for node in range(4) if node != m], axis=0)
+        out = out + w[:, None] * profile.memory[j + m, rows, columns]
+    return out
+
+
+def design(profile, alpha, level, form):
+    """The design (N, n·k) of the drifting parameters at the order trajectory `alpha`: on the
+    coarse (`level` 0) or the fine hat functions, as a gain on the memory term (`form` 0) or
+    inside the integral (see `vojax._tracker._trade.drift_profile`)."""
+    num, width = profile.memory.shape[1:]
+    k = profile.bases[1].shape[1]
+    n = width // (k + 1)
+    if form == 0:
+        basis = profile.bases[level]
+        phi = columns_at(profile, alpha, slice(0, n))
+        return (phi[:, :, None] * basis[:, None, :]).reshape(num, -1)
+    inside = columns_at(profile, alpha, slice(n, None)).reshape(num, n, k)
+    if level == 0:
+        inside = inside @ refinement(profile.settings.trade_knots)
+    return inside.reshape(num, -1)
+
+
+def penalised_fit(profile, x, level, lam):
+    """The drifting parameters' penalised least squares on the design `x` at the penalty
+    `lam`: ``(residuals, χ², drift)``, the residuals (whitened, × √scale) with the penalty's
+    rows appended (their squares sum to the penalised objective), the χ² of the data alone,
+    and the parameters' relative drift over the fitted span."""
+    basis = profile.bases[level]
+    k = basis.shape[1]
+    n = x.shape[1] // k
+    a_mat, b, penalty, unit = penalised_system(x, profile.y, profile.mask, k, profile.whiten,
+                                               profile.offset)
+    coef = np.linalg.lstsq(a_mat.T @ a_mat + lam * unit * penalty, a_mat.T @ b, rcond=None)[0]
+    res = (b - a_mat @ coef) * np.sqrt(profile.scale)
+    steps = np.concatenate([np.diff(coef[j * k : (j + 1) * k]) for j in range(n)])
+    rows = np.sqrt(lam * unit * profile.scale) * steps
+    params = np.stack([basis @ coef[j * k : (j + 1) * k] for j in range(n)], axis=1)
+    return np.concatenate([res, rows]), float(res @ res), relative_drift(params, profile.span)
+
+
+def levenberg(fun, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
+    """Levenberg–Marquardt on the residuals `fun` (θ) from `theta`, every θ kept within
+    [`lo`, `hi`], the Jacobian by forward differences (backward at the upper bound): at most
+    `iterations` steps, ending where a step lowers the squared residuals by less than `tol`
+    (χ² units in the shape fit)."""
+    theta = np.clip(theta, lo, hi)
+    r = fun(theta)
+    cost, mu = float(r @ r), 1e-2
+    for _ in range(iterations):
+        jac = np.empty((r.size, theta.size))
+        for i in range(theta.size):
+            d = LM_STEP if theta[i] + LM_STEP <= hi else -LM_STEP
+            moved = theta.copy()
+            moved[i] += d
+            jac[:, i] = (fun(moved) - r) / d
+        grad, hess = jac.T @ r, jac.T @ jac
+        for _ in range(8):
+            damped = hess + mu * np.diag(np.diag(hess) + 1e-12)
+            trial = np.clip(theta - np.linalg.lstsq(damped, grad, rcond=None)[0], lo, hi)
+            r_trial = fun(trial)
+            if float(r_trial @ r_trial) < cost:
+                break
+            mu *= 10.0
+        else:
+            break  # no step lowers the cost
+        gain = cost - float(r_trial @ r_trial)
+        theta, r, cost, mu = trial, r_trial, float(r_trial @ r_trial), mu / 10.0
+        if gain < tol:
+            break
+    return theta
+
+
+def moving_orders(profile, band, half):
+    """Moving orders outside `band` ``(alpha, lower, upper, std)`` (the conditional band; its
+    second half from `half`) that fit the data with the least drift of the parameters each
+    form of the trade-off profile allows: `Explanation` s of kind "moving"."""
+    s, span, shape = profile.settings, profile.span, profile.shape
+    lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
+    band = tuple(np.asarray(a)[:span] for a in band)
+    weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order
+    theta0 = np.linalg.lstsq(shape[:span], band[0], rcond=None)[0]
+    edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
+    found = []
+    for level, form, best, dof in profile.forms:
+        def fit(theta, lam):
+            return penalised_fit(profile, design(profile, shape @ theta, level, form), level,
+                                 lam)
+
+        free = levenberg(lambda th: fit(th, 0.0)[0], theta0, lo, hi)
+        limit = min(best, fit(free, 0.0)[1]) + s.trade_chi2
+        for sign, edge in edges:
+            for offset in s.moving_offsets:
+                target = edge + sign * offset
+                if not lo < target < hi:
+                    continue
+                theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
+                for lam in LADDER:
+                    def resid(th, lam=lam, target=target):
+                        return np.append(fit(th, lam)[0],
+                                         TARGET_WEIGHT * (weights @ th - target))
+
+                    theta = levenberg(resid, theta, lo, hi)
+                    alpha = shape @ theta
+                    _, chi2, drift = fit(theta, lam)
+                    if chi2 > limit:
+                        break
+                    if outside(alpha[:span], band, half):
+                        least = (alpha, chi2, drift)
+                if least is not None:
+                    alpha, chi2, drift = least
+                    beta = beta_of_np(alpha, profile.bounds)
+                    found.append(Explanation("moving", beta, np.zeros_like(beta), chi2, dof,
+                                             np.nan, drift, accepted=True))
+    return found
