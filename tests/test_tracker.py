@@ -1351,7 +1351,7 @@ def test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_ba
     assert {e.kind for e in levels[0]} == {"level"}
     starts = len(settings.start_orders) + 1
     assert runs == [1 + starts + len(settings.alt_order_drift)] and len(trades) == 1
-    (lo, hi), traded = trades[0]
+    (lo, hi), traded, _ = trades[0]
     assert traded and all(e.drift > 0.05 for e in traded)
     second = slice(t.size // 2, None)
     width = np.asarray(held.alpha_upper)[second] - np.asarray(held.alpha_lower)[second]
