@@ -39,6 +39,11 @@ def _reference_design(u, dt, alpha, hats, form):
     return np.asarray(reference.fractional_integral(u[:, None] * hats, alpha, dt))
 
 
+def _hats(s, k):
+    """Hat functions (N, k) on k evenly spaced knots over s ∈ [0, 1], by interpolation."""
+    return np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j]) for j in range(k)], 1)
+
+
 @pytest.mark.parametrize("shape", ["sine", "ramp", "constant"])
 def test_columns_at_a_moving_order_equal_the_direct_sums_there(shape):
     """The memory columns at a moving order, interpolated across the profiled constant orders
@@ -65,9 +70,7 @@ def test_designs_at_a_moving_order_equal_the_direct_sums(level, form):
     t, u, _, dt, _, profile = _profile()
     s = t / t[-1]
     alpha = 0.35 + 0.15 * s**2
-    k = (8, 15)[level]
-    hats = np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j]) for j in range(k)], 1)
-    want = _reference_design(u, dt, alpha, hats, form)
+    want = _reference_design(u, dt, alpha, _hats(s, (8, 15)[level]), form)
     got = design(profile, alpha, level, form)
     assert np.max(np.abs(got - want)) < 2e-6 * np.max(np.abs(want))
 
@@ -126,8 +129,7 @@ def test_moving_orders_lie_outside_the_band_and_fit_within_the_limit():
         # its χ²: some form's design from the direct sums fits at least that well
         best_here = np.inf
         for level, k in ((0, 8), (1, 15)):
-            hats = np.stack([np.interp(s, np.linspace(0, 1, k), np.eye(k)[j])
-                             for j in range(k)], 1)
+            hats = _hats(s, k)
             for form in (0, 1):
                 cols = np.column_stack([_reference_design(u, dt, alpha, hats, form),
                                         np.ones(n)])

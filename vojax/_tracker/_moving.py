@@ -18,7 +18,7 @@ import numpy as np
 from ._band import outside
 from ._explanations import Explanation, relative_drift
 from ._model import beta_of_np
-from ._trade import penalised_system, refinement
+from ._trade import gain_design, penalised_system, refinement
 
 LADDER = 10.0 ** np.arange(-6.0, 5.0)  # penalties on the drift tried, in its unit, rising
 TARGET_WEIGHT = 1e3  # the second half's mean held at its target: 1e-3 off costs χ² 1
@@ -52,9 +52,7 @@ def design(profile, alpha, level, form):
     k = profile.bases[1].shape[1]
     n = width // (k + 1)
     if form == 0:
-        basis = profile.bases[level]
-        phi = columns_at(profile, alpha, slice(0, n))
-        return (phi[:, :, None] * basis[:, None, :]).reshape(num, -1)
+        return gain_design(columns_at(profile, alpha, slice(0, n)), profile.bases[level])
     inside = columns_at(profile, alpha, slice(n, None)).reshape(num, n, k)
     if level == 0:
         inside = inside @ refinement(profile.settings.trade_knots)

@@ -60,6 +60,12 @@ def refinement(knots):
     return r
 
 
+def gain_design(phi, basis):
+    """The design (N, n·k) of parameters drifting as a gain on the memory term: each input's
+    memory `phi` (N, n) times each hat function of `basis` (N, k)."""
+    return (phi[:, :, None] * basis[:, None, :]).reshape(phi.shape[0], -1)
+
+
 def drift_profile(problem, alphas, fine, whiten=None, offset=True):
     """Weighted residual sums of squares (A, 2, 2) of least squares at each constant order of
     `alphas` with an offset (``offset=False``: known to be 0) and the parameters free to
@@ -88,8 +94,7 @@ def drift_profile(problem, alphas, fine, whiten=None, offset=True):
         phi, inside = both[:, :n], both[:, n:].reshape(num, n, k)
         row, design = [], []
         for basis, drifting in ((coarse, inside @ r), (fine, inside)):
-            gain = phi[:, :, None] * basis[:, None, :]
-            xs = [x.reshape(num, -1) for x in (gain, drifting)]
+            xs = [gain_design(phi, basis), drifting.reshape(num, -1)]
             row.append([least_squares(x, y, mask, whiten, offset)[0] for x in xs])
             design.append(xs)
         out.append(row)
