@@ -138,6 +138,10 @@ def _calls():
         vary(f"KelvinVoigt.{method}", getattr(kv, method), dict(law_params, **{name: load, "dt": DT}),
              {name: _arrays(load), "dt": SCALARS, "t": _arrays(T), "q": SCALARS, "eta": SCALARS,
               "k": SCALARS})
+    kv_fit = vojax.refit(kv.inputs(U, T), T, DT, p_signs=kv.p_signs, warn=False)
+    vary("KelvinVoigt.fitted_strain", kv.fitted_strain, dict(fit=kv_fit, stress=U, dt=DT),
+         dict(fit=[None, 3, "x", vojax.refit(two, T, DT, warn=False)],
+              stress=_arrays(U), dt=SCALARS, t=_arrays(T), origin=SCALARS + TEXTS))
     vary("KelvinVoigt.creep_compliance", kv.creep_compliance, dict(law_params, t=T[1:]),
          dict(t=_arrays(T[1:]), q=SCALARS, eta=SCALARS))
     vary("mittag_leffler", vojax.mittag_leffler, dict(alpha=0.4, x=T, beta=1.0),

@@ -1611,6 +1611,31 @@ MUTATIONS = {
         [("for k in range(24))", "for k in range(6))")],
         ["tests/test_responses.py"],
     ),
+    "fitted law solved: the offset added, not relaxing through the law": (
+        "vojax/_models/_fitted.py",
+        [("x0 * (mittag_leffler(q, -b * since**q) if b != 0.0 else 1.0)", "x0")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted law solved from the first sample, not the origin": (
+        "vojax/_models/_fitted.py",
+        [("        since = times - origin", "        since = times - times[0]")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted Zener's viscosity from the wrong spring": (
+        "vojax/_models/_fitted.py",
+        [("dict(eta=zener_e1 * c / a, E0=e0", "dict(eta=e0 * c / a, E0=e0")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted law read with the spring's and the feedback's coefficients swapped": (
+        "vojax/_models/_viscoelastic.py",
+        [("        return p[0], p[1], p[2]", "        return p[0], p[2], p[1]")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "record summary reports the regression's residual as the solved law's": (
+        "vojax/_data/_pipeline.py",
+        [("nrmse=nrmse(y, solved)", "nrmse=regression")],
+        ["tests/test_fitted_strain.py"],
+    ),
 }
 
 

@@ -118,6 +118,29 @@ class AbstractViscoelasticModel(eqx.Module):
 
         return respond(self, strain, dt, t, q, parameters, STRAIN)
 
+    def fitted_strain(self, fit, stress, dt=None, *, t=None, origin=None):
+        """The strain the law fitted by `fit` predicts under `stress`, solved exactly.
+
+        `fit` is a constant-order `vojax.refit` of ``inputs(stress, strain)`` (with
+        ``direct=direct(stress)`` where the law has a spring in series); `stress` (N,) is
+        sampled every `dt` or at the times `t`, and `origin` is the refit's (the test's start
+        before the first sample, the stress held at its first value). Where the law feeds the
+        strain back through its memory (Kelvin–Voigt, Zener) the refit's ``y_hat`` carries the
+        measured strain inside the integral; this is the strain of the fitted law itself,
+        ``ε = x0 E_q(b τ^q) + `` its response to the stress from rest (τ the time since the
+        start, ``(a, b, c)`` as in `coefficients`), exact for a stress linear between its
+        samples (`strain_response`), and its residual is the fit's honest error. For a
+        springpot or Maxwell fit it equals ``y_hat`` up to the refit's quadrature. A
+        coefficient held at 0 solves the law it leaves (Kelvin–Voigt with k = 0: a springpot);
+        an unphysical fit (η ≤ 0, a negative spring) is a `ValueError`."""
+        from ._fitted import fitted_strain
+
+        return fitted_strain(self, fit, stress, dt, t, origin)
+
+    def _law_coefficients(self, p):
+        """``(a, b, c)`` of ``ε = c σ + I^q(a σ + b ε)`` from the regression's ``p``."""
+        return p[0], 0.0, 0.0
+
     def parameters_stderr(self, p, cov) -> dict:
         """Standard errors of the physical parameters at ``p`` (n,) given the covariance
         ``cov`` (n, n) of ``p`` (e.g. `Refit.p_cov`), by the delta method."""
@@ -168,6 +191,9 @@ class KelvinVoigt(AbstractViscoelasticModel):
     def coefficients(self, *, eta, k):
         return 1.0 / eta, -k / eta, 0.0
 
+    def _law_coefficients(self, p):
+        return p[0], p[1], 0.0
+
 
 class FractionalMaxwell(AbstractViscoelasticModel):
     """A spring in series with a springpot, ``ε = σ/E + I^{q(t)} σ / η``: ``u = σ`` and the
@@ -193,6 +219,9 @@ class FractionalMaxwell(AbstractViscoelasticModel):
 
     def coefficients(self, *, eta, E):
         return 1.0 / eta, 0.0, 1.0 / E
+
+    def _law_coefficients(self, p):
+        return p[0], 0.0, p[1]
 
 
 class FractionalZener(AbstractViscoelasticModel):
@@ -228,3 +257,6 @@ class FractionalZener(AbstractViscoelasticModel):
     def coefficients(self, *, eta, E0, E1):
         total = E0 + E1
         return E1 / (eta * total), -E0 * E1 / (eta * total), 1.0 / total
+
+    def _law_coefficients(self, p):
+        return p[0], p[1], p[2]
