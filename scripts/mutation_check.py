@@ -1631,6 +1631,11 @@ MUTATIONS = {
         [("        return p[0], p[1], p[2]", "        return p[0], p[2], p[1]")],
         ["tests/test_fitted_strain.py"],
     ),
+    "fitted spring alone loses its offset": (
+        "vojax/_models/_fitted.py",
+        [("        return x0 + c * stress", "        return c * stress")],
+        ["tests/test_fitted_strain.py"],
+    ),
     "record summary reports the regression's residual as the solved law's": (
         "vojax/_data/_pipeline.py",
         [("nrmse=nrmse(y, solved)", "nrmse=regression")],

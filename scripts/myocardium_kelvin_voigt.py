@@ -6,7 +6,7 @@ record and over the hold phase only (the whole stress history still drives the m
 σ = F (kPa), ε = (L − 0.95)/0.95; the ramp starts at t = 2 s and lasts 0.1, 1, 10 or 100 s.
 Intervals are ±2 standard errors (delta method for η and k). NRMSE is the refit's own (the
 measured strain in the regressors); "solved" is that of the fitted law solved exactly for
-the strain from the stress (`KelvinVoigt.strain_response`, a springpot where k is held at
+the strain from the stress (`KelvinVoigt.fitted_strain`, a springpot where k is held at
 0; "–" where the fit is not physical, η ≤ 0 or k < 0), both over the fitted samples.
 
     python scripts/myocardium_kelvin_voigt.py [--data DIR] [--out FILE]
@@ -59,7 +59,7 @@ def main():
                     res = np.asarray(fit.residuals)[keep]
                     nrmse = np.sqrt(np.mean(res**2)) / np.ptp(strain[keep])
                     held = [n for n, b in zip(model.names, fit.p_at_bound) if b]
-                    solved = _solved(fit, phys, stress, strain, rec.time)
+                    solved = _solved(model, fit, stress, rec.grid)
                     solved = "–" if solved is None else f"{np.sqrt(np.mean((solved - strain)[keep] ** 2)) / np.ptp(strain[keep]):.3g}"
                     lines.append(
                         f"| {path.stem} | {strain.size} | {fitted} | {'k ≥ 0' if signs else 'free'} "
@@ -73,18 +73,13 @@ def main():
         Path(args.out).write_text("\n".join(lines) + "\n")
 
 
-def _solved(fit, phys, stress, strain, times):
-    """The strain of the fitted law ``σ = k ε + η D^q (ε − x0)`` from rest at x0, solved
-    exactly, or None where the fit is not physical."""
-    import vojax
-
-    q, eta, k, x0 = float(fit.order[0]), float(phys["eta"]), float(phys["k"]), float(fit.x0)
-    if not (eta > 0 and k >= 0):
+def _solved(model, fit, stress, grid):
+    """The strain of the fitted law solved exactly (`fitted_strain`), or None where the fit
+    is not physical."""
+    try:
+        return model.fitted_strain(fit, stress, **grid)
+    except ValueError:
         return None
-    if k == 0:
-        return x0 + vojax.Springpot().strain_response(stress, t=times, q=q, eta=eta)
-    # ε − x0 = I^q((σ − k ε)/η): the offset's share k·x0 moves to the stress
-    return x0 + vojax.KelvinVoigt().strain_response(stress - k * x0, t=times, q=q, eta=eta, k=k)
 
 
 if __name__ == "__main__":

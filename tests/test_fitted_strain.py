@@ -85,6 +85,21 @@ def test_a_held_spring_solves_the_law_it_leaves():
     assert np.max(np.abs(kv.fitted_strain(fit, stress, **rec.grid) - expected)) < 1e-14
 
 
+def test_a_fit_whose_memory_terms_are_both_held_is_a_spring():
+    """The shipped myocardium record's Zener fit as the command line runs it: its memory
+    terms held at 0 (the order then moves nothing), the law left is the spring
+    ``ε = x0 + c σ``, the refit's own fit."""
+    from vojax._data._regressors import refit_options, regressors
+
+    rec, stress, strain = _myocardium()
+    zener = vojax.FractionalZener()
+    u, y, _, _ = regressors(rec, "zener")  # as `vojax run --model zener` fits it
+    fit = vojax.refit(u, y, **rec.grid, **refit_options(rec, "zener"), warn=False)
+    assert fit.p_at_bound == (True, True, False)
+    solved = zener.fitted_strain(fit, stress, **rec.grid)
+    assert np.max(np.abs(solved - np.asarray(fit.y_hat))) < 1e-12 * np.ptp(strain)
+
+
 def test_the_record_summary_reports_the_solved_laws_residual():
     """A Kelvin–Voigt record with noise on the strain: the refit's regression carries the
     noisy strain inside the integral, so its residual is not the fitted law's. The summary's
