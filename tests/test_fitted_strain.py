@@ -37,7 +37,7 @@ def _step_record(model, truth, q, x0, dt=0.01, num=400, sigma0=2.0, origin=None)
     t = dt * np.arange(num)
     start = t[0] if origin is None else origin
     tau = t - start
-    a, b, c = model.coefficients(**truth)
+    _, b, c = model.coefficients(**truth)
     compliance = np.where(tau > 0, model.creep_compliance(np.where(tau > 0, tau, 1.0), q=q,
                                                           **truth), c)
     ml = vojax.mittag_leffler(q, -b * tau**q) if b != 0 else np.ones_like(tau)

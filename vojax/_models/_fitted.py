@@ -17,7 +17,7 @@ exact for a stress linear between its samples, as `strain_response` is.
 import numpy as np
 
 from ._closed import mittag_leffler
-from ._respond import _host_array
+from ._respond import check_history
 
 
 def _law(a, b, c):
@@ -42,19 +42,6 @@ def _law(a, b, c):
     return FractionalZener(), dict(eta=zener_e1 * c / a, E0=e0, E1=zener_e1)
 
 
-def _check_clock(stress, dt, times):
-    """One sentence where the stress or its clock is not a record (`respond` checks the
-    same where it runs)."""
-    if stress.ndim != 1 or stress.shape[0] < 2:
-        raise ValueError(f"`stress` must have shape (N,) with N ≥ 2, got shape {stress.shape}.")
-    if times is None:
-        if isinstance(dt, bool) or not _host_array(dt, "dt").ndim == 0 or not float(dt) > 0:
-            raise ValueError(f"`dt` must be a positive finite number, got {dt!r}.")
-    elif times.shape != stress.shape or np.any(np.diff(times) <= 0):
-        raise ValueError(f"`t` must be strictly increasing with shape {stress.shape} to match "
-                         "`stress`.")
-
-
 def fitted_strain(model, fit, stress, dt, t, origin):
     """See `AbstractViscoelasticModel.fitted_strain`."""
     if not hasattr(fit, "order") or not hasattr(fit, "p") or not hasattr(fit, "x0"):
@@ -72,22 +59,16 @@ def fitted_strain(model, fit, stress, dt, t, origin):
             f"{len(model.p_signs)}: refit `model.inputs(stress, strain)` with "
             "`direct=model.direct(stress)`."
         )
-    if (dt is None) == (t is None):
-        raise TypeError("give exactly one of `dt` (a uniform step) and `t` (the sample times), "
-                        + ("got neither." if dt is None else "got both."))
+    stress, times = check_history(stress, dt, t, "stress")
     a, b, c = (float(v) for v in model._law_coefficients(p))
     x0, q = float(np.asarray(fit.x0)), float(order[0])
-    stress = _host_array(stress, "stress")
-    times = None if t is None else _host_array(t, "t")
     if a == 0.0 and b == 0.0 and c >= 0.0:  # both memory terms held at 0: a spring alone
-        _check_clock(stress, dt, times)
         return x0 + c * stress
     law, params = _law(a, b, c)
     if origin is not None:  # the test started there, the stress held at its first value
         if isinstance(origin, bool) or not isinstance(origin, (int, float, np.floating)):
             raise TypeError(f"`origin` must be a number, got {origin!r}.")
         origin = float(origin)
-        _check_clock(stress, dt, times)
         if times is None:
             times = float(dt) * np.arange(stress.shape[0])
         if not origin < times[0]:

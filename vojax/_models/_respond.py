@@ -76,27 +76,8 @@ def kernels(model, q, params, given):
 def respond(model, history, dt, t, q, params, given):
     """The response of the law to `history` on the clock `dt` or `t` (see the module)."""
     name = STRESS if given == STRESS else STRAIN
-    f = _host_array(history, name)
-    if f.ndim != 1 or f.shape[0] < 2:
-        raise ValueError(f"`{name}` must have shape (N,) with N ≥ 2, got shape {f.shape}.")
+    f, times = check_history(history, dt, t, name)
     q = check_alpha(q, upper_open=True)
-    if (dt is None) == (t is None):
-        raise TypeError("give exactly one of `dt` (a uniform step) and `t` (the sample times), "
-                        + ("got neither." if dt is None else "got both."))
-    if t is None:
-        if isinstance(dt, bool):
-            raise TypeError(f"`dt` must be a number, got {dt!r}.")
-        h = _host_array(dt, "dt")
-        if h.ndim != 0 or not h > 0:
-            raise ValueError(f"`dt` must be a positive finite number, got {dt!r}.")
-    else:
-        times = _host_array(t, "t")
-        if times.shape != f.shape:
-            raise ValueError(f"`t` must have shape {f.shape} to match `{name}`, got {times.shape}.")
-        if np.any(np.diff(times) <= 0):
-            i = int(np.argmax(np.diff(times) <= 0))
-            raise ValueError(f"`t` must be strictly increasing, but t[{i + 1}] = "
-                             f"{times[i + 1]!r} follows t[{i}] = {times[i]!r}.")
     params = check_parameters(model, params)
     with np.errstate(over="ignore", invalid="ignore"):
         out = (_uniform(model, f, float(dt), q, params, given) if t is None
@@ -107,6 +88,33 @@ def respond(model, history, dt, t, q, params, given):
             f"{name}, the clock or the parameters are too large for one another."
         )
     return out
+
+
+def check_history(history, dt, t, name):
+    """The loading history (N,) as a finite host array with N ≥ 2 and its clock, `dt` (a
+    positive number) or `t` (strictly increasing, one time a sample; exactly one of them):
+    ``(history, times or None)``, or one sentence saying what is wrong."""
+    f = _host_array(history, name)
+    if f.ndim != 1 or f.shape[0] < 2:
+        raise ValueError(f"`{name}` must have shape (N,) with N ≥ 2, got shape {f.shape}.")
+    if (dt is None) == (t is None):
+        raise TypeError("give exactly one of `dt` (a uniform step) and `t` (the sample times), "
+                        + ("got neither." if dt is None else "got both."))
+    if t is None:
+        if isinstance(dt, bool):
+            raise TypeError(f"`dt` must be a number, got {dt!r}.")
+        h = _host_array(dt, "dt")
+        if h.ndim != 0 or not h > 0:
+            raise ValueError(f"`dt` must be a positive finite number, got {dt!r}.")
+        return f, None
+    times = _host_array(t, "t")
+    if times.shape != f.shape:
+        raise ValueError(f"`t` must have shape {f.shape} to match `{name}`, got {times.shape}.")
+    if np.any(np.diff(times) <= 0):
+        i = int(np.argmax(np.diff(times) <= 0))
+        raise ValueError(f"`t` must be strictly increasing, but t[{i + 1}] = "
+                         f"{times[i + 1]!r} follows t[{i}] = {times[i]!r}.")
+    return f, times
 
 
 def _general(model, f, times, q, params, given):
