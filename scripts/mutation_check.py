@@ -1641,6 +1641,38 @@ MUTATIONS = {
         [("nrmse=nrmse(y, solved)", "nrmse=regression")],
         ["tests/test_fitted_strain.py"],
     ),
+    "refit's profile check skipped (a stalled or local fit kept)": (
+        "vojax/_refit_active.py",
+        [("    if start is None:\n        return best\n", "    return best\n")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "profile's faces ignore the signs": (
+        "vojax/_refit_profile.py",
+        [("        if np.any(signs[free] * p[: free.size] < 0):\n            continue\n", "")],
+        ["tests/test_refit_settles.py::test_the_profiles_face_is_the_constrained_least_squares"],
+    ),
+    "profile's sum of squares forgets the part outside the design": (
+        "vojax/_refit_profile.py",
+        [("        rss = rest + float(", "        rss = float(")],
+        ["tests/test_refit_settles.py::test_the_profiles_face_is_the_constrained_least_squares"],
+    ),
+    "profile narrows only the fit's own basin": (
+        "vojax/_refit_profile.py",
+        [("        if a <= fit_order <= b and not rss[k] < best[0]:",
+          "        if not rss[k] < best[0]:")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "profile's narrowing keeps the grid's order, not the narrowed one": (
+        "vojax/_refit_profile.py",
+        [("            best = (values[k][0], float(orders[k]), values[k][1])\n        a, b",
+          "            best = (values[k][0], best[1], values[k][1])\n        a, b")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "refit from the profile's order ignores its face": (
+        "vojax/_refit_active.py",
+        [("dict(solver, order0=start[0]), active=start[1])", "dict(solver, order0=start[0]))")],
+        ["tests/test_refit_settles.py"],
+    ),
 }
 
 

@@ -107,7 +107,11 @@ def refit(
     input's coefficient at 0 (the order then moves nothing and the solver stops where it
     started), is run again from the orders at 10, 30, 50, 70 and 90 % of `order_bounds`; the
     converged fit with the least (weighted) sum of squares is returned, so the answer does not
-    depend on the start.
+    depend on the start. A constant order is then checked against its profile (the sum of
+    squares with the coefficients refitted at each order, at 17 orders over `order_bounds`,
+    narrowed around each other basin): where the profile fits better, the fit is run again
+    from there (Levenberg–Marquardt stops at its start where the profile is flat, and in the
+    basin of its start where the profile has two minima).
 
     **Errors under correlated residuals:** the Gauss–Newton errors assume independent
     residuals; where they are correlated (lag-1 ρ above ``2/√n``) every error is inflated by
@@ -168,6 +172,7 @@ def _result(out, active, x0, estimate, trim, sw, bounds, all_times, warn):
     """The `Refit` from the solver's dictionary: the samples before the origin trimmed, the
     errors inflated for correlated residuals, the knots' times, the warnings."""
     offset = out.pop("offset")
+    out.pop("profile", None)
     fit = out.pop("fit")
     span = float(out.pop("span"))
     knots = out["knots"]

@@ -5,6 +5,7 @@ program, and the restarts of a fit that did not settle."""
 import jax.numpy as jnp
 import numpy as np
 
+from ._refit_profile import _profile_start
 from ._refit_solve import _fit, _hold_worst
 
 # a constant-order fit with fewer integrated inputs or direct regressors than these runs padded
@@ -27,7 +28,12 @@ def _settled_fit(mem, u2, v, big_y, sw, signs, num_knots, solver):
     """`_active_set` from `solver`'s start; where that fit did not converge, or its active set
     held every integrated input's coefficient at 0 (the order then moves nothing, and the
     solver stops where it started), it is run again from each of `RESTARTS` and the fit with
-    the least weighted sum of squares is kept (the first of equals: the given start's)."""
+    the least weighted sum of squares is kept (the first of equals: the given start's).
+
+    A constant order is then checked against its profile (`_profile_start`): where the
+    coefficients alone fit better at another order, the solver stopped short on a flat
+    profile, and it is run again from the profile's best order on its face; the fit with the
+    least sum of squares is kept."""
     import optimistix as optx
 
     width = u2.shape[1]
@@ -41,20 +47,26 @@ def _settled_fit(mem, u2, v, big_y, sw, signs, num_knots, solver):
         return float(np.sum((sw_np * fit[0]["residuals"]) ** 2))
 
     best = _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver)
-    if settled(best):
-        return best
     lo, hi = solver["bounds"]
-    for fraction in RESTARTS:
+    for fraction in () if settled(best) else RESTARTS:
         fit = _active_set(mem, u2, v, big_y, sw, signs, num_knots,
                           dict(solver, order0=lo + fraction * (hi - lo)))
         # a settled fit beats an unsettled one; among equals, the least sum of squares
         if (settled(fit), -rss(fit)) > (settled(best), -rss(best) * (1 - 1e-12)):
             best = fit
-    return best
+    # a constant order: checked against its profile, run again from the profile's best order
+    start = None if num_knots > 1 else _profile_start(
+        best[0]["profile"], mem, u2, v, big_y, sw, signs, solver, rss(best),
+        float(best[0]["order"][0]))
+    if start is None:
+        return best
+    fit = _active_set(mem, u2, v, big_y, sw, signs, num_knots,
+                      dict(solver, order0=start[0]), active=start[1])
+    return fit if rss(fit) < rss(best) else best
 
 
 def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None,
-                pad_inputs=None):
+                pad_inputs=None, active=None):
     """The nonlinear fit with the sign constraints as an active set: a coefficient whose free
     fit breaks its sign is held at 0 and the rest refitted, one at a time. Returns the fit's
     dictionary (NumPy arrays, the solver's result code) and the active flags (0 where held).
@@ -62,18 +74,11 @@ def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None
     A constant-order fit is padded with zero columns, their coefficients held at 0, up to
     `pad_inputs` (default `PAD_INPUTS`) integrated inputs (records up to `PAD_INPUTS_UP_TO`
     samples) and `pad_direct` (default `PAD_DIRECT`) direct regressors: the four laws of
-    `compare` share one compiled program."""
-    pad_direct = PAD_DIRECT if pad_direct is None else pad_direct
-    pad_inputs = PAD_INPUTS if pad_inputs is None else pad_inputs
-    n_all, width = u2.shape
-    wide = max(width, pad_inputs) if num_knots == 1 and n_all <= PAD_INPUTS_UP_TO else width
-    deep = max(v.shape[1], pad_direct) if num_knots == 1 else v.shape[1]
-    u_pad = u2 if wide == width else jnp.asarray(
-        np.concatenate([np.asarray(u2), np.zeros((n_all, wide - width))], axis=1), u2.dtype)
-    v_pad = np.concatenate([np.asarray(v), np.zeros((n_all, deep - v.shape[1]))], axis=1)
-    # where each real coefficient sits among the padded ones: the inputs', then the direct
-    real = np.r_[np.arange(width), wide + np.arange(v.shape[1])]
-    active = np.ones(signs.size)
+    `compare` share one compiled program. `active` (default all 1) starts the active set with
+    those coefficients held."""
+    u_pad, v_pad, real = _padded(u2, v, num_knots, pad_inputs, pad_direct)
+    wide, deep = u_pad.shape[1], v_pad.shape[1]
+    active = np.ones(signs.size) if active is None else np.array(active, float)
     dtype = big_y.dtype
     while True:
         padded = np.zeros(wide + deep)
@@ -85,9 +90,27 @@ def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None
             np.asarray(solver["atol"], dtype), solver["max_steps"], solver["throw"],
         )
         # on the host from here (an eager JAX operation compiles a program of its own)
-        out = {k: (v_ if k == "result" else np.asarray(v_)) for k, v_ in out.items()}
+        out = {k: (v_ if k in ("result", "profile") else np.asarray(v_))
+               for k, v_ in out.items()}
         out["p"], out["p_stderr"] = out["p"][real], out["p_stderr"][real]
+        # the profile's grid (a constant order), with where the real columns sit in it
+        offset = np.arange(wide + deep, wide + deep + 1) if solver["estimate"] else []
+        out["profile"] = (*out["profile"], np.r_[real, offset].astype(int))
         out["p_cov"] = out["p_cov"][np.ix_(real, real)]
         se = np.maximum(out["p_stderr"], np.finfo(float).tiny)
         if not _hold_worst(active, signs, out["p"], se):
             return out, active
+
+
+def _padded(u2, v, num_knots, pad_inputs=None, pad_direct=None):
+    """`u2` and `v` padded with zero columns as `_active_set` says, and where each real
+    coefficient sits among the padded ones (the inputs', then the direct regressors')."""
+    pad_direct = PAD_DIRECT if pad_direct is None else pad_direct
+    pad_inputs = PAD_INPUTS if pad_inputs is None else pad_inputs
+    n_all, width = u2.shape
+    wide = max(width, pad_inputs) if num_knots == 1 and n_all <= PAD_INPUTS_UP_TO else width
+    deep = max(v.shape[1], pad_direct) if num_knots == 1 else v.shape[1]
+    u_pad = u2 if wide == width else jnp.asarray(
+        np.concatenate([np.asarray(u2), np.zeros((n_all, wide - width))], axis=1), u2.dtype)
+    v_pad = np.concatenate([np.asarray(v), np.zeros((n_all, deep - v.shape[1]))], axis=1)
+    return u_pad, v_pad, np.r_[np.arange(width), wide + np.arange(v.shape[1])]

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._integral import order_map
+from ._refit_profile import _profile_orders, _reductions
 
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
     pass
@@ -138,7 +139,11 @@ def _fit(
     theta = theta.at[num_knots:].set(_zero_rounding(theta[num_knots:], design(phi_t), big_y, sw))
     knot_z = jax.nn.sigmoid(theta[:num_knots])
     knots_sd = (hi - lo) * knot_z * (1 - knot_z) * jnp.sqrt(jnp.maximum(jnp.diag(cov)[:num_knots], 0))
+    # a constant order's profile at a grid of orders, with the fit (its order map shared)
+    profile = (_reductions(phi_of, v, big_y, sw, _profile_orders(bounds), estimate)
+               if num_knots == 1 else ())
     return dict(
+        profile=profile,
         order=_order_curve(theta[:num_knots], num, bounds, span),
         order_stderr=slope * raw_sd,
         order_lower=lo + (hi - lo) * jax.nn.sigmoid(raw - 2 * raw_sd),
