@@ -31,9 +31,9 @@ def _settled_fit(mem, u2, v, big_y, sw, signs, num_knots, solver):
     the least weighted sum of squares is kept (the first of equals: the given start's).
 
     A constant order is then checked against its profile (`_profile_start`): where the
-    coefficients alone fit better at another order, the solver stopped short on a flat
-    profile, and it is run again from the profile's best order on its face; the fit with the
-    least sum of squares is kept."""
+    coefficients alone fit better at another order, the solver stopped short (on a flat
+    profile, or in the basin of its start), and it is run again from the profile's best order
+    on its face; the fit with the least sum of squares is kept."""
     import optimistix as optx
 
     width = u2.shape[1]
@@ -93,7 +93,8 @@ def _active_set(mem, u2, v, big_y, sw, signs, num_knots, solver, pad_direct=None
         out = {k: (v_ if k in ("result", "profile") else np.asarray(v_))
                for k, v_ in out.items()}
         out["p"], out["p_stderr"] = out["p"][real], out["p_stderr"][real]
-        # the profile's grid (a constant order), with where the real columns sit in it
+        # the profile's grid (a constant order; else empty), with where the real columns
+        # sit in it (the offset last)
         offset = np.arange(wide + deep, wide + deep + 1) if solver["estimate"] else []
         out["profile"] = (*out["profile"], np.r_[real, offset].astype(int))
         out["p_cov"] = out["p_cov"][np.ix_(real, real)]
