@@ -42,14 +42,18 @@ _CAP: dict = {}
 
 
 def _spy():
-    """Keeps the last `fit_points` result (on the fitted clock) in `_CAP`."""
+    """Keeps the `fit_points` result of the span's clock (on the fitted points) in `_CAP`:
+    the band weighed from its explanations, before the second clock's fit
+    (`vojax._tracker._clock`), which is left out."""
     from vojax._tracker import _estimator, _fit
 
     original = _fit.fit_points
 
     def watched(*args, **kwargs):
-        _CAP["result"] = original(*args, **kwargs)
-        return _CAP["result"]
+        out = original(*args, **kwargs)
+        if kwargs.get("weigh", True):  # the span's clock (the data's unit's comes second)
+            _CAP["result"] = out
+        return out
 
     # `Tracker` calls it by its own name; the blocks import it when they run
     _estimator.fit_points = _fit.fit_points = watched
