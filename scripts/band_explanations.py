@@ -42,17 +42,17 @@ _CAP: dict = {}
 
 
 def _spy():
-    """Keeps the `fit_points` result of the span's clock (on the fitted points) in `_CAP`:
-    the band weighed from its explanations, before the second clock's fit
-    (`vojax._tracker._clock`), which is left out."""
+    """Keeps the `fit_points` results (on the fitted points) in `_CAP`: the span clock's
+    (``"result"``: the band weighed from its explanations, before the second clock's
+    widening) and the data's unit's (``"other"``, where `vojax._tracker._clock` fits it)."""
     from vojax._tracker import _estimator, _fit
 
     original = _fit.fit_points
 
     def watched(*args, **kwargs):
         out = original(*args, **kwargs)
-        if kwargs.get("weigh", True):  # the span's clock (the data's unit's comes second)
-            _CAP["result"] = out
+        # the span's clock; the data's unit's (`weigh=False`) comes second
+        _CAP["result" if kwargs.get("weigh", True) else "other"] = out
         return out
 
     # `Tracker` calls it by its own name; the blocks import it when they run
@@ -82,6 +82,7 @@ def _record(family, index, setting, data):
     if setting == "stated":
         kwargs = dict(parameters=case["stated"])
     started = time.perf_counter()
+    _CAP.pop("other", None)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -89,7 +90,7 @@ def _record(family, index, setting, data):
         except ValueError as e:
             return dict(family=family, index=index, setting=setting, error=str(e))
     seconds = time.perf_counter() - started
-    fit = _CAP["result"]
+    fit, other = _CAP["result"], _CAP.get("other")
     t = np.asarray(case["t"], float)
     size = block_size(t.size, vojax.TrackerSettings().max_points)
     t_fit = t if size == 1 else block_average(t, size)
@@ -111,6 +112,12 @@ def _record(family, index, setting, data):
         other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
         noise_levels=getattr(fit, "noise_levels", None),
         case_noise=float(np.var(case["y"] - case["x"])),
+        log_likelihood=fit.tuning.log_likelihood,
+        # the second clock's tuned smoothing (the data's unit of time), where it ran
+        other=None if other is None else dict(
+            alpha=_compact(other.alpha), lower=_compact(other.alpha_lower),
+            upper=_compact(other.alpha_upper), log_likelihood=other.tuning.log_likelihood,
+            converged=bool(other.converged)),
     )
 
 

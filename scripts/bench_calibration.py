@@ -28,6 +28,11 @@ time over a common base (white noise of 0.5–2 % of the output's range, p const
   springpot answers with a phase lag set by its order alone: the parameter constant (a
   third of the draws) or drifting by ±10–40 % inside the integral or as a gain (a third
   each); white noise or AR(1) noise (ρ 0.5–0.95), half the draws each;
+- ``clock``: the parameter constant in the data's own unit of time, not the span's: on the
+  span's clock a gain ``width^(α(t) − mean α)`` (``width`` the record's span in the
+  recording's unit); the oscillation superposed on odd draws. The tracker states its
+  parameters on the span, so its estimate is the wrong account's, and its band must cover
+  the truth through its second fit on the data's unit (`vojax._tracker._clock`);
 - ``stated-drift``: the parameter drifting as a gain, the user stating a bound D on its
   drift (0.1, 0.2 or 0.3: ``parameters=D``), the true drift below it (0.3–0.9 D) on even
   draws and above it (1.5–3 D) on odd ones.
@@ -72,7 +77,7 @@ import numpy as np
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 FAMILIES = (
     "white", "noisy", "coloured", "drift", "drift-constant", "gain-drift", "gain-drift-constant",
-    "irregular", "lengths", "long", "informative", "stated-drift",
+    "irregular", "lengths", "long", "informative", "stated-drift", "clock",
 )
 SHAPES = ("constant", "smooth", "step", "decay", "load")
 LENGTHS = (300, 600, 1200)  # few lengths: each compiles once per worker
@@ -244,6 +249,10 @@ def draw_case(family, index, signals):
         u_fine = np.interp(fine_t, t, (u_fine + oscillation(s_fine, rng))[picks])
         form = index % 3  # constant, drifting inside the integral, drifting as a gain
         drifting, gain = form > 0, form == 2
+    if family == "clock":  # constant in the data's unit: a gain width^α(t) on the span's
+        if index % 2 == 1:  # … with the oscillation superposed on odd draws
+            u_fine = np.interp(fine_t, t, (u_fine + oscillation(s_fine, rng))[picks])
+        gain, p_fine = True, width ** (alpha_fine - np.mean(alpha_fine))
     if family == "stated-drift":
         gain, stated = True, float(rng.choice([0.1, 0.2, 0.3]))
     if drifting:
