@@ -5,6 +5,7 @@ stated constant it identifies most white-noise and noisy draws with bands that h
 paper's law never claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
 
 import importlib.util
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +52,99 @@ def test_truth_is_inside_the_model_to_well_below_the_noise(suite, family, index)
     model = np.asarray(vojax.fractional_integral(case["u"] * case["p"], case["alpha"], **grid))
     sd = case["noise"] * np.ptp(case["x"])
     assert np.sqrt(np.mean((case["x"] - model) ** 2)) < 0.2 * sd
+
+
+@pytest.mark.parametrize("index", [1, 2])
+def test_the_clock_familys_parameter_is_constant_in_the_datas_unit(suite, index):
+    """The `clock` family's records (a moving order; the oscillation superposed on odd
+    draws): on the record's clock of time over its span the parameter is a gain that drifts,
+    and in the data's own unit of time it is constant, ``x = c·I^α u`` with the integral on
+    the recording's times (vojax's memory at the true order, the constant fitted): the
+    record differs from that by far less than the drawn noise, while the same integral on
+    the span's clock misses by more than the noise (the two accounts differ)."""
+    module, signals = suite
+    case = module.draw_case("clock", index, signals)
+    assert np.ptp(case["alpha"]) > 0.05 and case["true_drift"] > 0.1
+    sd = case["noise"] * np.ptp(case["x"])
+
+    def miss(t):
+        m = np.asarray(vojax.fractional_integral(case["u"], case["alpha"], dt=float(t[1] - t[0])))
+        c = (m @ case["x"]) / (m @ m)
+        return np.sqrt(np.mean((case["x"] - c * m) ** 2))
+
+    assert miss(case["t"]) < 0.2 * sd
+    assert miss(case["t"] / case["t"][-1]) > sd
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="open (issue 50): on clock draw 19 (an order following the load, 0.52-0.63, on a "
+    "PVC creep strain input; the parameter constant in the data's unit, so a 51 % drift on "
+    "the span's clock) the default identifies 0.47 +- 0.08 with the truth outside at 99 % of "
+    "the second half: no explanation the span's fit weighs moves the order with the load while "
+    "the parameter drifts, and the second clock's fit is its tuned smoothing alone (0.55 +- "
+    "0.04); that fit with its alternatives (`time_scale=1`) gives +- 0.37, covering the truth, "
+    "at about twice the default's cost",
+)
+def test_the_default_is_not_confidently_wrong_on_clock_draw_19(suite):
+    """Clock draw 19 (see the `clock` family): the default tracker either refuses the record
+    or its band holds the truth on at least half of the second half's samples."""
+    module, signals = suite
+    case = module.draw_case("clock", 19, signals)
+    row = module.score(case, module.run_method("tracker", case))
+    assert not (row["identified"] and row["wrong"]), row
+
+
+def _held_explanation(case, settings):
+    """The default tracker on `case` with `settings`: its result and its held smoothing's
+    explanation (the span clock's fit, where the band is weighed)."""
+    from vojax._tracker import _estimator, _fit
+
+    caught = {}
+    original = _fit.fit_points
+
+    def watched(*args, **kwargs):
+        out = original(*args, **kwargs)
+        if kwargs.get("weigh", True):
+            caught["fit"] = out
+        return out
+
+    # the estimator calls it by its own name; the blocks of a long record import it as they run
+    _estimator.fit_points = _fit.fit_points = watched
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = vojax.identify(case["u"], case["y"], dt=float(case["t"][1] - case["t"][0]),
+                                 warn=False, settings=settings)
+    finally:
+        _estimator.fit_points = _fit.fit_points = original
+    held = next(e for e in caught["fit"].explanations if e.kind == "held")
+    return res, held
+
+
+def test_the_held_smoothing_follows_a_step_that_drifting_parameters_absorbed(suite):
+    """Lengths draw 7 (the order steps from 0.25 to 0.12, the parameter constant, 2,400
+    samples of a myocardium stretch, 1 % white noise): the tuned smoothing lets the parameter
+    drift 12 % and puts the order at 0.26. Held at the tuned order drift, the parameters-held
+    smoothing cannot follow the step (χ²/dof about 16), so no explanation placed the order
+    at the truth and the default was confidently wrong (0.26 ± 0.07). With the held
+    smoothing's order drift chosen by evidence it fits (χ² test) at the truth, and the
+    default's band holds the truth on most of the second half (the suite's line for
+    confidently wrong)."""
+    module, signals = suite
+    case = module.draw_case("lengths", 7, signals)
+    half = case["t"] > case["t"][-1] / 2
+    truth = float(np.median(case["alpha"][half]))
+    _, stuck = _held_explanation(case, vojax.TrackerSettings(held_order_drift=(1.0,)))
+    assert not stuck.fits
+    res, held = _held_explanation(case, vojax.TrackerSettings())
+    assert held.fits
+    order = np.asarray(res.alpha_bounds[0] + np.ptp(res.alpha_bounds) / (1 + np.exp(-held.beta)))
+    n = order.size
+    assert abs(float(np.median(order[n // 2:])) - truth) < 0.01
+    lower, upper = np.asarray(res.alpha_lower), np.asarray(res.alpha_upper)
+    inside = (case["alpha"] >= lower) & (case["alpha"] <= upper)
+    assert inside[half].mean() > 0.5  # 0.77; the step's edge lies in the second half
 
 
 def _rows(module, signals, method, families, count=6):

@@ -29,24 +29,35 @@ def fitting(residuals, mask, n, fit_noise, whiten=None):
 
 
 def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
-    """The order trajectory smoothed again with the tuned order drift but the parameters held
-    (drift `constant_drift`) and the measurement noise at `noise` (the tuned one), from the
-    constant-order fit `start`. With one input an order and drifting parameters trade off;
-    where the tuned parameters drift, this is the order the data give without that drift. Returns ``(order, explanation)``, the smoothing
-    as an `Explanation` of kind "held" (χ² at `fit_noise`, or under `whiten`); ``(None,
-    None)`` if the smoothing does not converge."""
+    """The order trajectory smoothed again with the parameters held (drift `constant_drift`)
+    and the measurement noise at `noise` (the tuned one), from the constant-order fit
+    `start`, at the tuned order drift × each of `held_order_drift` (within the order drift's
+    range), the run with the largest Laplace evidence kept. With one input an order and
+    drifting parameters trade off; where the tuned parameters drift, this is the order the
+    data give without that drift, and the order drift the tuned run needed is not that
+    order's: a step in the order that drifting parameters absorbed, the held order must
+    follow. Returns ``(order, explanation)``, the smoothing as an `Explanation` of kind
+    "held" (χ² at `fit_noise`, or under `whiten`); ``(None, None)`` if no run converges."""
+    s = problem.settings
     dtype = problem.u.dtype
-    held = Hyper(hyper.log_q_order,
-                 jnp.log(to_device(np.asarray(problem.settings.constant_drift, dtype))),
-                 jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
-                 hyper.log_ar_time)
-    sm = problem.smooth_from(held, start)
-    if not bool(sm.converged):
+    qo = float(np.exp(np.asarray(hyper.log_q_order)))
+    top = float(s.order_drift_range[1])
+    best, best_score = None, -np.inf
+    for factor in s.held_order_drift:
+        held = Hyper(jnp.log(to_device(np.asarray(min(qo * factor, top), dtype))),
+                     jnp.log(to_device(np.asarray(s.constant_drift, dtype))),
+                     jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
+                     hyper.log_ar_time)
+        sm = problem.smooth_from(held, start)
+        score = host_score(sm)  # −∞ where the run did not converge
+        if score > best_score:
+            best, best_score = sm, score
+    if best is None:
         return None, None
-    theta, n = np.asarray(sm.theta), problem.n
-    residuals = np.asarray(problem.y) - model_output(theta, np.asarray(sm.phi), n)
+    theta, n = np.asarray(best.theta), problem.n
+    residuals = np.asarray(problem.y) - model_output(theta, np.asarray(best.phi), n)
     (explanation,) = smoothing_explanations(
-        ["held"], theta[None, :, 0], np.asarray(sm.cov)[None, :, 0, 0], [host_score(sm)],
+        ["held"], theta[None, :, 0], np.asarray(best.cov)[None, :, 0, 0], [best_score],
         residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten)
     return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation
 
