@@ -84,7 +84,7 @@ def test_the_clock_familys_parameter_is_constant_in_the_datas_unit(suite, index)
     "the second half: no explanation the span's fit weighs moves the order with the load while "
     "the parameter drifts, and the second clock's fit is its tuned smoothing alone (0.55 +- "
     "0.04); that fit with its alternatives (`time_scale=1`) gives +- 0.37, covering the truth, "
-    "at about twice the default's cost",
+    "at half a tracker run more per record (the second fit is half of one today)",
 )
 def test_the_default_is_not_confidently_wrong_on_clock_draw_19(suite):
     """Clock draw 19 (see the `clock` family): the default tracker either refuses the record

@@ -41,10 +41,10 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     s = problem.settings
     dtype = problem.u.dtype
     qo = float(np.exp(np.asarray(hyper.log_q_order)))
-    top = float(s.order_drift_range[1])
     best, best_score = None, -np.inf
     for factor in s.held_order_drift:
-        held = Hyper(jnp.log(to_device(np.asarray(min(qo * factor, top), dtype))),
+        drift = float(np.clip(qo * factor, *s.order_drift_range))  # a factor 0 too
+        held = Hyper(jnp.log(to_device(np.asarray(drift, dtype))),
                      jnp.log(to_device(np.asarray(s.constant_drift, dtype))),
                      jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
                      hyper.log_ar_time)
