@@ -41,10 +41,11 @@ SETTINGS = {
 _CAP: dict = {}
 
 
-def _spy():
-    """Keeps the `fit_points` results (on the fitted points) in `_CAP`: the span clock's
-    (``"result"``: the band weighed from its explanations, before the second clock's
-    widening) and the data's unit's (``"other"``, where `vojax._tracker._clock` fits it)."""
+def spy(into):
+    """Keeps the `fit_points` results (on the fitted points) in the dict `into`: the span
+    clock's (``"result"``: the band weighed from its explanations, before the second clock's
+    widening) and the data's unit's (``"other"``, where `vojax._tracker._clock` fits it).
+    Returns the function that puts the original back."""
     from vojax._tracker import _estimator, _fit
 
     original = _fit.fit_points
@@ -52,11 +53,16 @@ def _spy():
     def watched(*args, **kwargs):
         out = original(*args, **kwargs)
         # the span's clock; the data's unit's (`weigh=False`) comes second
-        _CAP["result" if kwargs.get("weigh", True) else "other"] = out
+        into["result" if kwargs.get("weigh", True) else "other"] = out
         return out
 
     # `Tracker` calls it by its own name; the blocks import it when they run
     _estimator.fit_points = _fit.fit_points = watched
+
+    def undo():
+        _estimator.fit_points = _fit.fit_points = original
+
+    return undo
 
 
 def _compact(a):
@@ -75,7 +81,7 @@ def _record(family, index, setting, data):
 
     if "signals" not in _CAP:
         _CAP["signals"] = bench.real_signals(Path(data))
-        _spy()
+        spy(_CAP)
     case = bench.draw_case(family, index, _CAP["signals"])
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
     kwargs = dict(SETTINGS.get(setting, {}))

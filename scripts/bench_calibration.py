@@ -245,13 +245,13 @@ def draw_case(family, index, signals):
     gain = family.startswith("gain-drift")
     stated = None
     drifting = "drift" in family
-    if family == "informative":  # the input the tracker assumes: linear between its samples
+    if family == "informative" or (family == "clock" and index % 2 == 1):
+        # the oscillation superposed; the input the tracker assumes: linear between its samples
         u_fine = np.interp(fine_t, t, (u_fine + oscillation(s_fine, rng))[picks])
+    if family == "informative":
         form = index % 3  # constant, drifting inside the integral, drifting as a gain
         drifting, gain = form > 0, form == 2
     if family == "clock":  # constant in the data's unit: a gain width^α(t) on the span's
-        if index % 2 == 1:  # … with the oscillation superposed on odd draws
-            u_fine = np.interp(fine_t, t, (u_fine + oscillation(s_fine, rng))[picks])
         gain, p_fine = True, width ** (alpha_fine - np.mean(alpha_fine))
     if family == "stated-drift":
         gain, stated = True, float(rng.choice([0.1, 0.2, 0.3]))

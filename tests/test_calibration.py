@@ -21,13 +21,17 @@ pytestmark = [
 ]
 
 
-@pytest.fixture(scope="module")
-def suite():
-    spec = importlib.util.spec_from_file_location(
-        "bench_calibration", ROOT / "scripts" / "bench_calibration.py"
-    )
+def _script(name):
+    """A module of scripts/, imported from its file (scripts/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def suite():
+    module = _script("bench_calibration")
     return module, module.real_signals(DATA)
 
 
@@ -97,28 +101,18 @@ def test_the_default_is_not_confidently_wrong_on_clock_draw_19(suite):
 
 def _held_explanation(case, settings):
     """The default tracker on `case` with `settings`: its result and its held smoothing's
-    explanation (the span clock's fit, where the band is weighed)."""
-    from vojax._tracker import _estimator, _fit
-
+    explanation (the span clock's fit, where the band is weighed), caught by the spy of
+    `scripts/band_explanations.py`."""
     caught = {}
-    original = _fit.fit_points
-
-    def watched(*args, **kwargs):
-        out = original(*args, **kwargs)
-        if kwargs.get("weigh", True):
-            caught["fit"] = out
-        return out
-
-    # the estimator calls it by its own name; the blocks of a long record import it as they run
-    _estimator.fit_points = _fit.fit_points = watched
+    undo = _script("band_explanations").spy(caught)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = vojax.identify(case["u"], case["y"], dt=float(case["t"][1] - case["t"][0]),
                                  warn=False, settings=settings)
     finally:
-        _estimator.fit_points = _fit.fit_points = original
-    held = next(e for e in caught["fit"].explanations if e.kind == "held")
+        undo()
+    held = next(e for e in caught["result"].explanations if e.kind == "held")
     return res, held
 
 
