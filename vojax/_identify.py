@@ -6,6 +6,7 @@ from ._adaptive._estimator import LawEstimator
 from ._identification import Identification
 from ._settings import TrackerSettings
 from ._tracker._estimator import KALMAN_BOUNDS, Tracker
+from ._xla import spare_mappings
 
 
 def identify(
@@ -142,6 +143,7 @@ def identify(
     """
     u, y, dt, t = check.record_arguments(u, y, dt, t)
     check.choice(method, ("kalman", "gradient"), "method")
+    spare_mappings()  # a long process never reaches the cap on memory mappings
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
     if method == "kalman":

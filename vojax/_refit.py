@@ -19,6 +19,7 @@ from ._refit_inputs import (
     _weights,
 )
 from ._validate import check_options
+from ._xla import spare_mappings
 
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
     pass
@@ -121,6 +122,7 @@ def refit(
     **Returns:** a `Refit`; ``p`` holds the coefficients of `u` then of `direct`.
     """
     u, y, dt, t = check.record_arguments(u, y, dt, t, call="refit")
+    spare_mappings()  # a long process (a batch, `compare`'s models) never reaches the cap
     bounds = check.interval(order_bounds, "order_bounds")
     estimate = _check_x0(x0, origin)
     order0 = _start(order0, bounds)

@@ -13,9 +13,11 @@ of the whole process, made before the first computation. vojax never sets it on 
 ``vojax`` command sets it for itself (``VOJAX_FAST_CPU_LOOPS=0`` turns that off), and a
 notebook or script opts in with `use_fast_cpu_loops` before its first JAX computation.
 
-Also here: `quiet_xla_logs` (the command's stderr without XLA's own log lines), and for the
-first call's cost: `use_compilation_cache` (compiled programs kept on disk) and `to_device`
-(host arrays moved to the device by a transfer, not by a compiled program).
+Also here: `quiet_xla_logs` (the command's stderr without XLA's own log lines), for the
+first call's cost `use_compilation_cache` (compiled programs kept on disk) and `to_device`
+(host arrays moved to the device by a transfer, not by a compiled program), and for a long
+process `spare_mappings` (compiled programs dropped before they exhaust the memory mappings
+Linux allows a process).
 """
 
 import os
@@ -158,3 +160,52 @@ def to_device(value):
     import numpy as np
 
     return jax.device_put(np.asarray(value))
+
+
+# XLA:CPU keeps every compiled program in memory mappings of its own (3 to 20 each; a tracker
+# run on a record of a new length adds about 800), and Linux caps the mappings of a process
+# (``vm.max_map_count``, 65,530 by default). A process past the cap cannot map a new program
+# and dies inside the compiler (a segfault or an abort): records of about 80 distinct lengths
+# identified one after another in one process, or the test suite in one worker.
+MAPPINGS_SHARE = 0.5  # share of the cap past which `spare_mappings` drops the compiled programs
+_dropped = 0  # how many times `spare_mappings` has dropped them (`programs_dropped`)
+
+
+def _mapping_count_and_limit() -> tuple[int, int] | None:
+    """This process's memory mappings and the most Linux allows it; None elsewhere."""
+    try:
+        with open("/proc/sys/vm/max_map_count", "rb") as f:
+            limit = int(f.read())
+        with open("/proc/self/maps", "rb") as f:
+            return f.read().count(b"\n"), limit
+    except (OSError, ValueError):
+        return None
+
+
+def spare_mappings(share: float | None = None) -> bool:
+    """Drops JAX's compiled programs held in memory (`jax.clear_caches`) once this process
+    holds more than `share` (default `MAPPINGS_SHARE`) of the memory mappings Linux allows
+    it, so that a long process (a batch, a notebook) never reaches the cap, where compiling
+    aborts. A program dropped
+    is compiled again when next needed (or loaded from `use_compilation_cache`'s folder);
+    results are unchanged. `identify`, `refit` and `compare` call it on entry. Elsewhere
+    than Linux it does nothing.
+
+    **Returns:** whether the programs were dropped.
+    """
+    global _dropped
+    share = MAPPINGS_SHARE if share is None else share
+    counted = _mapping_count_and_limit()
+    if counted is None or counted[0] <= share * counted[1]:
+        return False
+    import jax
+
+    jax.clear_caches()
+    _dropped += 1
+    return True
+
+
+def programs_dropped() -> int:
+    """How many times `spare_mappings` has dropped the compiled programs in this process (a
+    program known to have run may have to compile again since)."""
+    return _dropped

@@ -8,11 +8,11 @@ import threading
 import jax
 import numpy as np
 
-from .._xla import to_device
+from .._xla import programs_dropped, to_device
 from ._model import Hyper
 from ._smoother import batch_pays, smoother_batch, smoother_modes
 
-_warm: set = set()  # (function, shapes) already run: their shares may run in threads
+_warm: set = set()  # (drops, function, shapes) already run: their shares may run in threads
 _warm_lock = threading.Lock()
 
 
@@ -20,7 +20,8 @@ def in_threads(problem, fn, count, call, key):
     """``call(lo, hi)`` for equal shares ``[lo, hi)`` of the `count` runs, in threads (at most
     `settings.run_threads`, one per core) once `fn` has run for these shapes (`key`); the
     first time one share after another, so that two threads never compile the same
-    program. Returns the shares' outputs in order, with their ``(lo, hi)``."""
+    program (again after `spare_mappings` has dropped the compiled programs). Returns the
+    shares' outputs in order, with their ``(lo, hi)``."""
     limit = problem.settings.run_threads
     if problem.schedule != "sequential" and jax.default_backend() == "cpu":
         # XLA:CPU's runtime was seen to deadlock running the prefix sums' programs from two
@@ -29,7 +30,7 @@ def in_threads(problem, fn, count, call, key):
     workers = max(1, min(count, os.cpu_count() or 1, limit or 1))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
-    key = (id(fn), size, *key)
+    key = (programs_dropped(), id(fn), size, *key)
     with _warm_lock:
         warm = key in _warm
     if not warm or len(shares) == 1:

@@ -1,0 +1,100 @@
+"""`spare_mappings`: a long process drops JAX's compiled programs before it exhausts the
+memory mappings Linux allows it (XLA:CPU maps each program; past ``vm.max_map_count`` the
+compiler aborts), and what ran before is compiled again where it has to be."""
+
+import mmap
+import sys
+import threading
+import types
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vojax
+from vojax import _xla
+from vojax._tracker import _threads
+
+pytestmark = pytest.mark.skipif(
+    not sys.platform.startswith("linux"), reason="memory mappings are counted on Linux only"
+)
+
+
+def _probe():
+    """A jitted function with one compiled program held in its cache."""
+    f = jax.jit(lambda x: jnp.cumsum(x) * 2.0)
+    f(jnp.ones(7))
+    assert f._cache_size() == 1
+    return f
+
+
+def test_the_count_follows_the_mappings_the_process_makes():
+    """Mappings made one by one, read and writable in turn (so that the kernel cannot merge
+    neighbours): the count rises by as many, to within the few the interpreter makes."""
+    before, limit = _xla._mapping_count_and_limit()
+    with open("/proc/sys/vm/max_map_count") as f:
+        assert limit == int(f.read())
+    maps = [mmap.mmap(-1, mmap.PAGESIZE, prot=mmap.PROT_READ | (mmap.PROT_WRITE * (k % 2)))
+            for k in range(400)]
+    after, _ = _xla._mapping_count_and_limit()
+    assert 390 <= after - before <= 420
+    for m in maps:
+        m.close()
+
+
+def test_below_the_share_nothing_is_dropped():
+    f, dropped = _probe(), _xla.programs_dropped()
+    assert not _xla.spare_mappings(share=1.0)
+    assert f._cache_size() == 1 and _xla.programs_dropped() == dropped
+
+
+def test_past_the_share_the_programs_and_their_mappings_go():
+    """Forty programs compiled, then dropped: their mappings are returned (each holds at
+    least one), the counter says so, and a dropped function compiles again to the same
+    value."""
+    f, dropped = _probe(), _xla.programs_dropped()
+    others = [jax.jit(lambda x, k=k: jnp.sin(x) + k) for k in range(40)]
+    for k, g in enumerate(others):
+        g(jnp.ones(k + 1))
+    held, _ = _xla._mapping_count_and_limit()
+    assert _xla.spare_mappings(share=0.0)
+    left, _ = _xla._mapping_count_and_limit()
+    assert held - left >= 40
+    assert f._cache_size() == 0 and _xla.programs_dropped() == dropped + 1
+    np.testing.assert_array_equal(np.asarray(f(jnp.ones(7))), 2.0 * np.arange(1, 8))
+
+
+@pytest.mark.parametrize("call", ["identify", "refit"])
+def test_identify_and_refit_spare_the_mappings_on_entry(call, monkeypatch):
+    """With the share at 0 every entry drops the programs (`compare` goes through `refit`)."""
+    monkeypatch.setattr(_xla, "MAPPINGS_SHARE", 0.0)
+    f, dropped = _probe(), _xla.programs_dropped()
+    u = np.ones(60)
+    y = np.asarray(vojax.fractional_integral(u, 0.4, dt=0.1))
+    if call == "identify":
+        vojax.identify(u, y, dt=0.1, method="gradient", warn=False)
+    else:
+        vojax.refit(u, y, dt=0.1)
+    assert f._cache_size() == 0 and _xla.programs_dropped() > dropped
+
+
+@pytest.mark.skipif((__import__("os").cpu_count() or 1) < 2, reason="needs two cores")
+def test_after_a_drop_the_tracker_runs_its_shares_one_after_another_again(monkeypatch):
+    """`in_threads` runs a pass's shares in threads only once they have run for their shapes
+    (two threads would compile the same program); a drop makes them cold again."""
+    problem = types.SimpleNamespace(settings=types.SimpleNamespace(run_threads=2),
+                                    schedule="sequential")
+    fn = object()  # a key of its own
+
+    def threads_used():
+        seen = []
+        _threads.in_threads(problem, fn, 2, lambda lo, hi: seen.append(threading.get_ident()),
+                            ("shape",))
+        return set(seen) - {threading.get_ident()}
+
+    assert not threads_used()  # cold: in this thread
+    assert threads_used()  # warm: in the pool's
+    monkeypatch.setattr(_xla, "_dropped", _xla.programs_dropped() + 1)
+    assert not threads_used()
+    assert threads_used()
