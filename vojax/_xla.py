@@ -186,10 +186,9 @@ def spare_mappings(share: float | None = None) -> bool:
     """Drops JAX's compiled programs held in memory (`jax.clear_caches`) once this process
     holds more than `share` (default `MAPPINGS_SHARE`) of the memory mappings Linux allows
     it, so that a long process (a batch, a notebook) never reaches the cap, where compiling
-    aborts. A program dropped
-    is compiled again when next needed (or loaded from `use_compilation_cache`'s folder);
-    results are unchanged. `identify`, `refit` and `compare` call it on entry. Elsewhere
-    than Linux it does nothing.
+    aborts. A program dropped is compiled again when next needed (or loaded from
+    `use_compilation_cache`'s folder); results are unchanged. `identify` and `refit` (so
+    `compare`) call it on entry. Elsewhere than Linux it does nothing.
 
     **Returns:** whether the programs were dropped.
     """
