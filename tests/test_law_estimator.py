@@ -4,6 +4,7 @@ the result the way its meaning says), bad options are refused when it is built, 
 
 import dataclasses
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -22,14 +23,22 @@ def record():
     return u, y
 
 
+@eqx.filter_jit
+def _step(law, state, u, y):
+    return law.step(state, u, y)
+
+
 def _by_hand(u, y, *, gamma, lam, alpha0, bounds, x0, r0, memory="exponential"):
-    """The law stepped sample by sample in a Python loop (no scan, no checkpoint)."""
+    """The law stepped sample by sample in a Python loop (no scan, no checkpoint), each step
+    one compiled program: stepped op by op instead, the recursion's rounding alone moves
+    α̂ by up to 2e-12 relative on JAX 0.4.30 (as far as a change of y by 1e-15 relative
+    moves it: 3e-12), against 4e-13 for the compiled step."""
     mem = make_memory(memory, H, u.shape[0], rule="trapezoid", tol=1e-10, order_range=bounds)
     law = assemble_law(mem, H, lam, gamma, alpha0, bounds, jnp.asarray(r0))
     state = law.init(u.shape[1])
     alpha, y_hat = [], []
     for k in range(u.shape[0]):
-        state, out = law.step(state, jnp.asarray(u[k]), jnp.asarray(y[k] - x0))
+        state, out = _step(law, state, jnp.asarray(u[k]), jnp.asarray(y[k] - x0))
         alpha.append(float(out.alpha))
         y_hat.append(float(out.y_hat) + x0)
     return np.array(alpha), np.array(y_hat)
