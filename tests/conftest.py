@@ -10,13 +10,10 @@ import pytest
 import vojax
 from vojax import _xla
 
-# No persistent compilation cache by default (``VOJAX_TEST_CACHE`` names a folder to use one;
-# each xdist worker then keeps its own, suffixed with its name, which the commands its tests
-# run inherit); results are the same either way.
-BASE = os.environ.get("VOJAX_TEST_CACHE", "off")
-WORKER = os.environ.get("PYTEST_XDIST_WORKER")
-CACHE = BASE if BASE.lower() == "off" or not WORKER else f"{BASE}-{WORKER}"
-os.environ["VOJAX_COMPILATION_CACHE"] = CACHE  # the commands the tests run use it too
+# No persistent compilation cache unless ``VOJAX_TEST_CACHE`` names a folder (results are the
+# same either way); the commands the tests run use the same setting.
+CACHE = os.environ.get("VOJAX_TEST_CACHE", "off")
+os.environ["VOJAX_COMPILATION_CACHE"] = CACHE
 if CACHE.lower() != "off":
     vojax.use_compilation_cache(CACHE)
 
@@ -28,4 +25,4 @@ def _spare_mappings():
     four of twelve CI runs. Dropped before a test at a lower share than the library's own
     check (`vojax._xla.spare_mappings` on entry to `identify` and `refit`), so that check
     never drops the programs in the middle of a test that counts its traces."""
-    _xla.spare_mappings(share=0.8 * _xla.MAPPINGS_SHARE)
+    _xla.spare_mappings(share=0.8 * _xla.MAPPINGS_SHARE, every_s=0)

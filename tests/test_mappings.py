@@ -45,7 +45,7 @@ def test_the_count_follows_the_mappings_the_process_makes():
 
 def test_below_the_share_nothing_is_dropped():
     f, dropped = _probe(), _xla.programs_dropped()
-    assert not _xla.spare_mappings(share=1.0)
+    assert not _xla.spare_mappings(share=1.0, every_s=0)
     assert f._cache_size() == 1 and _xla.programs_dropped() == dropped
 
 
@@ -58,7 +58,7 @@ def test_past_the_share_the_programs_and_their_mappings_go():
     for k, g in enumerate(others):
         g(jnp.ones(k + 1))
     held, _ = _xla._mapping_count_and_limit()
-    assert _xla.spare_mappings(share=0.0)
+    assert _xla.spare_mappings(share=0.0, every_s=0)
     left, _ = _xla._mapping_count_and_limit()
     assert held - left >= 40
     assert f._cache_size() == 0 and _xla.programs_dropped() == dropped + 1
@@ -69,6 +69,7 @@ def test_past_the_share_the_programs_and_their_mappings_go():
 def test_identify_and_refit_spare_the_mappings_on_entry(call, monkeypatch):
     """With the share at 0 every entry drops the programs (`compare` goes through `refit`)."""
     monkeypatch.setattr(_xla, "MAPPINGS_SHARE", 0.0)
+    monkeypatch.setattr(_xla, "CHECK_EVERY_S", 0.0)
     f, dropped = _probe(), _xla.programs_dropped()
     u = np.ones(60)
     y = np.asarray(vojax.fractional_integral(u, 0.4, dt=0.1))
@@ -77,6 +78,23 @@ def test_identify_and_refit_spare_the_mappings_on_entry(call, monkeypatch):
     else:
         vojax.refit(u, y, dt=0.1)
     assert f._cache_size() == 0 and _xla.programs_dropped() > dropped
+
+
+def test_the_entry_check_counts_at_most_once_per_interval(monkeypatch):
+    """Within `every_s` of a count the check neither counts nor drops; past it, it counts
+    again (and, past the share, drops)."""
+    reads = []
+    count = _xla._mapping_count_and_limit
+    monkeypatch.setattr(_xla, "_mapping_count_and_limit", lambda: reads.append(1) or count())
+    monkeypatch.setattr(_xla, "_counted_at", -np.inf)
+    dropped = _xla.programs_dropped()
+    assert _xla.spare_mappings(share=0.0, every_s=60.0) and len(reads) == 1
+    f = _probe()
+    assert not _xla.spare_mappings(share=0.0, every_s=60.0) and len(reads) == 1
+    assert f._cache_size() == 1 and _xla.programs_dropped() == dropped + 1
+    monkeypatch.setattr(_xla, "_counted_at", _xla._counted_at - 61.0)
+    assert _xla.spare_mappings(share=0.0, every_s=60.0) and len(reads) == 2
+    assert f._cache_size() == 0 and _xla.programs_dropped() == dropped + 2
 
 
 @pytest.mark.skipif((__import__("os").cpu_count() or 1) < 2, reason="needs two cores")
