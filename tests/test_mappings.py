@@ -97,6 +97,19 @@ def test_the_entry_check_counts_at_most_once_per_interval(monkeypatch):
     assert f._cache_size() == 0 and _xla.programs_dropped() == dropped + 2
 
 
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(share=1.5), "`share` must be a number in [0, 1], got 1.5."),
+    (dict(share=float("nan")), "`share` must be a number in [0, 1], got nan."),
+    (dict(share=True), "`share` must be a number in [0, 1], got True."),
+    (dict(every_s=-1.0), "`every_s` must be a number of seconds ≥ 0, got -1.0."),
+    (dict(every_s="1"), "`every_s` must be a number of seconds ≥ 0, got '1'."),
+])
+def test_a_share_or_interval_out_of_range_is_refused_in_one_sentence(kwargs, words):
+    with pytest.raises(ValueError) as raised:
+        _xla.spare_mappings(**kwargs)
+    assert str(raised.value) == words
+
+
 @pytest.mark.skipif((__import__("os").cpu_count() or 1) < 2, reason="needs two cores")
 def test_after_a_drop_the_tracker_runs_its_shares_one_after_another_again(monkeypatch):
     """`in_threads` runs a pass's shares in threads only once they have run for their shapes

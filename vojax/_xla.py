@@ -202,6 +202,10 @@ def spare_mappings(share: float | None = None, every_s: float | None = None) -> 
     global _dropped, _counted_at
     share = MAPPINGS_SHARE if share is None else share
     every_s = CHECK_EVERY_S if every_s is None else every_s
+    if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share <= 1:
+        raise ValueError(f"`share` must be a number in [0, 1], got {share!r}.")
+    if isinstance(every_s, bool) or not isinstance(every_s, (int, float)) or not every_s >= 0:
+        raise ValueError(f"`every_s` must be a number of seconds ≥ 0, got {every_s!r}.")
     now = time.monotonic()
     if now - _counted_at < every_s:
         return False
