@@ -46,7 +46,8 @@ def test_the_raw_file_gives_the_columns_of_its_csv_export(raw, export):
     want = _export(export)
     if not Path(raw).is_file():
         pytest.skip(f"{raw} is not here")
-    (cols, meta), = _afm.read_afm(raw)
+    ((cols, meta),), failed = _afm.read_afm(raw)
+    assert failed == []
     for name in ("time_s", "segment", "force_N", "height_measured_m", "height_piezo_m"):
         np.testing.assert_allclose(cols[name], want[name], rtol=2e-9, atol=0, err_msg=name)
     assert meta["spring_constant"] == pytest.approx(0.061 if "cell" not in export else 1.0677)
@@ -61,7 +62,7 @@ def test_contact_indentation_and_hertz_strain():
     against Hertz's forces written out by hand: an elastic half-space of shear modulus G
     under a sphere, F = 4/3 · E/(1 − ν²) · √R δ^{3/2} with E = 2G(1 + ν), is G times the
     strain."""
-    (cols, meta), = _afm.read_afm(RAW, tip=("sphere", 5e-6), poisson=0.3)
+    ((cols, meta),), _ = _afm.read_afm(RAW, tip=("sphere", 5e-6), poisson=0.3)
     c = meta["contact_index"]
     assert 1.68 < meta["contact_time"] < 1.74
     assert meta["afm"]["contact_time"] == meta["contact_time"]
@@ -80,7 +81,7 @@ def test_contact_indentation_and_hertz_strain():
     d = np.clip(delta, 0, None)
     hertz = 4 / 3 * (2 * g * (1 + nu)) / (1 - nu**2) * math.sqrt(radius) * d**1.5
     np.testing.assert_allclose(g * cols["contact_strain"], hertz, rtol=1e-12, atol=0)
-    (cone, _), = _afm.read_afm(RAW, tip=("cone", 20.0))  # F = 2/π · E/(1 − ν²) · tan θ · δ²
+    ((cone, _),), _ = _afm.read_afm(RAW, tip=("cone", 20.0))  # F = 2/π · E/(1 − ν²) · tan θ · δ²
     d = np.clip(cone["indentation_m"], 0, None)
     hertz = 2 / math.pi * (2 * g * 1.5) / (1 - 0.25) * math.tan(math.radians(20)) * d**2
     np.testing.assert_allclose(g * cone["contact_strain"], hertz, rtol=1e-12, atol=0)
@@ -92,7 +93,7 @@ def test_records_from_contact_by_segment():
     (the time restarts at 0 at contact), and a column that needs a tip says so."""
     rec, = load_records(RAW, time="time_s", inputs=["force_rise_N"], output="indentation_m",
                         segments=[0, 1])
-    (cols, meta), = _afm.read_afm(RAW)
+    ((cols, meta),), _ = _afm.read_afm(RAW)
     c = meta["contact_index"]
     keep = np.flatnonzero(cols["segment"] <= 1)
     assert rec.output.size == keep[-1] + 1 - c

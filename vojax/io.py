@@ -23,6 +23,7 @@ from pathlib import Path
 from ._data._batch import BatchReport, dask_client
 from ._data._batch import run_batch as _run_batch
 from ._data._contact import POC_METHODS
+from ._data._errors import CurvesFailed
 from ._data._pipeline import canonical_method, make_provenance, write_outputs
 from ._data._pipeline import identify_record as _identify_record
 from ._data._records import DataError, Record, load_records
@@ -30,6 +31,7 @@ from ._progress import wanted
 
 __all__ = [
     "BatchReport",
+    "CurvesFailed",
     "DataError",
     "POC_METHODS",
     "Record",

@@ -7,8 +7,12 @@ from .._data._regressors import FIT_OPTIONS as FIT_OPTIONS  # the refit's own op
 from ._types import CLIError
 
 
-def _load(path, args):
+def _load(path, args, failures=None):
+    """The records of the file `path` under the command's options. Where some curves of an
+    AFM file cannot be read, the others are returned and each failed curve is appended to
+    `failures` as ``(file, curve, reason)``, or, without that list, said on stderr."""
     from .._data import DataError, load_records
+    from .._data._errors import CurvesFailed
     from .._data._records import check_units
 
     if (args.trim_column is None) != (args.trim_below is None):
@@ -27,6 +31,13 @@ def _load(path, args):
         warnings.simplefilter("always")
         try:
             records = load_records(path, **_loader(args))
+        except CurvesFailed as e:
+            records = e.records
+            for name, reason in e.failures:
+                if failures is None:
+                    print(f"vojax: warning: {reason}", file=sys.stderr)
+                else:
+                    failures.append((str(path), name, reason))
         except DataError:
             raise
         except (ValueError, TypeError) as e:  # an option's check, in the command's words
@@ -129,11 +140,10 @@ def _afm_loader(args) -> dict:
 
 
 def _select(records, args):
-    """`identify` works on one record: with --group-by, --record names it."""
+    """`identify` works on one record: of a file holding several (a long-format file read
+    with --group-by, an AFM map's curves), --record names it."""
     names = [r.name for r in records]
     if args.record is not None:
-        if args.group_by is None:
-            raise CLIError("--record selects a record of a long-format file: give --group-by too.")
         chosen = [r for r in records if r.name == args.record]
         if not chosen:
             shown = ", ".join(repr(n) for n in names[:5]) + (", …" if len(names) > 5 else "")
@@ -141,7 +151,8 @@ def _select(records, args):
         return chosen
     if len(records) > 1:
         raise CLIError(
-            f"{args.file} holds {len(records)} records (--group-by {args.group_by}); identify "
+            f"{args.file} holds {len(records)} records"
+            f"{'' if args.group_by is None else f' (--group-by {args.group_by})'}; identify "
             f"takes one: add --record NAME (e.g. --record {names[0]!r}), or use vojax batch."
         )
     return records

@@ -262,7 +262,7 @@ def _load_all(found, args):
     records, failures = [], []
     for path, prefix in found:
         try:
-            loaded = _load(path, args)
+            loaded = _load(path, args, failures)
         except DataError as e:
             failures.append((str(path), "", str(e)))
             continue

@@ -95,7 +95,8 @@ def _identify_parser(sub) -> None:
     _data_options(i, many=False)
     i.add_argument(
         "--record",
-        help="with --group-by: the record to identify (identify takes one; batch takes all)",
+        help="of a file of several records (--group-by, an AFM map's curves): the record to "
+        "identify (identify takes one; batch takes all)",
     )
     i.set_defaults(run=identify_command)
 
@@ -161,7 +162,8 @@ def _compare_parser(sub) -> None:
     m.set_defaults(model=None)
     m.add_argument("--out", required=True, help="output folder for comparison.csv")
     m.add_argument(
-        "--record", help="with --group-by: the record to compare (default: the only one)"
+        "--record", help="of a file of several records (--group-by, an AFM map's curves): the "
+        "record to compare (default: the only one)"
     )
     m.add_argument(
         "--models", default="springpot,kelvin-voigt,maxwell,zener,variable",

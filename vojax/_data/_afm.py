@@ -102,7 +102,11 @@ def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True, baselin
     contact method (`_contact.check_contact`), `baseline` the force baseline's correction
     (`_contact.BASELINES`: ``"offset"``, the default, or ``"tilt"``).
     ``analyse=False`` reads the file's own
-    columns only (the last three NaN, no contact, nanite not needed)."""
+    columns only (the last three NaN, no contact, nanite not needed).
+
+    Returns ``(curves, failures)``: a curve that cannot be read or analysed (a damaged
+    channel, no contact point, a Hertz fit that does not converge) is left out, its name and
+    reason in `failures`."""
     try:
         import afmformats
     except ImportError:
@@ -134,21 +138,20 @@ def read_afm(path, *, tip=None, poisson=0.5, contact=None, analyse=True, baselin
             raise DataError(f"{path}: not a readable AFM file ({_first_line(e)}).") from None
         if not curves:
             raise DataError(f"{path}: holds no force curve.")
-        out = []
+        out, failures = [], []
         for k, curve in enumerate(curves):
             name = path.name[: -len(path.suffix)] if len(curves) == 1 else f"{path.stem}-{k}"
             try:
                 out.append(_curve(path, k, curve, name, tip, poisson, contact, analyse,
                                   baseline))
-            except DataError:
-                raise
-            except fatal as e:  # noqa: BLE001 - a damaged channel: this file's error
-                raise DataError(
-                    f"{path}, curve {k}: a damaged channel ({_first_line(e)})."
-                ) from None
+            except DataError as e:  # this curve's reason; the others are read
+                failures.append((name, str(e)))
+            except fatal as e:  # noqa: BLE001 - a damaged channel: this curve's error
+                failures.append(
+                    (name, f"{path}, curve {k}: a damaged channel ({_first_line(e)})."))
     finally:
         log.setLevel(level)
-    return out
+    return out, failures
 
 
 def _first_line(error) -> str:

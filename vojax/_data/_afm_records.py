@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 
-from ._errors import DataError
+from ._errors import CurvesFailed, DataError
 from ._record import _record
 
 DERIVED = ("force_rise_N", "indentation_m", "contact_strain")
@@ -80,10 +80,22 @@ def file_records(path, wanted, afm, time, inputs, output, trim):
     from ._afm import read_afm
 
     _check_wanted(path, wanted, afm)
-    curves = read_afm(path, tip=afm.tip, poisson=afm.poisson, contact=afm.contact,
-                      analyse=afm.analyse(wanted), baseline=afm.baseline)
-    return [_cut(path, cols, meta, wanted, afm, time, inputs, output, trim)
-            for cols, meta in curves]
+    curves, failures = read_afm(path, tip=afm.tip, poisson=afm.poisson, contact=afm.contact,
+                                analyse=afm.analyse(wanted), baseline=afm.baseline)
+    records = []
+    for cols, meta in curves:
+        try:
+            records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
+        except DataError as e:  # this curve's samples; the others stand
+            failures.append((meta["name"], str(e)))
+    if failures and records:
+        raise CurvesFailed(path, records, failures)
+    if len(failures) == 1:  # a file of one curve: its reason
+        raise DataError(failures[0][1])
+    if failures:
+        raise DataError(f"{path}: none of its {len(failures)} curves could be read; the "
+                        f"first's reason: {failures[0][1]}")
+    return records
 
 
 def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, time, inputs,

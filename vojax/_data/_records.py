@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ._afm_records import AfmOptions, export_records, file_records
+from ._errors import CurvesFailed
 from ._errors import DataError as DataError
 from ._read import MAX_SAMPLES as MAX_SAMPLES
 from ._read import _column as _column
@@ -92,7 +93,10 @@ def load_records(
       the stress ``F/a`` (named ``stress``), as eq. (35) with a number per record. Each must
       be above 0 there.
 
-    **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column.
+    **Returns:** a list of `Record`. **Raises:** `DataError` naming file, record, line, column;
+    where some curves of an AFM file cannot be read (no contact point, a Hertz fit that does
+    not converge) and others can, `vojax.io.CurvesFailed`, a `DataError` holding the records
+    read (``error.records``) and each other curve's reason (``error.failures``).
     """
     inputs = column_names(time, inputs, output, group_by)
     pairs = check_units(units, [time, *inputs, output])
@@ -100,10 +104,17 @@ def load_records(
                             output, group_by)
     afm = AfmOptions.checked(segments, from_contact, tip, poisson, contact, spring_constant,
                              baseline)
-    return [scales.apply(dataclasses.replace(r, units=pairs)) for r in _read_records(
-        path, time, inputs + scales.columns, output, group_by, strict, resample, trim_column,
-        trim_below, delimiter, decimal, afm,
-    )]
+    def finished(records):
+        return [scales.apply(dataclasses.replace(r, units=pairs)) for r in records]
+
+    try:
+        return finished(_read_records(
+            path, time, inputs + scales.columns, output, group_by, strict, resample,
+            trim_column, trim_below, delimiter, decimal, afm,
+        ))
+    except CurvesFailed as e:  # the curves that were read, finished as the others would be
+        e.records = finished(e.records)
+        raise
 
 
 def column_names(time, inputs, output, group_by=None) -> list[str]:
