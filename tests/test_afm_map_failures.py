@@ -96,3 +96,27 @@ def test_identify_picks_a_maps_curve_and_says_which_others_failed(tmp_path):
               if line.startswith("vojax: warning: map.h5, curve")]
     assert len(warned) == 1 and "curve 1: nanite's Hertz fit did not converge" in warned[0]
     assert (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_a_csv_export_of_several_curves_keeps_the_curves_that_can_be_read(tmp_path):
+    """A long-format export (one curve per value of its `curve` column) whose second curve
+    is flat: the first is read as from an export of it alone."""
+    lines = {}
+    for name, kind in (("a", "hertz"), ("b", "flat")):
+        curve, z_tip = _curve(TIPS["sphere"], seed=1)
+        force = np.array(curve["force"])
+        if kind == "flat":
+            force = 3e-11 + np.random.default_rng(9).normal(0, 2e-12, z_tip.size)
+        h = z_tip - force / 0.05
+        lines[name] = [f"{name},{float(t)!r},{float(s)!r},{float(f)!r},{float(z)!r}" for t, s, f, z in
+                       zip(curve["time"], curve["segment"], force, h)]
+    head = "curve,time_s,segment,force_N,height_measured_m"
+    (tmp_path / "both.csv").write_text("\n".join([head, *lines["a"], *lines["b"]]) + "\n")
+    (tmp_path / "a.csv").write_text("\n".join([head, *lines["a"]]) + "\n")
+    options = dict(OPTIONS, group_by="curve", spring_constant=0.05)
+    with pytest.raises(CurvesFailed) as raised:
+        load_records(tmp_path / "both.csv", **options)
+    (record,), ((name, reason),) = raised.value.records, raised.value.failures
+    assert name == "b" and "nanite's Hertz fit did not converge" in reason
+    (alone,) = load_records(tmp_path / "a.csv", **options)
+    _same(record, alone)

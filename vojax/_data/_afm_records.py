@@ -88,9 +88,15 @@ def file_records(path, wanted, afm, time, inputs, output, trim):
             records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
         except DataError as e:  # this curve's samples; the others stand
             failures.append((meta["name"], str(e)))
+    return _read_or_failed(path, records, failures)
+
+
+def _read_or_failed(path, records, failures):
+    """The records of a file's curves where all were read; `CurvesFailed` where some were;
+    a `DataError` where none was (the curve's own reason for a file of one)."""
     if failures and records:
         raise CurvesFailed(path, records, failures)
-    if len(failures) == 1:  # a file of one curve: its reason
+    if len(failures) == 1:
         raise DataError(failures[0][1])
     if failures:
         raise DataError(f"{path}: none of its {len(failures)} curves could be read; the "
@@ -125,14 +131,17 @@ def export_records(path, header, rows, lines, decimal, group_by, wanted, afm, ti
     contact, baseline = check_contact(afm.contact, afm.tip), check_baseline(afm.baseline)
     names = {"time_s": "time", "segment": "segment", "force_N": "force",
              "height_measured_m": "height (measured)", "height_piezo_m": "height (piezo)"}
-    records = []
+    records, failures = [], []
     for k, (name, idx) in enumerate(groups.items()):
         curve = _ExportCurve({names[c]: v[idx] for c, v in raw.items()},
                              {"spring constant": afm.spring_constant, "path": path, "enum": k})
-        cols, meta = _curve(path, k, curve, name, afm.tip, afm.poisson, contact,
-                            afm.analyse(wanted), baseline)
-        records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
-    return records
+        try:
+            cols, meta = _curve(path, k, curve, name, afm.tip, afm.poisson, contact,
+                                afm.analyse(wanted), baseline)
+            records.append(_cut(path, cols, meta, wanted, afm, time, inputs, output, trim))
+        except DataError as e:  # this curve's reason; the others stand
+            failures.append((name, str(e)))
+    return _read_or_failed(path, records, failures)
 
 
 class _ExportCurve:
