@@ -16,6 +16,31 @@ from pathlib import Path
 MODES = ("default", "fast")
 
 
+def summary_numbers(out) -> dict:
+    """The numbers of a batch's ``out/summary.csv``, by ``(record, column)``."""
+    import csv
+
+    with open(Path(out) / "summary.csv", newline="") as f:
+        rows = {r["record"]: r for r in csv.DictReader(f)}
+    values = {}
+    for name, row in rows.items():
+        for k, v in row.items():
+            try:
+                values[name, k] = float(v)
+            except ValueError:
+                pass
+    return values
+
+
+def largest_difference(a: dict, b: dict) -> float:
+    """The largest relative difference between two runs' `summary_numbers`, over the finite,
+    non-zero numbers of `a` that `b` has too."""
+    import math
+
+    return max((abs(b[k] - v) / abs(v) for k, v in a.items()
+                if math.isfinite(v) and v != 0 and k in b), default=0.0)
+
+
 def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 

@@ -11,7 +11,6 @@ largest relative difference between the two runs' summary.csv numbers.
 """
 
 import argparse
-import csv
 import json
 import os
 import subprocess
@@ -19,6 +18,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _bench import largest_difference, summary_numbers
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -62,19 +63,6 @@ print(json.dumps(dict(records=len(recs), failed=report.failed, cluster=ready - s
 """
 
 
-def _numbers(out):
-    with open(Path(out) / "summary.csv", newline="") as f:
-        rows = {r["record"]: r for r in csv.DictReader(f)}
-    values = {}
-    for name, row in rows.items():
-        for k, v in row.items():
-            try:
-                values[name, k] = float(v)
-            except ValueError:
-                pass
-    return values
-
-
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--records", type=int, nargs="+", default=[148])
@@ -101,12 +89,9 @@ def main():
                 row = json.loads(proc.stdout.strip().splitlines()[-1])
                 row.update(method=method, workers=workers, wall=time.perf_counter() - t0)
                 print(json.dumps(row), flush=True)
-                runs[workers] = (row, _numbers(out))
+                runs[workers] = (row, summary_numbers(out))
             (one, a), (many, b) = runs[0], runs[args.workers]
-            diff = max(
-                (abs(b[k] - v) / max(abs(v), 1e-300) for k, v in a.items() if v == v and v != 0),
-                default=0.0,
-            )
+            diff = largest_difference(a, b)
             table.append((method, count, one["batch"], many["cluster"], many["batch"],
                           many["batch"] / one["batch"], diff, one["failed"], many["failed"]))
     print()

@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _bench import publish
+from _bench import largest_difference, publish, summary_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
 QI = ROOT / "tests" / "data" / "afm" / "qi_map.jpk-qi-data"
@@ -74,26 +74,11 @@ def run(path: Path, out: Path, workers: int, method: str) -> dict:
     wall = time.perf_counter() - started
     if done.returncode not in (0, 2):  # 2: some curves failed, each in failures.csv
         sys.exit(f"vojax batch exited {done.returncode}:\n{done.stderr[-3000:]}")
-    with open(out / "summary.csv", newline="") as f:
-        rows = {r["record"]: r for r in csv.DictReader(f)}
     failed = 0
     if (out / "failures.csv").is_file():
         with open(out / "failures.csv", newline="") as f:
             failed = sum(1 for _ in csv.DictReader(f))
-    return dict(wall=wall, rows=rows, maps=(out / "maps.png").is_file(), failed=failed)
-
-
-def _difference(a: dict, b: dict) -> float:
-    worst = 0.0
-    for name, row in a.items():
-        for key, value in row.items():
-            try:
-                x, y = float(value), float(b[name][key])
-            except (KeyError, ValueError):
-                continue
-            if math.isfinite(x) and x != 0:
-                worst = max(worst, abs(y - x) / abs(x))
-    return worst
+    return dict(wall=wall, numbers=summary_numbers(out), maps=(out / "maps.png").is_file(), failed=failed)
 
 
 def main() -> None:
@@ -117,7 +102,7 @@ def main() -> None:
             f"| {count} | {width}×{width} | {one['wall']:.1f} | {count / one['wall']:.2f} "
             f"| {many['wall']:.1f} | {count / many['wall']:.2f} "
             f"| {many['wall'] / one['wall']:.2f} | {one['failed']} / {many['failed']} "
-            f"| {one['maps']} / {many['maps']} | {_difference(one['rows'], many['rows']):.1e} |")
+            f"| {one['maps']} / {many['maps']} | {largest_difference(one['numbers'], many['numbers']):.1e} |")
         print(lines[-1], flush=True)
     lines.append(f"\n{os.cpu_count()} cores; method {args.method}; every run a fresh `vojax "
                  "batch` process, compilation included, the compilation cache off.")
