@@ -97,6 +97,7 @@ def main() -> None:
             tmp = Path(tmp)
             width = build_map(tmp / "map.h5", count, args.noise)
             one = run(tmp / "map.h5", tmp / "one", 0, args.method)
+            print(f"# {count} curves, one process: {one['wall']:.1f} s", flush=True)
             many = run(tmp / "map.h5", tmp / "dask", args.workers, args.method)
         lines.append(
             f"| {count} | {width}×{width} | {one['wall']:.1f} | {count / one['wall']:.2f} "

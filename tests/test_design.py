@@ -294,3 +294,51 @@ def test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half():
     assert second[j] > 1.2 * second[i]  # the halves disagree here
     assert abs(float(best[0]) - grid[i]) <= grid[1] - grid[0]
     assert np.mean(design.order_stderr[n // 2 :] ** 2) <= second[i] * (1 + 1e-6)
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    # the hypothesis: refused naming the argument, not as "no oscillation determines the order"
+    (dict(p=[2.0, 1.0]), ValueError, "`p` must be 1 finite number"),
+    (dict(p=[np.nan]), ValueError, "`p` must be 1 finite number"),
+    (dict(noise_std=-1.0), ValueError, "`noise_std` must be a positive finite number"),
+    (dict(noise_std=np.nan), ValueError, "`noise_std` must be a positive finite number"),
+    (dict(order=1.5), ValueError, r"`order` must lie in \(0.01, 0.99\), got 1.5"),
+    (dict(order=np.full(100, 0.4)), ValueError, r"`order` must be a scalar or have shape \(200,\)"),
+    (dict(parameter_knots=1), ValueError, "`parameter_knots` must be an integer from 2"),
+    (dict(order_drift=-1.0), ValueError, "`order_drift` must be a positive finite number"),
+    (dict(memory="bogus"), ValueError, "`memory` must be"),
+    (dict(order_range=(0.5, 0.2)), ValueError, "`order_range` must satisfy"),
+    (dict(x0="yes"), TypeError, "`x0` must be True or False"),
+    # the oscillations tried: before, a frequency of 0 or below was returned as a test
+    (dict(cycles=()), ValueError, "`cycles` must be one or more positive numbers"),
+    (dict(cycles=(0,)), ValueError, "`cycles` must be one or more positive numbers, got 0"),
+    (dict(cycles=(-5,)), ValueError, "`cycles` must be one or more positive numbers, got -5"),
+    (dict(cycles=("a",)), TypeError, "`cycles` must be one or more positive numbers"),
+    (dict(starts=()), ValueError, r"`starts` must be one or more fractions of the span in \[0, 1\)"),
+    (dict(starts=(1.5,)), ValueError, r"`starts` must be .* in \[0, 1\), got 1.5"),
+    (dict(starts=(-0.5,)), ValueError, r"`starts` must be .* in \[0, 1\), got -0.5"),
+    (dict(starts=(np.nan,)), ValueError, r"`starts` must be .* in \[0, 1\), got nan"),
+    (dict(amplitude=True), TypeError, "`amplitude` must be a positive number"),
+    (dict(amplitude=-0.1), ValueError, "`amplitude` must be a positive number"),
+])
+def test_settling_test_refuses_bad_arguments_naming_them(kwargs, error, words):
+    dt, n = 0.05, 200
+    u = np.minimum(dt * np.arange(n) / 2.0, 1.0)
+    call = dict(order=0.4, p=[2.0], dt=dt, noise_std=0.01) | kwargs
+    with pytest.raises(error, match=words):
+        vojax.settling_test(u, **call)
+
+
+def test_settling_test_of_a_zero_load_says_so_and_takes_bare_numbers():
+    dt, n = 0.05, 200
+    u = np.minimum(dt * np.arange(n) / 2.0, 1.0)
+    with pytest.raises(ValueError, match="`u` is zero throughout"):
+        vojax.settling_test(np.zeros(n), 0.4, [2.0], dt, noise_std=0.01)
+    # one number of cycles and one start, given bare: the same test as in a tuple
+    bare = vojax.settling_test(u, 0.4, [2.0], dt, noise_std=0.01, cycles=5, starts=0.5)
+    tupled = vojax.settling_test(u, 0.4, [2.0], dt, noise_std=0.01, cycles=(5,), starts=(0.5,))
+    assert (bare.frequency, bare.start, bare.band) == (tupled.frequency, tupled.start, tupled.band)
+    assert bare.start == pytest.approx(0.5 * dt * (n - 1))
+    # x0 is a flag of `fisher_information` too
+    with pytest.raises(TypeError, match="`x0` must be True or False"):
+        vojax.fisher_information(u, 0.4, [2.0], dt, noise_std=0.01, x0="no")

@@ -100,7 +100,7 @@ def test_a_relaxation_modulus_is_fitted_through_it_by_gradient():
 def test_bad_input_is_refused_in_one_sentence():
     with pytest.raises(ValueError, match="beta must be 1 or 2, got 3"):
         vojax.mittag_leffler_jax(0.5, 1.0, 3)
-    with pytest.raises(ValueError, match=r"the order must lie in \(0, 1\), got 1.0"):
+    with pytest.raises(ValueError, match=r"the order\) must lie in \(0, 1\), got 1.0"):
         vojax.mittag_leffler_jax(1.0, 1.0)
     with pytest.raises(ValueError, match="must be finite and at least 0"):
         vojax.mittag_leffler_jax(0.5, [1.0, -1.0])
@@ -108,7 +108,7 @@ def test_bad_input_is_refused_in_one_sentence():
         vojax.mittag_leffler_jax(0.5, np.nan)
     with pytest.raises(ValueError, match="must be finite and at least 0"):
         vojax.mittag_leffler_jax(0.5, np.array([1.0 + 1e-3j]))  # not silently made real
-    with pytest.raises(TypeError, match="the order must be a number, got True"):
+    with pytest.raises(TypeError, match=r"the order\) must be a number, got True"):
         vojax.mittag_leffler_jax(True, 1.0)
 
 
@@ -148,7 +148,7 @@ def test_the_laws_closed_forms_take_jax_values_and_differentiate(law, params, fo
 
 def test_concrete_jax_values_are_checked_as_numbers_are():
     maxwell = vojax.FractionalMaxwell()
-    with pytest.raises(ValueError, match=r"the order must lie in \(0, 1\)"):
+    with pytest.raises(ValueError, match=r"the order\) must lie in \(0, 1\)"):
         maxwell.relaxation_modulus(jnp.ones(3), q=1.0, eta=1.0, E=1.0)
     with pytest.raises(ValueError, match="the parameter E must be a number above 0"):
         maxwell.relaxation_modulus([1.0], q=0.5, eta=1.0, E=jnp.asarray(-1.0))

@@ -156,7 +156,7 @@ def test_bad_input_is_refused_in_one_sentence():
             law.strain_response(**kwargs, q=0.5, **params)
     with pytest.raises(ValueError, match="the strain overflows double precision"):
         Springpot().strain_response(np.full(5, 1e10), 0.1, q=0.5, eta=1e-300)
-    with pytest.raises(ValueError, match="order must lie in"):
+    with pytest.raises(ValueError, match=r"`q` \(the order\) must lie in"):
         law.strain_response(ones, 0.1, q=1.0, **params)
     with pytest.raises(TypeError, match="takes the parameters eta, k"):
         law.strain_response(ones, 0.1, q=0.5, eta=2.0)

@@ -188,3 +188,68 @@ def test_the_tracker_refuses_more_inputs_than_it_can_carry():
     with pytest.raises(ValueError, match="the tracker takes at most 16 inputs .* got 17: use "
                                          "vojax.refit"):
         vojax.identify(u, y, dt, warn=False)
+
+
+@pytest.mark.slow
+def test_the_api_fuzz_corpus_is_clean():
+    """`scripts/fuzz_api.py`: about 2,280 hostile arguments through the public functions,
+    every outcome clean: vojax's own one-line error (never NumPy's or Python's, which name
+    no argument) or a finite answer, within the time limit."""
+    script = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_api.py"
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          cwd=script.parent)
+    text = proc.stdout
+    assert proc.returncode == 0, text[-4000:] + proc.stderr[-2000:]
+    total, clean = (int(w) for w in text.split(" cases, ")[0].split()[-1:]
+                    + text.split(" cases, ")[1].split()[:1])
+    assert total >= 2000 and clean == total
+
+
+T20 = 0.1 * np.arange(20)
+Y20 = np.linspace(0.0, 1.0, 20)
+
+
+@pytest.mark.parametrize("call, error, words", [
+    # before: NumPy's or Python's own message ("'<=' not supported between instances of
+    # 'int' and 'str'", "could not convert string to float", "only 0-dimensional arrays
+    # can be converted", "'int' object is not iterable"…), naming no argument
+    (lambda: vojax.tune_gains(np.ones(20), Y20, 0.1, lag="a"), TypeError, "`lag` must be"),
+    (lambda: vojax.tune_gains(np.ones(20), Y20, 0.1, burn_in=None), TypeError, "`burn_in` must"),
+    (lambda: vojax.tune_gains(np.ones(20), Y20, 0.1, lam="x"), ValueError, "`lam` must be"),
+    (lambda: vojax.compare(np.ones(20), Y20, 0.1, holdout="a"), TypeError, "`holdout` must"),
+    (lambda: vojax.compare(np.ones(20), Y20, 0.1, models=3), TypeError, "`models` must"),
+    (lambda: vojax.compare([[1.0, 2.0], [3.0]], Y20, 0.1), TypeError, "`stress` must be"),
+    (lambda: vojax.refit(np.ones(20), Y20, 0.1, origin=[1.0, 2.0], x0="estimate"), TypeError,
+     "`origin` must be one number"),
+    (lambda: vojax.refit(np.ones(20), Y20, 0.1, p_signs="a"), TypeError, "`p_signs` must"),
+    (lambda: vojax.simulate(np.ones(20), 0.4, 1.0, 0.1, x0="x"), TypeError, "`x0` must"),
+    (lambda: vojax.simulate(np.ones(20), 0.4, 1.0, 0.1, x0=[1.0, 2.0]), TypeError, "`x0` must"),
+    (lambda: vojax.simulate(np.ones(20), [[0.4], [0.4, 0.4]], 1.0, 0.1), TypeError,
+     "`order` must"),
+    (lambda: vojax.fisher_information(np.ones(20), 0.4, "x", 0.1, noise_std=0.1), TypeError,
+     "`p` must"),
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, mask="abc", warn=False), TypeError,
+     "`mask` must"),
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, method="gradient", gamma=0.5, r0=1 + 1j,
+                            warn=False), TypeError, "`r0` must"),
+    (lambda: vojax.mittag_leffler(0.5, [[1.0], [1.0, 2.0]]), ValueError, "the argument x"),
+    (lambda: vojax.mittag_leffler_jax(0.5, T20, beta=np.array([1, 2])), ValueError,
+     "beta must be 1 or 2"),
+    (lambda: vojax.mittag_leffler(1.5, T20), ValueError, r"`alpha` \(the order\) must lie"),
+    (lambda: vojax.KelvinVoigt().creep_compliance(T20[1:], q=2.0, eta=1.0, k=1.0),
+     ValueError, r"`q` \(the order\) must lie"),
+    (lambda: vojax.KelvinVoigt().creep_compliance("abc", q=0.4, eta=1.0, k=1.0), TypeError,
+     "`t` must"),
+])
+def test_a_bad_argument_is_named_not_left_to_numpy(call, error, words):
+    with pytest.raises(error, match=words):
+        call()
+
+
+def test_the_named_refusals_keep_what_was_accepted():
+    """A single model's name, `load_records`' `resample` as a number and bare arrays as
+    before: the checks above refuse only what was never a valid value."""
+    assert [r["model"] for r in vojax.compare(np.ones(20), Y20, 0.1, models="springpot").rows] \
+        == ["springpot"]
+    sim = vojax.simulate(np.ones(20), 0.4, 1.0, 0.1, x0=np.float64(0.5))
+    assert float(sim[0]) == pytest.approx(0.5)

@@ -49,7 +49,7 @@ class Comparison:
         """The Bayes factor of model `a` over model `b` (Schwarz approximation)."""
         ev = {r["model"]: r["log_evidence"] for r in self.rows}
         for name in (a, b):
-            if name not in ev:
+            if not isinstance(name, str) or name not in ev:
                 raise ValueError(
                     f"{name!r} was not compared here; the models compared are {', '.join(ev)}."
                 )
@@ -125,7 +125,8 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
 
     - `models`: any of ``"springpot"``, ``"kelvin-voigt"``, ``"maxwell"``, ``"zener"`` (the
       constant-order laws of `vojax.Springpot` … `vojax.FractionalZener`, with their sign
-      constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots);
+      constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots); one
+      name alone is that model alone;
     - `holdout`: the fraction at the end of the record (of the window, with one) that a
       second fit of each model does not see and predicts (the whole loading history still
       drives it).
@@ -152,6 +153,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     """
     stress, strain, dt, t = check.record_arguments(
         stress, strain, dt, t, output="strain", call="compare")
+    models = (models,) if isinstance(models, str) else models  # one model, by its name
     stress, strain = _checked_arrays(stress, strain, models, holdout, dt, t)
     max_points = check.count(max_points, "max_points", 100, 1_000_000)
     _check_x0(x0, origin)
@@ -265,10 +267,13 @@ def _checked_arrays(stress, strain, models, holdout, dt, t):
             f"`stress` and `strain` must both have shape (N,) (or the stress (N, 1)), got "
             f"{stress.shape} and {strain.shape}."
         )
+    if not hasattr(models, "__iter__"):
+        raise TypeError(f"`models` must be a sequence of some of {', '.join(MODELS)}, got "
+                        f"{models!r}.")
     unknown = [m for m in models if m not in MODELS]
     if unknown or not models:
         raise ValueError(f"`models` must be some of {', '.join(MODELS)}, got {models!r}.")
-    if not 0.05 <= holdout <= 0.5:
+    if not 0.05 <= check.real(holdout, "holdout") <= 0.5:
         raise ValueError(f"`holdout` must lie in [0.05, 0.5], got {holdout!r}.")
     if (dt is None) == (t is None):
         raise ValueError("give exactly one of `dt` and `t`.")

@@ -32,6 +32,11 @@ from ._settings import TrackerSettings
 PRIOR_BETA_VAR = TrackerSettings().prior_beta_var
 
 
+class Undetermined(ValueError):
+    """The planned test does not determine a quantity (its information is singular): a
+    `ValueError` about the plan, not about an argument (`settling_test` tries the next)."""
+
+
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000
 
@@ -129,6 +134,7 @@ def fisher_information(
     u2 = np.asarray(u2).reshape(u2.shape[0], -1)
     num, n = u2.shape
     p, order_drift = _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots)
+    check.flag(x0, "x0")
     order_range = check.interval(order_range, "order_range")
     check.order(order, num, bounds=order_range)
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
@@ -171,7 +177,7 @@ def fisher_information(
 def _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots):
     """`fisher_information`'s arguments checked; returns `p` (n,) and `order_drift` (a float
     or None)."""
-    p = np.atleast_1d(np.asarray(p, float))
+    p = np.atleast_1d(check.reals(p, "p"))
     if p.shape != (n,) or not np.all(np.isfinite(p)):
         raise ValueError(f"`p` must be {n} finite number(s), one per input, got {p!r}.")
     if not (isinstance(noise_std, (int, float)) and not isinstance(noise_std, bool)
@@ -210,7 +216,7 @@ def _inverse(information, names):
     scale = np.sqrt(np.diag(information))
     if np.any(scale == 0):
         zero = ", ".join(name for name, s in zip(names, scale) if s == 0)
-        raise ValueError(
+        raise Undetermined(
             f"the planned test does not determine {zero} at all (the model does not change "
             "with them: an input that is zero throughout)."
         )
@@ -218,7 +224,7 @@ def _inverse(information, names):
     values, vectors = np.linalg.eigh(unit)
     if values[0] < 1e-12 * values[-1]:
         worst = names[int(np.argmax(np.abs(vectors[:, 0])))]
-        raise ValueError(
+        raise Undetermined(
             f"the planned test does not determine {worst} (its information is singular to "
             "1e-12): fewer knots, another input, or a longer test."
         )
@@ -305,8 +311,10 @@ def optimal_protocol(
         raise ValueError(f"`noise_std` must be a positive finite number, got {noise_std!r}.")
     order_range = check.interval(order_range, "order_range")
     max_steps = check.count(max_steps, "max_steps", 1, 100_000)
+    knots = check.count(knots, "knots", 1, int(num_samples) // 2)
+    check.flag(x0, "x0")
     check.order(order, int(num_samples), bounds=order_range)
-    t = float(dt) * np.arange(num_samples)
+    t = float(check.step(dt)) * np.arange(num_samples)
     mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
     hats, _ = _hats(t, int(knots))
     half = num_samples // 2

@@ -4,6 +4,7 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import _validate as check
 from ._diagnostics import Diagnostics
 
 
@@ -150,7 +151,7 @@ class Identification(eqx.Module):
         captioned with the answer, what it assumes and why, in full. With `ax`: the order
         panel alone, on that axes. Returns the order's Axes (its figure: ``ax.figure``)."""
         n = np.asarray(self.alpha).shape[0]
-        times = float(self.dt) * np.arange(n) if t is None else np.asarray(t, dtype=float)
+        times = float(self.dt) * np.arange(n) if t is None else check.reals(t, "t")
         if times.shape != (n,):
             raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
         if ax is None:

@@ -54,7 +54,7 @@ def _from_origin(origin, t, times, u2, v, y, w):
     sample, the inputs held at their first values, weight 0); unchanged without one."""
     if origin is None:
         return t, u2, v, y, w
-    origin = float(np.asarray(check.float_array(origin, "origin")))
+    origin = check.real(origin, "origin")
     if not np.isfinite(origin) or origin >= times[0]:
         raise ValueError(
             f"`origin` must be a finite time before the first sample ({times[0]:g}), got {origin}."
@@ -96,7 +96,7 @@ def _weights(num, mask, weights, window, relative, times, y):
 def _signs(p_signs, count):
     if p_signs is None:
         return np.zeros(count)
-    arr = np.asarray(p_signs, dtype=float)
+    arr = check.reals(p_signs, "p_signs")
     if arr.shape != (count,) or not np.all(np.isin(arr, (-1.0, 0.0, 1.0))):
         raise ValueError(
             f"`p_signs` must hold {count} values of +1 (≥ 0), −1 (≤ 0) or 0 (free), one per "

@@ -7,6 +7,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import _validate as check
+
 if TYPE_CHECKING:  # imported where it is used: 0.07 s of `import vojax`
     import optimistix
 
@@ -121,7 +123,7 @@ class Refit(eqx.Module):
         from ._results import plot_order
 
         n = np.asarray(self.order).size
-        times = np.arange(n) if t is None else np.asarray(t, dtype=float)
+        times = np.arange(n) if t is None else check.reals(t, "t")
         if times.shape != (n,):
             raise ValueError(f"`t` must have shape ({n},), got {times.shape}.")
         return plot_order(

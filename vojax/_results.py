@@ -82,7 +82,11 @@ def parameter_names(names, count):
     many distinct strings."""
     if names is None:
         return [f"p{j + 1}" for j in range(count)]
-    names = [names] if isinstance(names, str) else list(names)
+    try:
+        names = [names] if isinstance(names, str) else list(names)
+    except TypeError:
+        raise TypeError(f"`names` must be {count} non-empty strings, one per parameter, got "
+                        f"{names!r}.") from None
     if len(names) != count or not all(isinstance(n, str) and n for n in names):
         raise ValueError(f"`names` must be {count} non-empty strings, one per parameter, got "
                          f"{names!r}.")

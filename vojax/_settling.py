@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from . import _validate as check
-from ._design import fisher_information
+from ._design import Undetermined, fisher_information
 
 
 class SettlingTest:
@@ -71,20 +71,30 @@ def settling_test(
     u2 = u2.reshape(u2.shape[0], -1)
     num = u2.shape[0]
     times = np.asarray(t, float) if t is not None else float(check.step(dt)) * np.arange(num)
-    if not (isinstance(amplitude, (int, float)) and 0 < amplitude < math.inf):
+    if (isinstance(amplitude, bool) or not isinstance(amplitude, (int, float, np.floating))):
+        raise TypeError(f"`amplitude` must be a positive number, got {amplitude!r}.")
+    if not 0 < amplitude < math.inf:
         raise ValueError(f"`amplitude` must be a positive number, got {amplitude!r}.")
+    cycles = _numbers(cycles, "cycles", "one or more positive numbers",
+                      lambda c: 0 < c < math.inf)
+    starts = _numbers(starts, "starts", "one or more fractions of the span in [0, 1)",
+                      lambda s: 0 <= s < 1)
     span = float(times[-1] - times[0])
     step = float(np.median(np.diff(times)))
     scale = float(np.sqrt(np.mean(u2**2)))
+    if scale == 0:
+        raise ValueError("`u` is zero throughout: the oscillation's amplitude is a fraction of "
+                         "the load's RMS; give the planned load.")
     grid = dict(dt=dt, t=t, noise_std=noise_std, x0=x0, memory=memory,
                 order_range=order_range, parameter_knots=parameter_knots,
                 order_drift=order_drift)
-    order = np.broadcast_to(np.asarray(order, float), (num,))
+    order = np.asarray(check.order(order, num, bounds=check.interval(
+        order_range, "order_range")), float)
 
     def band(inputs):
         try:
             return fisher_information(inputs, order, p, **grid)
-        except ValueError:  # the test does not determine the order at all
+        except Undetermined:  # the test does not determine the order at all
             return None
 
     without = band(u2)
@@ -105,3 +115,17 @@ def settling_test(
         raise ValueError("no oscillation of these cycles fits the sampling (8 samples a cycle "
                          "at least) or determines the order; sample faster or longer.")
     return best
+
+
+def _numbers(values, name, what, valid):
+    """A number or a sequence of numbers, each `valid`, as a tuple of floats."""
+    try:
+        numbers = tuple(float(v) for v in np.atleast_1d(np.asarray(values, float)))
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be {what}, got {values!r}.") from None
+    if not numbers:
+        raise ValueError(f"`{name}` must be {what}, got none.")
+    for v in numbers:
+        if not valid(v):
+            raise ValueError(f"`{name}` must be {what}, got {v:g}.")
+    return numbers

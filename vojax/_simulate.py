@@ -1,5 +1,6 @@
 """`simulate`: the true system in its integral form (12)."""
 
+import jax
 import jax.numpy as jnp
 
 from . import _validate as check
@@ -31,6 +32,8 @@ def simulate(
             f"`p` must have shape ({n},) or ({u2.shape[0]}, {n}) to match `u`, got shape {p.shape}."
         )
     check.check_finite(p, "p")
-    x0 = check.samples(jnp.reshape(jnp.asarray(x0, jnp.result_type(float)), (1,)), "x0")[0]
+    x0 = check.samples(jnp.reshape(jnp.asarray(
+        x0 if isinstance(x0, jax.Array) else check.real(x0, "x0"), jnp.result_type(float)),
+        (1,)), "x0")[0]
     drive = jnp.sum(u2 * p, axis=-1) if p.ndim else u2[:, 0] * p
     return x0 + fractional_integral(drive, order, dt, t=t, rule=rule, memory=memory, **memory_options)

@@ -6,9 +6,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from . import _validate as check
 from ._adaptive._build import DEFAULT_BOUNDS, assemble_law
 from ._integral import make_memory
-from . import _validate as check
 from ._validate import check_options
 
 TRACES = {"tune": 0}
@@ -290,6 +290,9 @@ def _prepare(
     )
     if t is not None and pad_to is not None:
         raise ValueError("`pad_to` pads a uniform record; it cannot be used with `t`.")
+    if isinstance(lam, str):  # the law's own check lets text through for `LawEstimator`'s
+        raise ValueError(f"`lam` must be a positive number or None, got {lam!r}.")
+    burn_in, lag = check.real(burn_in, "burn_in"), check.real(lag, "lag")
     if not 0 <= burn_in < 1:
         raise ValueError(f"`burn_in` must be in [0, 1), got {burn_in}.")
     if not 0 <= lag < 0.5:

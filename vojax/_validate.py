@@ -30,7 +30,7 @@ def float_array(x, name: str):
         raise TypeError(f"`{name}` must be a real floating-point array, got {type(x).__name__}.")
     dtype = getattr(x, "dtype", None)
     if dtype is None:
-        dtype = np.asarray(x).dtype
+        dtype = reals(x, name).dtype if _ragged(x) else np.asarray(x).dtype
     if not (jnp.issubdtype(dtype, jnp.floating)):
         if jnp.issubdtype(dtype, jnp.integer) and np.ndim(x) == 0:
             pass  # a Python/NumPy integer scalar such as dt=1 is fine
@@ -42,6 +42,14 @@ def float_array(x, name: str):
         return jnp.asarray(x, dtype=jnp.result_type(float))
     # a host value moves by a transfer (`to_device`), not by a compiled conversion
     return to_device(np.asarray(x, dtype=np.float64))
+
+
+def _ragged(x) -> bool:
+    try:
+        np.asarray(x)
+    except ValueError:
+        return True
+    return False
 
 
 def columns(u):
@@ -114,6 +122,45 @@ def choice(value, allowed, name: str):
     if value not in allowed:
         raise ValueError(f"`{name}` must be one of {', '.join(map(repr, allowed))}, got {value!r}.")
     return value
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def reals(value, name: str) -> np.ndarray:
+    """`value` as a NumPy float array; text, None, complex, object or ragged values are
+    refused with a `TypeError` naming `name` (NumPy's own message names nothing)."""
+    if isinstance(value, (str, bytes)) or value is None:
+        raise TypeError(f"`{name}` must be a number or an array of numbers, got {_short(value)}.")
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # a ragged list
+        raise TypeError(f"`{name}` must be a number or a rectangular array of numbers, got "
+                        f"{_short(value)}.") from None
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"`{name}` must hold real numbers, got {_short(value)} "
+                        f"(dtype {arr.dtype}).")
+    return arr.astype(float)
+
+
+def real(value, name: str) -> float:
+    """One real number (a bool is not one) as a Python float; NaN and inf pass (the caller's
+    range says what is allowed)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be a number, got {value!r}.")
+    arr = reals(value, name)
+    if arr.ndim != 0:
+        raise TypeError(f"`{name}` must be one number, got an array of shape {arr.shape}.")
+    return float(arr)
+
+
+def flag(value, name: str) -> bool:
+    """True or False (a NumPy bool too); anything else, even if truthy, is refused."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be True or False, got {value!r}.")
+    return bool(value)
 
 
 def interval(bounds, name: str, within=(0.0, 1.0)):
@@ -238,7 +285,7 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
         if r0 != "auto":
             raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
     elif r0 is not None:
-        r0 = jnp.asarray(r0, jnp.result_type(float))
+        r0 = jnp.asarray(reals(r0, "r0"), jnp.result_type(float))
         n = u2.shape[1]
         if r0.shape != (n, n):
             raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
@@ -274,7 +321,7 @@ def window_mask(window, times):
 
 def check_mask(mask, num, num_inputs):
     """A 0/1 mask of shape (N,) with enough fitted samples; returns it as a NumPy array."""
-    arr = np.asarray(mask, dtype=float)
+    arr = reals(mask, "mask")
     if arr.shape != (num,):
         raise ValueError(f"`mask` must have shape ({num},), got {arr.shape}.")
     if not np.all((arr == 0) | (arr == 1)):

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _validate as check
 from ._afm_records import AfmOptions, export_records, file_records
 from ._errors import CurvesFailed
 from ._errors import DataError as DataError
@@ -99,6 +100,8 @@ def load_records(
     read (``error.records``) and each other curve's reason (``error.failures``).
     """
     inputs = column_names(time, inputs, output, group_by)
+    if resample is not None:
+        resample = check.real(resample, "resample")
     pairs = check_units(units, [time, *inputs, output])
     scales = Scales.checked(strain_from_length, length_column, area_column, time, inputs,
                             output, group_by)

@@ -30,6 +30,8 @@ import math
 
 import numpy as np
 
+from .._validate import reals
+
 SERIES_LIMIT = 0.5  # x up to this: the power series
 ASYMPTOTIC_LIMIT = 1e4  # x from this: the asymptotic series
 NODES = 16  # Gauss–Legendre nodes a panel
@@ -39,20 +41,24 @@ GRADING = 60  # panels halving towards each graded point: down to 2^−60 of its
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(NODES)
 
 
-def check_alpha(alpha, upper_open=False):
+def check_alpha(alpha, upper_open=False, name="alpha"):
+    """The order `name` as a float in (0, 1] (or (0, 1) where `upper_open`)."""
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.floating)):
-        raise TypeError(f"the order must be a number, got {alpha!r}.")
+        raise TypeError(f"`{name}` (the order) must be a number, got {alpha!r}.")
     alpha = float(alpha)
     if not (0.0 < alpha < 1.0 if upper_open else 0.0 < alpha <= 1.0):
         raise ValueError(
-            f"the order must lie in (0, 1{')' if upper_open else ']'}, got {alpha!r}."
+            f"`{name}` (the order) must lie in (0, 1{')' if upper_open else ']'}, got {alpha!r}."
         )
     return alpha
 
 
 def check_argument(x):
     """The argument x of E_α(−x) as a float array: real, finite and at least 0."""
-    x = np.asarray(x)
+    try:
+        x = np.asarray(x)
+    except ValueError:  # a ragged list
+        x = np.asarray([np.nan])
     if x.dtype.kind not in "iuf" or not np.all(np.isfinite(x)) or np.any(x < 0):
         raise ValueError("the argument x of E_α(−x) must be finite and at least 0.")
     return x.astype(float)
@@ -173,8 +179,8 @@ def _inputs(model, grid, name, q, params):
     import jax
 
     if not any(isinstance(v, jax.Array) for v in (grid, q, *params.values())):
-        q = check_alpha(q, upper_open=True)
-        grid = np.asarray(grid, dtype=float)
+        q = check_alpha(q, upper_open=True, name="q")
+        grid = reals(grid, name)
         _check_grid(grid, name)
         return type(model).__name__, grid, q, check_parameters(model, params), (
             mittag_leffler, math.gamma, _rotate)
@@ -185,9 +191,9 @@ def _inputs(model, grid, name, q, params):
 
     traced = lambda v: isinstance(v, jax.core.Tracer)  # noqa: E731
     if not traced(q):
-        check_alpha(concrete(q), upper_open=True)
+        check_alpha(concrete(q), upper_open=True, name="q")
     if not traced(grid):
-        _check_grid(np.asarray(grid, dtype=float), name)
+        _check_grid(reals(grid, name), name)
     # a traced parameter stands in as 1 (its name is still checked)
     check_parameters(model, {k: 1.0 if traced(v) else concrete(v) for k, v in params.items()})
     grid = jax.numpy.asarray(grid, dtype=jax.numpy.result_type(float))

@@ -43,7 +43,8 @@ def mittag_leffler_jax(alpha, x, beta=1):
     gives β = 1 + α and 2 + α. `beta` is a Python number (it chooses the formula); the order
     and the argument are checked only where they are concrete (a traced value is the
     caller's to keep in range; out of range gives NaN)."""
-    if isinstance(beta, bool) or beta not in (1, 2):
+    if (isinstance(beta, bool) or not isinstance(beta, (int, float, np.integer, np.floating))
+            or beta not in (1, 2)):
         raise ValueError(f"beta must be 1 or 2, got {beta!r}.")
     if not isinstance(alpha, jax.core.Tracer):
         a = np.asarray(alpha)

@@ -77,7 +77,7 @@ def respond(model, history, dt, t, q, params, given):
     """The response of the law to `history` on the clock `dt` or `t` (see the module)."""
     name = STRESS if given == STRESS else STRAIN
     f, times = check_history(history, dt, t, name)
-    q = check_alpha(q, upper_open=True)
+    q = check_alpha(q, upper_open=True, name="q")
     params = check_parameters(model, params)
     with np.errstate(over="ignore", invalid="ignore"):
         out = (_uniform(model, f, float(dt), q, params, given) if t is None
