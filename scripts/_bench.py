@@ -95,6 +95,20 @@ def cases(args):
             yield n, mode, n in sizes
 
 
+# messages that come from Python's or NumPy's internals, never from vojax's checks: they
+# name no argument, so a user cannot tell what was wrong (the fuzzers count them as dirty)
+LEAKS = ("not supported between instances", "could not convert string to float",
+         "only 0-dimensional arrays", "float() argument must be", "object is not iterable",
+         "truth value of an array", "setting an array element with a sequence",
+         "is not a valid value for jnp.array", "cannot reshape array", "has no attribute",
+         "unhashable type", "object is not subscriptable", "index out of")
+
+
+def leaks(message) -> bool:
+    """Whether an error's message is one of Python's or NumPy's own (`LEAKS`)."""
+    return any(words in message for words in LEAKS)
+
+
 def publish(lines, out=None) -> None:
     """Prints a script's report (its lines) and writes it to the file `out` when one is named."""
     text = "\n".join(lines)

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import jax
 import numpy as np
-from _bench import publish
+from _bench import leaks, publish
 
 jax.config.update("jax_enable_x64", True)
 import vojax  # noqa: E402
@@ -230,20 +230,6 @@ def _numbers(value, depth=0):
                 yield from _numbers(v, depth + 1)
 
 
-# messages that come from Python's or NumPy's internals, never from vojax's checks: they
-# name no argument, so a user cannot tell what was wrong
-LEAKS = ("not supported between instances", "could not convert string to float",
-         "only 0-dimensional arrays", "float() argument must be", "object is not iterable",
-         "truth value of an array", "setting an array element with a sequence",
-         "is not a valid value for jnp.array", "cannot reshape array", "has no attribute",
-         "unhashable type", "object is not subscriptable", "index out of")
-
-
-def _leaks(message):
-    """Whether an error's message is one of Python's or NumPy's own (`LEAKS`)."""
-    return any(words in message for words in LEAKS)
-
-
 def _run(thunk):
     """``(clean, what)`` of one case."""
     from vojax.io import DataError
@@ -288,7 +274,7 @@ def main():
     dirty, by_function = [], {}
     for name, thunk, key in cases:
         clean, what = _run(thunk)
-        if clean and _leaks(what):
+        if clean and leaks(what):
             clean, what = False, f"NumPy's or Python's own message, naming nothing: {what}"
         function = name.split("(")[0]
         total, ok = by_function.get(function, (0, 0))

@@ -4,6 +4,8 @@ A case is clean when:
 
 - the exit status is 0 (done), 1 (bad input, said in one line: no traceback, no "internal
   error") or 2 (a batch with failed records, listed in ``failures.csv``);
+- no error line and no reason in ``failures.csv`` is one of NumPy's or Python's own
+  messages, which name nothing (``_bench.LEAKS``);
 - nothing outside ``--out`` was created, changed or removed (the inputs are untouched);
 - with status 0, every ``summary.json`` written is strict JSON (no NaN) and every number of
   ``identification.csv`` is finite or empty;
@@ -38,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _bench import publish
+from _bench import leaks, publish
 
 
 def _csv(path, t, u, y, header="time_s,stress,strain", extra=None):
@@ -311,6 +313,12 @@ def _strict(text):
     return json.loads(text, parse_constant=refuse)
 
 
+def _reasons(out: Path) -> str:
+    """The reasons in a batch's ``failures.csv`` ("" without one)."""
+    path = out / "failures.csv"
+    return path.read_text(errors="replace") if path.is_file() else ""
+
+
 def _outputs_clean(out: Path) -> str:
     for path in out.rglob("summary.json"):
         try:
@@ -370,6 +378,8 @@ def run_case(argv, files_dir: Path, main):
             return False, f"exit status {status}", status, first
         if status == 1 and len(errors) != 1:
             return False, f"{len(errors)} error lines", status, first
+        if any(leaks(line) for line in errors) or leaks(_reasons(out)):
+            return False, "NumPy's or Python's own message, naming nothing", status, first
         if status == 0 and out.exists():
             why = _outputs_clean(out)
             if why:
