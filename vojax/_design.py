@@ -21,6 +21,7 @@ the tracker (`vojax.identify`) reports at these intensities, for small noise.
 
 import math
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -247,6 +248,7 @@ def _drift_precision(times, order, order_range, order_drift):
     return precision
 
 
+@eqx.filter_jit
 def _jacobian(memory, u2, order, p, hats, x0, drift_hats=None):
     """The model's Jacobian (N, P) in JAX: the order's columns, Φ, the offset's, and with
     `drift_hats` (N, K) each parameter's drifting gain ``Φ_j h_k``."""
