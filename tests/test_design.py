@@ -314,6 +314,7 @@ def test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half():
     (dict(cycles=(0,)), ValueError, "`cycles` must be one or more positive numbers, got 0"),
     (dict(cycles=(-5,)), ValueError, "`cycles` must be one or more positive numbers, got -5"),
     (dict(cycles=("a",)), TypeError, "`cycles` must be one or more positive numbers"),
+    (dict(cycles=None), TypeError, "`cycles` must be one or more positive numbers, got None"),
     (dict(starts=()), ValueError, r"`starts` must be one or more fractions of the span in \[0, 1\)"),
     (dict(starts=(1.5,)), ValueError, r"`starts` must be .* in \[0, 1\), got 1.5"),
     (dict(starts=(-0.5,)), ValueError, r"`starts` must be .* in \[0, 1\), got -0.5"),

@@ -119,6 +119,8 @@ def settling_test(
 
 def _numbers(values, name, what, valid):
     """A number or a sequence of numbers, each `valid`, as a tuple of floats."""
+    if values is None or isinstance(values, (str, bytes)):
+        raise TypeError(f"`{name}` must be {what}, got {values!r}.")
     try:
         numbers = tuple(float(v) for v in np.atleast_1d(np.asarray(values, float)))
     except (TypeError, ValueError):
