@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .._validate import reals
+from .._values import reals
 
 SERIES_LIMIT = 0.5  # x up to this: the power series
 ASYMPTOTIC_LIMIT = 1e4  # x from this: the asymptotic series
