@@ -247,8 +247,8 @@ def test_a_bad_argument_is_named_not_left_to_numpy(call, error, words):
 
 
 def test_the_named_refusals_keep_what_was_accepted():
-    """A single model's name, `load_records`' `resample` as a number and bare arrays as
-    before: the checks above refuse only what was never a valid value."""
+    """A single model's name and a NumPy number for `x0` are taken: the checks above refuse
+    only what was never a valid value."""
     assert [r["model"] for r in vojax.compare(np.ones(20), Y20, 0.1, models="springpot").rows] \
         == ["springpot"]
     sim = vojax.simulate(np.ones(20), 0.4, 1.0, 0.1, x0=np.float64(0.5))
