@@ -19,17 +19,22 @@ and the response is the same sum of the law's step response ``S`` and ramp respo
 and, for the stress of a law without a spring in series (springpot, Kelvin–Voigt),
 ``(s^q + λ)/a``: ``S = (t^{−q}/Γ(1−q) + λ)/a`` and ``R = (t^{1−q}/Γ(2−q) + λ t)/a``. The
 response is therefore exact for such a history to the rounding of the Mittag-Leffler
-function — no step size, no start-up error at the ``t^q`` cusp. The cost is one evaluation
-of the kernels a distinct lag ``t_n − t_j`` (N on a uniform step, N²/2 on other clocks, with
-as much memory) and the sum itself: N²/2 multiply–adds, or on a uniform step a convolution
-taken by FFT for long records (N log N).
+function — no step size, no start-up error at the ``t^q`` cusp. The kernels are needed at
+every lag ``t_n − t_j``: N of them on a uniform step, where the sum is a convolution (taken
+by FFT for long records, N log N); on other clocks N²/2, summed directly in chunks of
+`CHUNK` lags, except that the part of a clock uniform from some sample on (block means
+after a first sample alone, a test's start put before a uniform record) is again a
+convolution. Where many arguments fall between its series, the Mittag-Leffler function is
+taken from a table built once an order (`vojax._models._ml_table`: to about 1e-14 of the
+response's scale).
 """
 
 import math
 
 import numpy as np
 
-from ._closed import check_alpha, check_parameters, mittag_leffler_pair
+from ._closed import check_alpha, check_parameters
+from ._ml_table import pair
 
 STRAIN, STRESS = "strain", "stress"  # the response asked for
 
@@ -39,12 +44,12 @@ def _ratio_kernels(q, big_a, big_b, nu):
 
     def step(lags):
         tq = lags**q
-        e1, e1q = mittag_leffler_pair(q, nu * tq, 1.0)  # E_{q,1}, E_{q,1+q}
+        e1, e1q = pair(q, nu * tq, 1.0)  # E_{q,1}, E_{q,1+q}
         return big_a * e1 + big_b * tq * e1q
 
     def ramp(lags):
         tq = lags**q
-        e2, e2q = mittag_leffler_pair(q, nu * tq, 2.0)  # E_{q,2}, E_{q,2+q}
+        e2, e2q = pair(q, nu * tq, 2.0)  # E_{q,2}, E_{q,2+q}
         return lags * (big_a * e2 + big_b * tq * e2q)
 
     return step, ramp
@@ -118,18 +123,48 @@ def check_history(history, dt, t, name):
 
 
 def _general(model, f, times, q, params, given):
-    """`respond` on any clock: the ramp response once a distinct lag, the step response at
-    the lags from the first sample only."""
+    """`respond` on any clock: where the clock is uniform from its `m`-th sample on
+    (`_uniform_from`), the ramps switched on there are a convolution (as `_uniform`'s); the
+    first `m` ramps are summed at their own lags, `CHUNK` lags at a time."""
     num = f.shape[0]
     step, ramp = kernels(model, q, params, given)
-    below = np.tril(np.ones((num, num), bool))
-    lag = np.where(below, times[:, None] - times[None, :], 0.0)  # t_n − t_j
-    lags, where = np.unique(lag, return_inverse=True)
-    ramp_at = np.where(below, ramp(lags)[where.reshape(num, num)], 0.0)
     slopes = np.diff(f) / np.diff(times)
-    # Σ_j s_j [R(t_n − t_j) − R(t_n − t_{j+1})], the ramp on at t_j and off at t_{j+1}
-    out = (ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes
-    return out + _first_step(f[0], step, lag[:, 0])
+    head = _uniform_from(times)
+    out = _first_step(f[0], step, times - times[0])
+    # Σ_{j<m} s_j [R(t_n − t_j) − R(t_n − t_{j+1})], the ramp on at t_j and off at t_{j+1}
+    cols = head + 1  # the lags to t_0 … t_m (R is 0 at lags ≤ 0)
+    rows = max(1, CHUNK // cols)
+    for r in range(0, num if head else 0, rows):
+        lag = np.maximum(times[r:r + rows, None] - times[None, :cols], 0.0)
+        ramp_at = ramp(lag)
+        out[r:r + rows] += (ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes[: cols - 1]
+    if head < num - 1:  # the rest: lags (n − j) h from t_m on
+        h = (times[-1] - times[head]) / (num - 1 - head)
+        pulse = np.diff(ramp(h * np.arange(num - head)))
+        out[head + 1:] += _convolve(slopes[head:], pulse)[: num - 1 - head]
+    return out
+
+
+# the lags of the direct sum evaluated at once (the series' terms then take about 170 MB)
+CHUNK = 2**18
+# a clock whose samples lie within this fraction of its step of a uniform one is taken as
+# uniform there: its lags are then off by at most twice that, far below any record's jitter
+UNIFORM_TOLERANCE = 1e-9
+
+
+def _uniform_from(times):
+    """The first sample from which the clock is uniform to `UNIFORM_TOLERANCE` of its step:
+    each later step that of the last, and each later sample that far from its place on the
+    uniform clock (N − 1 where no such part has two steps)."""
+    num = times.shape[0]
+    steps = np.diff(times)
+    bad = np.abs(steps - steps[-1]) > 2 * UNIFORM_TOLERANCE * steps[-1]
+    head = int(np.flatnonzero(bad)[-1]) + 1 if bad.any() else 0
+    if head >= num - 2:
+        return num - 1
+    h = (times[-1] - times[head]) / (num - 1 - head)
+    off = times[head:] - (times[head] + h * np.arange(num - head))
+    return head if np.max(np.abs(off)) <= UNIFORM_TOLERANCE * h else num - 1
 
 
 def _host_array(x, name):
