@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from . import _validate as check
+from ._models._respond import _uniform_from
 from ._refit_inputs import _check_x0, _weights
 from ._stats import correlation_limit
 from ._tracker._blocks import block_average, block_size
@@ -21,6 +22,9 @@ OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `
 STRONG_BF = 10.0
 MIN_POINTS = 20  # the fewest samples compared: each law's fit of its first part needs a
 # few more than the variable order's free numbers (knots + coefficient + offset)
+# the most lags a law's exact solve may sum directly (head × N, see `_solved`; 5e7: about
+# 20 s a solve, beside its refit's 7 s at 5,000 points)
+EXACT_SOLVE_LAGS = 5e7
 MAX_POINTS = 20_000  # a longer record is compared on block means (about 1.5 s per 1,000
 # points and law on two cores, growing a little faster than the points)
 
@@ -31,8 +35,10 @@ class Comparison:
     ``log_likelihood``, ``aic``, ``bic``, ``log_evidence`` (−BIC/2), ``weight`` (evidence
     weights, summing to 1), ``holdout_nrmse`` (fitted before the held-out end, predicted over
     it, RMS error / the output's range there), ``lag1`` (residuals' lag-1 autocorrelation),
-    ``order`` (the refit's order: its value, or the range of a variable order), and the
-    ``refit`` itself; the Zener's row holds the Maxwell fit where that fits better, the
+    ``order`` (the refit's order: its value, or the range of a variable order), the
+    ``refit`` itself, and ``solved``: whether the residuals behind these numbers are those
+    of the fitted law solved exactly (``False``: the refit's own, with the reason in
+    ``unsolved``); the Zener's row holds the Maxwell fit where that fits better, the
     Zener with E0 = 0, and says so in ``note``), `verdict`: one sentence, and `block`: the
     samples averaged into each point fitted (1: none; see `compare`'s `max_points`)."""
 
@@ -63,7 +69,8 @@ class Comparison:
             lines.append(
                 f"{r['model']:<14}{r['quantities']:>11d}{r['log_evidence']:>14.2f}"
                 f"{r['weight']:>9.3f}{r['aic']:>12.2f}{r['holdout_nrmse']:>16.4g}"
-                f"{r['lag1']:>8.2f}  {r['order']}" + (f"  ({r['note']})" if r.get("note") else "")
+                f"{r['lag1']:>8.2f}  {r['order']}"
+                + "".join(f"  ({r[k]})" for k in ("note", "unsolved") if r.get(k))
             )
         return "\n".join(lines + [self.verdict])
 
@@ -96,6 +103,36 @@ def _fit(model, stress, strain, grid, knots, window=None, fitting=None):
         for _ in range(OUTPUT_ERROR_ROUNDS):
             fit = once(np.asarray(fit.y_hat))
     return fit
+
+
+class _Fitted:
+    """A law's `refit` and the strain it predicts over the whole record: the fitted law solved
+    exactly (`fitted_strain`), or the refit's own ``y_hat`` with the reason in `unsolved`."""
+
+    def __init__(self, refit, strain, unsolved=None):
+        self.refit, self.strain, self.unsolved = refit, strain, unsolved
+
+
+def _solved(model, fit, stress, grid, origin, head):
+    """`fit` with the strain of its law solved exactly where the law has a closed form (the
+    constant-order laws) and the solve costs no more than `EXACT_SOLVE_LAGS` lags (`head`:
+    the samples before the clock turns uniform, `vojax._models._respond._uniform_from`)."""
+    from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
+
+    if model == "variable":  # the refit is the variable-order law's own solve
+        return _Fitted(fit, np.asarray(fit.y_hat))
+    if head * stress.size > EXACT_SOLVE_LAGS:
+        return _Fitted(fit, np.asarray(fit.y_hat), (
+            f"the refit's residual: its law solved exactly on this clock ({head} of its "
+            f"{stress.size} samples before it turns uniform) would sum {head * stress.size:.2g}"
+            " lags; fewer `max_points` allow it"))
+    law = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt(),
+           "maxwell": FractionalMaxwell(), "zener": FractionalZener()}[model]
+    try:
+        strain = law.fitted_strain(fit, stress, **grid, origin=origin)
+    except ValueError as err:  # an unphysical law (its signs held, a Zener spring E1 ≤ 0)
+        return _Fitted(fit, np.asarray(fit.y_hat), f"the refit's residual: {err}")
+    return _Fitted(fit, np.asarray(strain))
 
 
 def _at_least_nested(fit, early, nested, nested_early, scaled, inside, tail):
@@ -139,6 +176,14 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     decades: the likelihood is then that of noise proportional to the data, and the held-out
     error the RMS relative error).
 
+    Each constant-order law's residuals, and so its likelihood, held-out error and lag-1,
+    are those of the fitted law solved exactly for the strain from the stress alone
+    (`fitted_strain`; the variable order's refit is its own solve). A law that feeds the
+    strain back (Kelvin–Voigt, Zener) is fitted by output error: refitted with its own
+    strain as the regressor, where the measured strain's noise would bias it. The exact
+    solve sums N²/2 lags on a clock that is not uniform (fewer where it turns uniform); one
+    of more than `EXACT_SOLVE_LAGS` keeps the refit's residuals and says so in the row.
+
     The log evidence is the Schwarz approximation ``log L̂ − (k/2) ln N`` (k the free
     numbers, the noise level's included; L̂ the Gaussian likelihood at the fit), whose
     differences are log Bayes factors for large N. The verdict names the best model and its
@@ -172,14 +217,17 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     fitting = dict(x0=x0, origin=origin, relative=relative)
     fits = {}
 
+    head = _uniform_from(times)
+
     def fitted(model, part=window):  # each law's fit once, over the window or its first part
         key = (model, None if part is None else tuple(part))
         if key not in fits:
-            fits[key] = _fit(model, stress, strain, grid, knots, part, fitting)
+            fit = _fit(model, stress, strain, grid, knots, part, fitting)
+            fits[key] = _solved(model, fit, stress, grid, origin, head)
         return fits[key]
 
-    def scaled(fit):  # a fit's residuals as fitted
-        r = np.asarray(strain) - np.asarray(fit.y_hat)
+    def scaled(fit):  # a fit's residuals (its law solved exactly), relative where asked
+        r = np.asarray(strain) - fit.strain
         return r / np.where(inside, strain, 1.0) if relative else r  # y ≠ 0 where compared
 
     part = (first, split)
@@ -187,7 +235,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     rows = []
     for model in dict.fromkeys(models):
         fit, early = fitted(model), fitted(model, part)
-        k = np.asarray(fit.knots).size + np.asarray(fit.p).size + offset + 1  # + σ
+        k = np.asarray(fit.refit.knots).size + np.asarray(fit.refit.p).size + offset + 1  # + σ
         nested = None
         if model == "zener":
             # the Zener with E0 = 0 is the Maxwell law: its output-error fit (the strain fed
@@ -243,7 +291,7 @@ def _row(model, k, fit, early, strain, scaled, inside, tail, nested, relative):
     span = 1.0 if relative else (float(np.ptp(strain[inside])) or 1.0)
     e = res - res.mean()
     lag1 = float(e[1:] @ e[:-1] / (e @ e)) if e @ e > 0 else 0.0  # an exact fit: none
-    order = np.asarray(fit.order)
+    order = np.asarray(fit.refit.order)
     return dict(
         model=model, quantities=k, log_likelihood=loglik,
         aic=-2 * loglik + 2 * k, bic=-2 * loglik + k * math.log(num),
@@ -251,8 +299,9 @@ def _row(model, k, fit, early, strain, scaled, inside, tail, nested, relative):
         holdout_nrmse=float(np.sqrt(np.mean(miss**2)) / span), lag1=lag1,
         order=(f"{order[0]:.3f}" if np.all(order == order[0])
                else f"{order.min():.3f}–{order.max():.3f}"),
-        refit=fit,
+        refit=fit.refit, solved=fit.unsolved is None,
         **({"note": nested} if nested else {}),
+        **({"unsolved": fit.unsolved} if fit.unsolved else {}),
     )
 
 
