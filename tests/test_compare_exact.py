@@ -106,14 +106,14 @@ def test_a_clock_too_irregular_to_solve_keeps_the_refits_residual_and_says_so(mo
     """On a jittered clock (uniform nowhere) with `EXACT_SOLVE_LAGS` below its (N − 1)·N lags, no law is
     solved: each row's likelihood is its refit's, ``solved`` is False and the row and the
     table say why; with the default the same record is solved."""
-    import vojax._compare as compare_module
+    from vojax._models import _fitted
 
     t, stress, strain = _record()
     t = t + 1e-4 * np.random.default_rng(4).uniform(size=t.size)  # 0.2 % of a step
     models = ("springpot", "kelvin-voigt")
     solved = vojax.compare(stress, strain, t=t, models=models)
     assert all(r["solved"] and "unsolved" not in r for r in solved.rows)
-    monkeypatch.setattr(compare_module, "EXACT_SOLVE_LAGS", (t.size - 1) * t.size - 1)
+    monkeypatch.setattr(_fitted, "EXACT_SOLVE_LAGS", (t.size - 1) * t.size - 1)
     c = vojax.compare(stress, strain, t=t, models=models)
     for r in c.rows:
         assert not r["solved"] and "119 of its 120 samples" in r["unsolved"]

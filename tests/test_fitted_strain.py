@@ -159,3 +159,27 @@ def test_fitted_strain_says_what_is_wrong():
                           p_signs=kv.p_signs, warn=False)
     with pytest.raises(ValueError, match="varies along the record"):
         kv.fitted_strain(varying, stress, **rec.grid)
+
+
+def test_the_record_summary_keeps_the_regressions_residual_where_a_solve_is_too_costly(
+        monkeypatch):
+    """The same Kelvin–Voigt record on a clock uniform nowhere (jittered by 0.5 % of a step):
+    solved while its lags, (N − 1)·N, are within `EXACT_SOLVE_LAGS`; above it, ``nrmse`` is
+    the regression's and ``nrmse_of`` says so."""
+    from vojax._models import _fitted
+
+    model, truth, q = vojax.KelvinVoigt(), dict(eta=2.0, k=3.0), 0.4
+    t = 0.02 * np.arange(200) + 1e-4 * np.random.default_rng(1).uniform(size=200)
+    stress = np.minimum(t / 1.0, 1.0)
+    clean = model.strain_response(stress, t=t, q=q, **truth)
+    noisy = clean + 0.01 * np.ptp(clean) * np.random.default_rng(3).normal(size=t.size)
+    rec = vojax.io.Record("kv", "kv.csv", t, stress[:, None], noisy, ("stress",), "strain",
+                          0.02, uniform=False)
+    assert _fitted.too_costly(t) is None and _fitted.too_costly(None) is None
+    _, summary = identify_record(rec, model="kelvin-voigt", method="refit")
+    assert summary["refit"]["nrmse_of"] == "the fitted law solved"
+    monkeypatch.setattr(_fitted, "EXACT_SOLVE_LAGS", 199 * 200 - 1)
+    assert "199 of its 200 samples" in _fitted.too_costly(t)
+    _, summary = identify_record(rec, model="kelvin-voigt", method="refit")
+    block = summary["refit"]
+    assert block["nrmse_of"] == "regression" and block["nrmse"] == block["nrmse_regression"]

@@ -9,7 +9,6 @@ import math
 import numpy as np
 
 from . import _validate as check
-from ._models._respond import _uniform_from
 from ._refit_inputs import _check_x0, _weights
 from ._stats import correlation_limit
 from ._tracker._blocks import block_average, block_size
@@ -22,9 +21,6 @@ OUTPUT_ERROR_ROUNDS = 4  # refits of a law with the strain as a regressor (see `
 STRONG_BF = 10.0
 MIN_POINTS = 20  # the fewest samples compared: each law's fit of its first part needs a
 # few more than the variable order's free numbers (knots + coefficient + offset)
-# the most lags a law's exact solve may sum directly (head × N, see `_solved`; 5e7: about
-# 20 s a solve, beside its refit's 7 s at 5,000 points)
-EXACT_SOLVE_LAGS = 5e7
 MAX_POINTS = 20_000  # a longer record is compared on block means (about 1.5 s per 1,000
 # points and law on two cores, growing a little faster than the points)
 
@@ -113,19 +109,18 @@ class _Fitted:
         self.refit, self.strain, self.unsolved = refit, strain, unsolved
 
 
-def _solved(model, fit, stress, grid, origin, head):
+def _solved(model, fit, stress, grid, origin):
     """`fit` with the strain of its law solved exactly where the law has a closed form (the
-    constant-order laws) and the solve costs no more than `EXACT_SOLVE_LAGS` lags (`head`:
-    the samples before the clock turns uniform, `vojax._models._respond._uniform_from`)."""
+    constant-order laws) and the solve is not `too_costly` on the clock."""
     from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
+    from ._models._fitted import too_costly
 
     if model == "variable":  # the refit is the variable-order law's own solve
         return _Fitted(fit, np.asarray(fit.y_hat))
-    if head * stress.size > EXACT_SOLVE_LAGS:
-        return _Fitted(fit, np.asarray(fit.y_hat), (
-            f"the refit's residual: its law solved exactly on this clock ({head} of its "
-            f"{stress.size} samples before it turns uniform) would sum {head * stress.size:.2g}"
-            " lags; fewer `max_points` allow it"))
+    why = too_costly(grid.get("t"))
+    if why:
+        return _Fitted(fit, np.asarray(fit.y_hat),
+                       f"the refit's residual: {why}; fewer `max_points` allow it")
     law = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt(),
            "maxwell": FractionalMaxwell(), "zener": FractionalZener()}[model]
     try:
@@ -182,7 +177,8 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     strain back (Kelvin–Voigt, Zener) is fitted by output error: refitted with its own
     strain as the regressor, where the measured strain's noise would bias it. The exact
     solve sums N²/2 lags on a clock that is not uniform (fewer where it turns uniform); one
-    of more than `EXACT_SOLVE_LAGS` keeps the refit's residuals and says so in the row.
+    of more than `vojax._models._fitted.EXACT_SOLVE_LAGS` keeps the refit's residuals and
+    says so in the row.
 
     The log evidence is the Schwarz approximation ``log L̂ − (k/2) ln N`` (k the free
     numbers, the noise level's included; L̂ the Gaussian likelihood at the fit), whose
@@ -217,13 +213,11 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     fitting = dict(x0=x0, origin=origin, relative=relative)
     fits = {}
 
-    head = _uniform_from(times)
-
     def fitted(model, part=window):  # each law's fit once, over the window or its first part
         key = (model, None if part is None else tuple(part))
         if key not in fits:
             fit = _fit(model, stress, strain, grid, knots, part, fitting)
-            fits[key] = _solved(model, fit, stress, grid, origin, head)
+            fits[key] = _solved(model, fit, stress, grid, origin)
         return fits[key]
 
     def scaled(fit):  # a fit's residuals (its law solved exactly), relative where asked

@@ -288,24 +288,17 @@ def _refit_part(record, u, y, physical, pad_to, options, model="linear"):
     return columns, summary
 
 
-# the longest records whose fitted law is solved for the reported residual (the solve
-# evaluates the Mittag-Leffler function once a distinct lag, about 0.1–0.3 ms each): on a
-# uniform clock N lags (0.4 s at 1,000 samples), on another up to N²/2 (0.02 s for the
-# myocardium's 99 log-spaced samples, 170 s for 1,000)
-SOLVED_MAX_UNIFORM = 5_000
-SOLVED_MAX_IRREGULAR = 200
-
-
 def _solved_nrmse(record, u, y, fit, model, origin):
     """``nrmse`` of the fitted law solved exactly for the output (`fitted_strain`), its
     regression's own (``nrmse_regression``: the measured output inside the integral where the
     law feeds it back) and which of the two ``nrmse`` is (``nrmse_of``): the regression's for
-    the linear model, a fit whose law is not physical, or a record longer than the limits
-    above."""
+    the linear model, a fit whose law is not physical, or a clock on which the solve is
+    `too_costly`."""
+    from .._models._fitted import too_costly
+
     regression = nrmse(y, fit.y_hat)
     out = {"nrmse": regression, "nrmse_regression": regression, "nrmse_of": "regression"}
-    longest = SOLVED_MAX_UNIFORM if record.uniform else SOLVED_MAX_IRREGULAR
-    if model not in MODELS or y.size > longest:
+    if model not in MODELS or too_costly(record.grid.get("t")):
         return out
     try:
         solved = MODELS[model].fitted_strain(fit, np.asarray(u)[:, 0], **record.grid,

@@ -8,10 +8,12 @@ that is not uniform needs it at every distinct lag, N²/2 of them. Between the s
 oscillating exponential part, for α near 1, decays below 1e-16 before it turns faster than
 a few radians per unit of u), so `PANELS` panels of width ``ln(2·10⁴)/PANELS`` with `NODES`
 Chebyshev points each reproduce the quadrature to 1.5e-14 absolute, its own rounding
-(measured over α 0.01–0.999, `tests/test_ml_table.py`). That is the response's rounding (an error relative to
-its scale, not to a value that has decayed towards 0, which is why `vojax.mittag_leffler`
-itself never uses the table). The table is built at ``PANELS · NODES`` arguments and is
-used where more arguments than that fall between the series.
+(measured over α 0.01–0.999, `tests/test_ml_table.py`). That error is relative to the
+function's scale, 1, not to a value that has decayed towards 0, which is why
+`vojax.mittag_leffler` itself, held to 1e-10 relative, never uses the table; a response
+built on it agrees with the quadrature's to about 2e-13 of the response's scale. The table
+is built at ``PANELS · NODES`` arguments and is used where more arguments than that fall
+between the series.
 """
 
 import functools

@@ -103,8 +103,8 @@ class AbstractViscoelasticModel(eqx.Module):
         times `t`, for the constant order `q` in (0, 1) and the physical parameters (`names`),
         from rest: exact for a stress linear between its samples (a step from 0 to its first
         value at the first sample), through the law's step and ramp responses in closed form
-        (`vojax._models._respond`): N evaluations of them on a uniform step, N²/2 (and as
-        much memory) on `t`, and N²/2 multiply–adds for the sum."""
+        (`vojax._models._respond`): at N lags on a uniform step (a convolution), at N²/2 on
+        other clocks (summed in chunks; a convolution again where the clock turns uniform)."""
         from ._respond import STRESS, respond
 
         return respond(self, stress, dt, t, q, parameters, STRESS)
