@@ -6,8 +6,8 @@
 - *tabulated*: as shipped (the function tabulated once an order where many arguments need
   it, a clock's uniform part summed as a convolution).
 
-Both give the same strain to about 1e-14 of its scale (the table's rounding); the largest
-difference is printed. A fractional Zener (η 1, E0 0.5, E1 2, q 0.4) under a ramp to 1 in
+Both give the same strain to about 1e-12 of its scale (the table's 1.5e-14, grown by the
+differences of nearby ramps); the largest difference is printed. A fractional Zener (η 1, E0 0.5, E1 2, q 0.4) under a ramp to 1 in
 1 s, held. Times are wall-clock seconds of one call each.
 
     python scripts/bench_responses.py [--out FILE]

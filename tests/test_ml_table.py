@@ -41,16 +41,14 @@ def test_few_arguments_take_the_quadrature_itself():
 def _direct_sum(law, f, times, q, params, given):
     """The response as the direct sum over every lag, with the quadrature itself (no table,
     no convolution): the definition `_general` must reproduce."""
-    step, ramp = _respond.kernels(law, q, params, given)
-    lag = np.maximum(times[:, None] - times[None, :], 0.0)
-    values = np.zeros_like(lag)
-    below = lag > 0
-    a, b, c = law.coefficients(**params)
-    values[below] = ramp(lag[below]) if lag[below].size < 200 else np.concatenate(
-        [ramp(chunk) for chunk in np.array_split(lag[below], lag[below].size // 100 + 1)])
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(_respond, "pair", mittag_leffler_pair)  # the kernels without the table
+        step, ramp = _respond.kernels(law, q, params, given)
+        lag = np.maximum(times[:, None] - times[None, :], 0.0)
+        values = ramp(lag)
+        first = _respond._first_step(f[0], step, times - times[0])
     slopes = np.diff(f) / np.diff(times)
-    out = (values[:, :-1] - values[:, 1:]) @ slopes
-    return out + _respond._first_step(f[0], step, times - times[0])
+    return (values[:, :-1] - values[:, 1:]) @ slopes + first
 
 
 LAWS = [(vojax.FractionalZener(), dict(eta=1.0, E0=0.5, E1=2.0)),
@@ -59,12 +57,16 @@ LAWS = [(vojax.FractionalZener(), dict(eta=1.0, E0=0.5, E1=2.0)),
 
 @pytest.mark.parametrize("law,params", LAWS, ids=["zener", "kelvin-voigt"])
 @pytest.mark.parametrize("clock", ["block means", "origin", "log then uniform", "log"])
-def test_a_clock_uniform_from_a_sample_on_gives_the_direct_sum(law, params, clock, monkeypatch):
+@pytest.mark.parametrize("chunk", [7, _respond.CHUNK])
+def test_a_clock_uniform_from_a_sample_on_gives_the_direct_sum(law, params, clock, chunk,
+                                                               monkeypatch):
     """Four clocks of 60 samples: uniform after a first sample 0.3 steps early (block
     means), after a start 2 steps before (an origin), after 20 log-spaced samples, and
     log-spaced throughout. The response equals the direct sum over every lag with the
-    quadrature itself to 1e-12 of its scale, the chunks of the direct part cut to 7 lags."""
-    monkeypatch.setattr(_respond, "CHUNK", 7)
+    quadrature itself: to 1e-12 of its scale with the direct part's chunks cut to 7 lags
+    (each then below the table's cost: the quadrature), to 5e-12 as shipped (the table:
+    2.4e-12 at most measured, the table's 1.5e-14 grown by the differences of nearby ramps)."""
+    monkeypatch.setattr(_respond, "CHUNK", chunk)
     h, n = 0.05, 60
     uniform = h * np.arange(n)
     times = {"block means": np.r_[-0.3 * h, uniform[1:]],
@@ -80,7 +82,8 @@ def test_a_clock_uniform_from_a_sample_on_gives_the_direct_sum(law, params, cloc
         want = _direct_sum(law, f, times, 0.6, params, given)
         if given == _respond.STRAIN and law.coefficients(**params)[2] == 0.0:
             got, want = got[1:], want[1:]  # a jump of strain: an infinite first stress
-        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+        tol = 1e-12 if chunk == 7 else 5e-12
+        np.testing.assert_allclose(got, want, rtol=0, atol=tol * np.abs(want).max())
 
 
 def test_a_clock_off_its_uniform_places_is_summed_directly():

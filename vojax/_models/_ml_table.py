@@ -11,7 +11,7 @@ Chebyshev points each reproduce the quadrature to 1.5e-14 absolute, its own roun
 (measured over α 0.01–0.999, `tests/test_ml_table.py`). That error is relative to the
 function's scale, 1, not to a value that has decayed towards 0, which is why
 `vojax.mittag_leffler` itself, held to 1e-10 relative, never uses the table; a response
-built on it agrees with the quadrature's to about 2e-13 of the response's scale. The table
+built on it agrees with the quadrature's to about 1e-12 of the response's scale. The table
 is built at ``PANELS · NODES`` arguments and is used where more arguments than that fall
 between the series.
 """
