@@ -738,3 +738,22 @@ def test_the_summary_table_takes_at_most_its_share_of_a_long_batch():
     assert not due.due(7.2) and due.due(7.3)
     due.ran(7.3, 7.31)  # fast again: once a second again
     assert not due.due(8.3) and due.due(8.32)
+
+
+@pytest.mark.parametrize("count", [1, 3, 4, 63, 64, 65, 250, 1000, 4096])
+@pytest.mark.parametrize("workers", [1, 2, 8])
+def test_a_bucket_is_cut_into_small_tasks_of_one_size(count, workers):
+    """A bucket of `count` records on `workers` Dask threads: every record once, in order;
+    no task above `DASK_TASK_RECORDS`, nor above the share of one of `DASK_TASKS_PER_WORKER`
+    tasks a worker; every task of one size but the last, which is not larger."""
+    from vojax._data._dask import DASK_TASK_RECORDS, DASK_TASKS_PER_WORKER, _chunks
+
+    group = list(range(count))
+    chunks = _chunks(group, workers)
+    assert [r for c in chunks for r in c] == group
+    sizes = [len(c) for c in chunks]
+    assert max(sizes) <= DASK_TASK_RECORDS and min(sizes) >= 1
+    assert max(sizes) <= -(-count // (DASK_TASKS_PER_WORKER * workers))
+    assert len(set(sizes[:-1])) <= 1 and sizes[-1] <= sizes[0]
+    # no more tasks than the cap and the workers need: one fewer would break one of them
+    assert len(chunks) <= max(-(-count // DASK_TASK_RECORDS), DASK_TASKS_PER_WORKER * workers)

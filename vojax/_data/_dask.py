@@ -14,6 +14,9 @@ import numpy as np
 from ._compute import _compute_group
 
 DASK_TASKS_PER_WORKER = 2  # a bucket is cut into about this many tasks per Dask worker
+# and into tasks of at most this many records: a map's curve takes about a second, so its
+# results land a minute apart at most, and a worker killed mid-task loses that much work
+DASK_TASK_RECORDS = 64
 CONNECT_S = 20  # seconds a scheduler's address has to answer as a Dask scheduler
 WORKERS_S = 20  # seconds a reachable scheduler has for its first worker to join
 PROBE_S = 50  # hard limit of the whole check, whatever the address does (a port that
@@ -68,18 +71,15 @@ def _compute_chunk(chunk, num, dt, config):
 
 
 def _on_dask(client, groups, config, bar):
-    """Submits every bucket to `client`'s workers, cut into chunks (about
-    `DASK_TASKS_PER_WORKER` per worker: a bucket's programs compile once per worker that
-    runs it), and yields ``(chunk, results)`` as tasks finish. A task lost with its worker
+    """Submits every bucket to `client`'s workers, cut into chunks (`_chunks`: a bucket's
+    programs compile once per worker that runs it), and yields ``(chunk, results)`` as tasks finish. A task lost with its worker
     (Dask's ``KilledWorker``) fails its own records, with the reason."""
     from distributed import as_completed
 
     workers = max(1, sum(client.nthreads().values()))
     futures = {}
     for (num, dt), group in groups.items():
-        size = max(1, -(-len(group) // (DASK_TASKS_PER_WORKER * workers)))
-        for k in range(0, len(group), size):
-            chunk = group[k : k + size]
+        for chunk in _chunks(group, workers):
             futures[client.submit(_compute_chunk, chunk, num, dt, config, pure=False)] = chunk
     bar.note(
         f"{len(futures)} task(s) of {len(groups)} length bucket(s) on {workers} Dask worker "
@@ -101,6 +101,15 @@ def _on_dask(client, groups, config, bar):
             yield chunk, results
     finally:  # interrupted: nothing keeps computing for a run that is gone
         client.cancel(list(futures))
+
+
+def _chunks(group, workers):
+    """A bucket's records cut into tasks: about `DASK_TASKS_PER_WORKER` a worker, each of at
+    most `DASK_TASK_RECORDS`, all of one size but the last (each size a task's vmapped
+    programs compile for, once a worker)."""
+    tasks = max(-(-len(group) // DASK_TASK_RECORDS), DASK_TASKS_PER_WORKER * workers)
+    size = max(1, -(-len(group) // tasks))
+    return [group[k : k + size] for k in range(0, len(group), size)]
 
 
 class SchedulerLost(ConnectionError):
