@@ -19,8 +19,8 @@ ORDERS = [0.01, 0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.99, 0.999]
 def test_the_table_equals_the_quadrature_to_rounding(alpha, base):
     """At 600 arguments drawn log-uniformly over 1e-3–1e5 (the table between the series,
     the series outside it) both functions of the pair agree with the direct evaluation to
-    1e-14 absolute: the table's error is rounding, not interpolation (with 12 points a panel
-    instead of 24 it is 1e-9 at α = 0.999)."""
+    5e-14 absolute (measured: at most 1.5e-14, the quadrature's own rounding; with 12 points
+    a panel instead of 24 it is 5e-11)."""
     rng = np.random.default_rng(int(alpha * 1000) + int(base))
     x = np.exp(rng.uniform(math.log(1e-3), math.log(1e5), 600))
     x[:2] = SERIES_LIMIT * (1 + 1e-15), ASYMPTOTIC_LIMIT * (1 - 1e-15)  # the table's ends

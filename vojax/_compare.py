@@ -74,14 +74,20 @@ class Comparison:
         return self.table()
 
 
+def _law(model):
+    """The constant-order law of a model's name."""
+    from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
+
+    return {"springpot": Springpot, "kelvin-voigt": KelvinVoigt,
+            "maxwell": FractionalMaxwell, "zener": FractionalZener}[model]()
+
+
 def _fit(model, stress, strain, grid, knots, window=None, fitting=None):
     """One law's refit over `window`, with the shared refit options `fitting` (the offset,
     the test's start, relative residuals)."""
-    from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
     from ._refit import refit
 
-    law = {"springpot": Springpot(), "variable": Springpot(), "kelvin-voigt": KelvinVoigt(),
-           "maxwell": FractionalMaxwell(), "zener": FractionalZener()}[model]
+    law = _law("springpot" if model == "variable" else model)
 
     def once(regressor):
         return refit(
@@ -112,7 +118,6 @@ class _Fitted:
 def _solved(model, fit, stress, grid, origin):
     """`fit` with the strain of its law solved exactly where the law has a closed form (the
     constant-order laws) and the solve is not `too_costly` on the clock."""
-    from ._models import FractionalMaxwell, FractionalZener, KelvinVoigt, Springpot
     from ._models._fitted import too_costly
 
     if model == "variable":  # the refit is the variable-order law's own solve
@@ -121,10 +126,8 @@ def _solved(model, fit, stress, grid, origin):
     if why:
         return _Fitted(fit, np.asarray(fit.y_hat),
                        f"the refit's residual: {why}; fewer `max_points` allow it")
-    law = {"springpot": Springpot(), "kelvin-voigt": KelvinVoigt(),
-           "maxwell": FractionalMaxwell(), "zener": FractionalZener()}[model]
     try:
-        strain = law.fitted_strain(fit, stress, **grid, origin=origin)
+        strain = _law(model).fitted_strain(fit, stress, **grid, origin=origin)
     except ValueError as err:  # an unphysical law (its signs held, a Zener spring E1 ≤ 0)
         return _Fitted(fit, np.asarray(fit.y_hat), f"the refit's residual: {err}")
     return _Fitted(fit, np.asarray(strain))

@@ -72,8 +72,9 @@ def _compute_chunk(chunk, num, dt, config):
 
 def _on_dask(client, groups, config, bar):
     """Submits every bucket to `client`'s workers, cut into chunks (`_chunks`: a bucket's
-    programs compile once per worker that runs it), and yields ``(chunk, results)`` as tasks finish. A task lost with its worker
-    (Dask's ``KilledWorker``) fails its own records, with the reason."""
+    programs compile once per worker that runs it), and yields ``(chunk, results)`` as
+    tasks finish. A task lost with its worker (Dask's ``KilledWorker``) fails its own
+    records, with the reason."""
     from distributed import as_completed
 
     workers = max(1, sum(client.nthreads().values()))

@@ -17,7 +17,7 @@ exact for a stress linear between its samples, as `strain_response` is.
 import numpy as np
 
 from ._ml_table import pair
-from ._respond import check_history
+from ._respond import _uniform_from, check_history
 
 # the most lags an exact solve sums directly for a reported residual (`compare`'s rows, the
 # batch's nrmse): 5e7 take 7.7 s on a log-spaced clock of 7,071 samples, about what a law's
@@ -29,8 +29,6 @@ def too_costly(times):
     """Why the exact solve on the clock `times` (None: a uniform step) is not made (the lags
     it would sum directly, those of the samples before the clock turns uniform, exceed
     `EXACT_SOLVE_LAGS`), or None."""
-    from ._respond import _uniform_from
-
     if times is None:
         return None
     num = np.asarray(times).shape[0]
