@@ -343,3 +343,53 @@ def test_settling_test_of_a_zero_load_says_so_and_takes_bare_numbers():
     # x0 is a flag of `fisher_information` too
     with pytest.raises(TypeError, match="`x0` must be True or False"):
         vojax.fisher_information(u, 0.4, [2.0], dt, noise_std=0.01, x0="no")
+
+
+@pytest.mark.parametrize("grid", ["dt", "t"])
+@pytest.mark.parametrize(
+    "options",
+    [dict(knots=3), dict(parameter_knots=4, x0=False), dict(order_drift=0.5)],
+    ids=["knots", "drift-hats", "order-drift"],
+)
+def test_padding_the_grid_leaves_the_information_as_it_is(grid, options):
+    """With `pad_to` the model runs on the grid continued past its end (zero input, the last
+    order, the last step) and only the real samples' rows enter: the causal memory of the real
+    samples does not see the padding, so the information, the order's band and the hats equal
+    those of the unpadded grid. A hat spread over the padded span, or the padded rows summed,
+    would change them by far more than rounding."""
+    n, dt = 90, 0.05
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.5, 1.5, n)) * dt if grid == "t" else None
+    times = t if grid == "t" else dt * np.arange(n)
+    u = np.column_stack([np.minimum(times, 1.0), np.sin(3 * times)])
+    order = 0.3 + 0.2 * times / times[-1]
+    where = dict(t=t) if grid == "t" else dict(dt=dt)
+    plain = vojax.fisher_information(u, order, [2.0, 0.5], noise_std=0.01, **where, **options)
+    padded = vojax.fisher_information(u, order, [2.0, 0.5], noise_std=0.01, pad_to=128, **where,
+                                      **options)
+    np.testing.assert_allclose(padded.information, plain.information, rtol=1e-12)
+    np.testing.assert_allclose(padded.order_stderr, plain.order_stderr, rtol=1e-9)
+    np.testing.assert_array_equal(padded.times, plain.times)
+    assert padded.names == plain.names and padded.order_stderr.shape == (n,)
+    # not padding at all where the grid is as long already
+    same = vojax.fisher_information(u, order, [2.0, 0.5], noise_std=0.01, pad_to=n, **where,
+                                    **options)
+    np.testing.assert_array_equal(same.information, plain.information)
+
+
+@pytest.mark.parametrize("pad_to", [0, 2.5, True, "128"])
+def test_a_bad_padding_is_refused(pad_to):
+    with pytest.raises((TypeError, ValueError), match="`pad_to` must be"):
+        vojax.fisher_information(np.ones(50), 0.4, [1.0], 0.1, noise_std=0.01, pad_to=pad_to)
+
+
+def test_the_settling_test_on_a_padded_grid_picks_the_same_oscillation():
+    """`settling_test(pad_to=…)` (the batch's records, one program per padded length) gives
+    the test and the bands of the unpadded grid."""
+    dt, n = 0.05, 200
+    u = np.minimum(dt * np.arange(n) / 3.0, 1.0)
+    plain = vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01)
+    padded = vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, pad_to=256)
+    assert (padded.start, padded.cycles) == (plain.start, plain.cycles)
+    assert padded.band == pytest.approx(plain.band, rel=1e-9)
+    assert padded.band_without == pytest.approx(plain.band_without, rel=1e-9)

@@ -192,3 +192,17 @@ def test_import_leaves_the_solvers_and_plotting_for_when_they_are_used():
                           timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.split() == ["[]", "True"], done.stdout
+
+
+def test_the_settling_test_padded_traces_once_for_records_of_two_lengths(monkeypatch):
+    """The batch pads each record's settling test to a few lengths: two records of 150 and
+    170 samples padded to 256 run one compiled Jacobian (unpadded they would run two)."""
+    from vojax import _design
+
+    jac = _once(monkeypatch, _design, "_jacobian")
+    for n in (150, 170):
+        times = 0.1 * np.arange(n) * (1 + 1e-3 * n)
+        u = np.minimum(times / 3.0, 1.0)
+        vojax.settling_test(u, 0.4, [2.0], t=times, noise_std=0.01, cycles=(5,), starts=(0.5,),
+                            pad_to=256)
+    assert eqx.debug.get_num_traces(jac) == 1

@@ -105,6 +105,7 @@ def fisher_information(
     order_range=(0.01, 0.99),
     order_drift: float | None = None,
     parameter_knots: int | None = None,
+    pad_to: int | None = None,
 ) -> Design:
     """The Fisher information of a planned test of ``D^{α(t)} x = pᵀu`` (a `Design`).
 
@@ -126,6 +127,10 @@ def fisher_information(
       (`names` gain ``drift_j_k``). With one slowly varying input the order is then hardly
       determined; an oscillation superposed on the load (`settling_test`) determines it,
       since a springpot's phase lag depends on its order alone.
+    - `pad_to`: run the model on the grid continued to this many samples (zero input, the
+      last order and step) and keep the real samples' rows: the result is the same (the
+      memory is causal), and plans of different lengths padded alike share one compiled
+      program (the batch pads each record's `settling_test`). At most N: no padding.
 
     **Raises:** `ValueError` when the test determines the quantities not at all (the
     information is singular: e.g. an input that is zero, or more knots than the test can
@@ -141,8 +146,11 @@ def fisher_information(
     order = np.broadcast_to(np.asarray(order, float), (num,)).copy()
     # the grid, the orders and the memory checked and built as `fractional_integral` does;
     # Φ and ∂Φ/∂b from one scan
-    u2, order_j, mem, _ = _prepare(u2, order, dt, t, rule, memory, DEFAULT_TOL, order_range)
+    check.grid(dt, t, num)
     times = np.asarray(t, float) if t is not None else float(dt) * np.arange(num)
+    u2, order_j, mem, _ = _prepare(*_padded(u2, order, dt, times if t is not None else None,
+                                            _check_pad(pad_to, num)),
+                                   rule, memory, DEFAULT_TOL, order_range)
     if order_drift is None:
         hats, places = _hats(times, int(knots))
         names = (["order"] if knots == 1 else [f"order_knot_{k + 1}" for k in range(knots)])
@@ -151,9 +159,9 @@ def fisher_information(
         names = [f"order_at_{k + 1}" for k in range(num)]
     drift_hats = None
     if parameter_knots is not None:  # the constant part is p itself: the other hats' shifts
-        drift_hats = jnp.asarray(_hats(times, int(parameter_knots))[0][:, 1:])
-    jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), jnp.asarray(hats), x0,
-                               drift_hats))
+        drift_hats = _rows(_hats(times, int(parameter_knots))[0][:, 1:], u2.shape[0])
+    jac = np.asarray(_jacobian(mem, u2, order_j, jnp.asarray(p), _rows(hats, u2.shape[0]), x0,
+                               drift_hats))[:num]  # the real samples' rows
     names += [f"p_{j + 1}" for j in range(n)] + (["x0"] if x0 else [])
     if drift_hats is not None:
         names += [f"drift_{j + 1}_{k + 2}" for j in range(n)
@@ -208,6 +216,34 @@ def _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots):
             "express the output in other units."
         )
     return p, order_drift
+
+
+def _check_pad(pad_to, num):
+    """`pad_to` checked: the padded length (at least `num`)."""
+    if pad_to is None:
+        return num
+    if isinstance(pad_to, bool) or not isinstance(pad_to, (int, np.integer)) or pad_to < 1:
+        raise ValueError(f"`pad_to` must be a positive integer (the padded length) or None, "
+                         f"got {pad_to!r}.")
+    return max(int(pad_to), num)
+
+
+def _padded(u2, order, dt, t, length):
+    """The grid continued to `length` samples after its end: zero inputs, the last order, the
+    last step. ``(u, order, dt, t)`` for `_prepare`."""
+    extra = length - u2.shape[0]
+    if extra == 0:
+        return u2, order, dt, t
+    u2 = np.concatenate([np.asarray(u2), np.zeros((extra, u2.shape[1]))])
+    order = np.concatenate([order, np.full(extra, order[-1])])
+    if t is not None:
+        t = np.concatenate([t, t[-1] + (t[-1] - t[-2]) * np.arange(1, extra + 1)])
+    return u2, order, dt, t
+
+
+def _rows(hats, length):
+    """The hat functions (N, K) with zero rows down to `length` (the padding's)."""
+    return jnp.asarray(np.concatenate([hats, np.zeros((length - hats.shape[0], hats.shape[1]))]))
 
 
 def _inverse(information, names):

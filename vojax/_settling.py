@@ -57,7 +57,7 @@ class SettlingTest:
 def settling_test(
     u, order, p, dt=None, *, t=None, noise_std, amplitude=0.1, cycles=(5, 10, 20, 40),
     starts=(0.0, 0.5), parameter_knots=8, order_drift=None, x0=True, memory="direct",
-    order_range=(0.01, 0.99),
+    order_range=(0.01, 0.99), pad_to=None,
 ) -> SettlingTest:
     """The oscillation to superpose on the load `u` (planned, or the one a record had) that
     best determines the order while the parameters are free to drift (on `parameter_knots`
@@ -66,7 +66,9 @@ def settling_test(
     a cycle, the one whose predicted order band (`fisher_information` with
     `parameter_knots`, and `order_drift` where given: the tracker's band at that drift) is
     narrowest. `order`, `p`, `noise_std`: the hypothesised order (a number or a trajectory),
-    parameters and noise, e.g. from `identify` on a first test. Returns a `SettlingTest`."""
+    parameters and noise, e.g. from `identify` on a first test. `pad_to`: as
+    `fisher_information`'s (the same result; records padded alike share a program). Returns a
+    `SettlingTest`."""
     u2 = np.asarray(check.samples(u, "u"), float)
     u2 = u2.reshape(u2.shape[0], -1)
     num = u2.shape[0]
@@ -87,7 +89,7 @@ def settling_test(
                          "the load's RMS; give the planned load.")
     grid = dict(dt=dt, t=t, noise_std=noise_std, x0=x0, memory=memory,
                 order_range=order_range, parameter_knots=parameter_knots,
-                order_drift=order_drift)
+                order_drift=order_drift, pad_to=pad_to)
     def band(inputs):  # the first call (the load alone) checks the order and its range
         try:
             return fisher_information(inputs, order, p, **grid)

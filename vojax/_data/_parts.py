@@ -86,11 +86,18 @@ def compare_part(record, area=None, length=None, origin=None, fit_from=None, fit
     return out
 
 
+# the lengths a record's settling test is padded to: a batch compiles its design at most 4×
+# (once a length: about 0.7 s each), not once a record length
+SETTLING_LENGTHS = (128, 256, 512, 1000)
+
+
 def settling_part(u, y, res, times, unit=""):
     """The oscillation that would settle a refused order (`vojax.settling_test` on the
     record's own load, at its median order and parameters over the second half and its
     noise), as JSON-ready values with its sentence; the record averaged to at most 1,000
-    points (the design needs no finer clock). None where no oscillation determines it."""
+    points (the design needs no finer clock) and padded to one of `SETTLING_LENGTHS` (one
+    compiled program for all records of a batch up to that length; the same result). None
+    where no oscillation determines it."""
     from .._settling import settling_test
     from .._stats import noise_variance
     from .._tracker._blocks import block_average, block_size
@@ -101,9 +108,10 @@ def settling_part(u, y, res, times, unit=""):
     alpha, p = np.asarray(res.alpha), np.asarray(res.p)
     half = alpha.size // 2
     noise = float(np.sqrt(max(noise_variance(np.asarray(y)), 1e-300) / size))
+    pad = next(n for n in SETTLING_LENGTHS if n >= t_b.size)
     try:
         test = settling_test(u_b, float(np.median(alpha[half:])), np.median(p[half:], axis=0),
-                             t=t_b - t_b[0], noise_std=noise)
+                             t=t_b - t_b[0], noise_std=noise, pad_to=pad)
     except ValueError:
         return None
     return {"amplitude": test.amplitude, "frequency": test.frequency,
