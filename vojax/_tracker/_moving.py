@@ -37,10 +37,13 @@ def columns_at(profile, alpha, columns=slice(None)):
     j = np.clip(np.floor((a - grid[0]) / h).astype(int) - 1, 0, grid.size - 4)
     x = (a - grid[j]) / h
     rows = np.arange(a.size)
+    d = [x - node for node in range(4)]
+    memory = profile.memory[:, :, columns]
     out = 0.0
     for m in range(4):
-        w = np.prod([(x - node) / (m - node) for node in range(4) if node != m], axis=0)
-        out = out + w[:, None] * profile.memory[j + m, rows, columns]
+        o = [node for node in range(4) if node != m]
+        w = d[o[0]] / (m - o[0]) * (d[o[1]] / (m - o[1])) * (d[o[2]] / (m - o[2]))
+        out = out + w[:, None] * memory[j + m, rows]
     return out
 
 
@@ -59,11 +62,12 @@ def design(profile, alpha, level, form):
     return inside.reshape(num, -1)
 
 
-def penalised_fit(profile, x, level, lam):
+def penalised_fit(profile, x, level, lam, drift=True):
     """The drifting parameters' penalised least squares on the design `x` at the penalty
     `lam`: ``(residuals, χ², drift)``, the residuals (whitened, × √scale) with the penalty's
     rows appended (their squares sum to the penalised objective), the χ² of the data alone,
-    and the parameters' relative drift over the fitted span."""
+    and the parameters' relative drift over the fitted span (``drift=False``: None, for the
+    shape fit's residuals)."""
     basis = profile.bases[level]
     k = basis.shape[1]
     n = x.shape[1] // k
@@ -73,6 +77,8 @@ def penalised_fit(profile, x, level, lam):
     res = (b - a_mat @ coef) * np.sqrt(profile.scale)
     steps = np.concatenate([np.diff(coef[j * k : (j + 1) * k]) for j in range(n)])
     rows = np.sqrt(lam * unit * profile.scale) * steps
+    if not drift:
+        return np.concatenate([res, rows]), float(res @ res), None
     params = np.stack([basis @ coef[j * k : (j + 1) * k] for j in range(n)], axis=1)
     return np.concatenate([res, rows]), float(res @ res), relative_drift(params, profile.span)
 
@@ -121,12 +127,12 @@ def moving_orders(profile, band, half):
     edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
     found = []
     for level, form, best, dof in profile.forms:
-        def fit(theta, lam):
+        def fit(theta, lam, drift=True):
             return penalised_fit(profile, design(profile, shape @ theta, level, form), level,
-                                 lam)
+                                 lam, drift)
 
-        free = levenberg(lambda th: fit(th, 0.0)[0], theta0, lo, hi)
-        limit = min(best, fit(free, 0.0)[1]) + s.trade_chi2
+        free = levenberg(lambda th: fit(th, 0.0, False)[0], theta0, lo, hi)
+        limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
         for sign, edge in edges:
             for offset in s.moving_offsets:
                 target = edge + sign * offset
@@ -135,7 +141,7 @@ def moving_orders(profile, band, half):
                 theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
                 for lam in LADDER:
                     def resid(th, lam=lam, target=target):
-                        return np.append(fit(th, lam)[0],
+                        return np.append(fit(th, lam, False)[0],
                                          TARGET_WEIGHT * (weights @ th - target))
 
                     theta = levenberg(resid, theta, lo, hi)

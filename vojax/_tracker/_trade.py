@@ -3,6 +3,7 @@ the constant orders with which a parameter free to drift (piecewise linear on ha
 explains the data as well as the best such fit."""
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -116,13 +117,22 @@ def penalised_system(x, y, mask, k, whiten=None, offset=True):
         cols, yy = whiten(cols), whiten(y)
     w = np.sqrt(np.asarray(mask, float))
     a_mat, b = cols * w[:, None], yy * w
+    penalty, trace = _penalty(cols.shape[1], n, k)
+    unit = np.trace(a_mat.T @ a_mat) / max(trace, 1e-300)
+    return a_mat, b, penalty, unit
+
+
+@functools.lru_cache(maxsize=64)
+def _penalty(width, n, k):
+    """The penalty matrix (width, width) on each input's coefficients' first differences
+    (read-only: shared by every call of a shape) and its trace."""
     diff = np.diff(np.eye(k), axis=0)  # (k − 1, k): the coefficients' first differences
-    penalty = np.zeros((cols.shape[1], cols.shape[1]))
+    penalty = np.zeros((width, width))
     for j in range(n):
         block = slice(j * k, (j + 1) * k)
         penalty[block, block] = diff.T @ diff
-    unit = np.trace(a_mat.T @ a_mat) / max(np.trace(penalty), 1e-300)
-    return a_mat, b, penalty, unit
+    penalty.flags.writeable = False
+    return penalty, float(np.trace(penalty))
 
 
 def least_drift(x, y, mask, basis, span, limit, scale, whiten=None, offset=True):
