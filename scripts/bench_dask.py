@@ -82,7 +82,7 @@ def main():
                 t0 = time.perf_counter()
                 proc = subprocess.run(
                     [sys.executable, "-c", CHILD, str(path), str(count), method, str(workers), out],
-                    capture_output=True, text=True,
+                    capture_output=True, text=True, cwd=out,  # not this checkout's vojax
                 )
                 if proc.returncode:
                     sys.exit(proc.stderr[-3000:])

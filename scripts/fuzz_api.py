@@ -121,12 +121,12 @@ def _calls():
     vary("fisher_information", vojax.fisher_information,
          dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01),
          dict(u=_arrays(U), order=SCALARS, p=SCALARS, noise_std=SCALARS, knots=COUNTS,
-              order_range=PAIRS, order_drift=SCALARS, parameter_knots=COUNTS))
+              order_range=PAIRS, order_drift=SCALARS, parameter_knots=COUNTS, pad_to=COUNTS))
     vary("settling_test", vojax.settling_test,
          dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01, cycles=(4,), starts=(0.0,)),
          dict(amplitude=SCALARS, cycles=[None, (), (0,), (-1,), ("a",), (1e9,), 5],
               starts=[None, (), (1.5,), (-0.1,), (math.nan,), 0.2],
-              parameter_knots=COUNTS, noise_std=SCALARS))
+              parameter_knots=COUNTS, noise_std=SCALARS, pad_to=COUNTS))
     vary("tune_gains", vojax.tune_gains, dict(u=U, y=Y, dt=DT),
          dict(y=_arrays(Y), alpha0=SCALARS, alpha_bounds=PAIRS, lam=SCALARS,
               burn_in=SCALARS, lag=SCALARS, num_gamma=COUNTS))

@@ -377,7 +377,7 @@ def test_padding_the_grid_leaves_the_information_as_it_is(grid, options):
     np.testing.assert_array_equal(same.information, plain.information)
 
 
-@pytest.mark.parametrize("pad_to", [0, 2.5, True, "128"])
+@pytest.mark.parametrize("pad_to", [0, 2.5, True, "128", 1025, 10**9])
 def test_a_bad_padding_is_refused(pad_to):
     with pytest.raises((TypeError, ValueError), match="`pad_to` must be"):
         vojax.fisher_information(np.ones(50), 0.4, [1.0], 0.1, noise_std=0.01, pad_to=pad_to)

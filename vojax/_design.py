@@ -38,6 +38,10 @@ class Undetermined(ValueError):
     `ValueError` about the plan, not about an argument (`settling_test` tries the next)."""
 
 
+# `pad_to` runs the model on at most twice the samples, or on this many (a padding that
+# shares a program among short plans, not one that costs more than the plan)
+MAX_PAD_FLOOR = 1024
+
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000
 
@@ -129,8 +133,9 @@ def fisher_information(
       since a springpot's phase lag depends on its order alone.
     - `pad_to`: run the model on the grid continued to this many samples (zero input, the
       last order and step) and keep the real samples' rows: the result is the same (the
-      memory is causal), and plans of different lengths padded alike share one compiled
-      program (the batch pads each record's `settling_test`). At most N: no padding.
+      memory is causal; with the exponential memory, to its tolerance), and plans of different lengths padded alike share one compiled
+      program (the batch pads each record's `settling_test`). At most N: no padding; at
+      most ``max(2N, 1024)``.
 
     **Raises:** `ValueError` when the test determines the quantities not at all (the
     information is singular: e.g. an input that is zero, or more knots than the test can
@@ -222,9 +227,12 @@ def _check_pad(pad_to, num):
     """`pad_to` checked: the padded length (at least `num`)."""
     if pad_to is None:
         return num
-    if isinstance(pad_to, bool) or not isinstance(pad_to, (int, np.integer)) or pad_to < 1:
-        raise ValueError(f"`pad_to` must be a positive integer (the padded length) or None, "
-                         f"got {pad_to!r}.")
+    most = max(2 * num, MAX_PAD_FLOOR)
+    if (isinstance(pad_to, bool) or not isinstance(pad_to, (int, np.integer))
+            or not 1 <= pad_to <= most):
+        raise ValueError(f"`pad_to` must be a positive integer (the padded length) of at most "
+                         f"{most} (twice the samples, or {MAX_PAD_FLOOR}) or None, got "
+                         f"{pad_to!r}.")
     return max(int(pad_to), num)
 
 
