@@ -92,6 +92,10 @@ def test_penalised_fit_against_least_squares_written_here():
     res1, chi2_1, drift1 = penalised_fit(profile, x, 0, 1.0)
     assert chi2_1 > chi2 and drift1 < drift
     assert float(res1 @ res1) > chi2_1  # the penalty's rows add to the objective
+    # the shape fit's residuals skip the drift only: the same residuals and χ², bit for bit
+    lean = penalised_fit(profile, x, 0, 1.0, drift=False)
+    np.testing.assert_array_equal(lean[0], res1)
+    assert lean[1] == chi2_1 and lean[2] is None
 
 
 def test_levenberg_reaches_known_minima_within_bounds():
