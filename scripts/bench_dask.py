@@ -63,6 +63,14 @@ print(json.dumps(dict(records=len(recs), failed=report.failed, cluster=ready - s
 """
 
 
+def beef_records(data):
+    """The beef indentation file under the data folder `data`; exits naming it if absent."""
+    path = Path(data).resolve() / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv"
+    if not path.is_file():
+        sys.exit(f"needs {path}")
+    return path
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--records", type=int, nargs="+", default=[148])
@@ -70,9 +78,7 @@ def main():
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--data", default=str(DATA))
     args = parser.parse_args()
-    path = Path(args.data).resolve() / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv"
-    if not path.is_file():
-        sys.exit(f"needs {path}")
+    path = beef_records(args.data)
     table = []
     for method in args.methods:
         for count in args.records:

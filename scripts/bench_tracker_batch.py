@@ -18,9 +18,8 @@ import os
 import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
-from bench_dask import CHILD, DATA
+from bench_dask import CHILD, DATA, beef_records
 
 STAGES = ["start", "tune", "coloured", "held_order", "mixture", "level_profile",
           "trade_interval", "moving_orders", "bands", "band", "assemble"]
@@ -73,9 +72,7 @@ def main():
                         help="source folders of other vojax versions")
     parser.add_argument("--data", default=str(DATA))
     args = parser.parse_args()
-    path = Path(args.data).resolve() / "beef-indentation-relaxation" / "beef_indentation_relaxation.csv"
-    if not path.is_file():
-        sys.exit(f"needs {path}")
+    path = beef_records(args.data)
     rows = []
     for source in [None, *args.against]:
         row, stages = run(source, path, args.records)
