@@ -59,12 +59,17 @@ def band_from(center, var, bounds, members=(), k=1.0):
 
 
 def score(r, band):
-    alpha, lower, upper, sd = (np.asarray(a, float) for a in band)
+    """`band`: ``(alpha, lower, upper, sd)``, or with a fifth element True where the rule
+    weighed the second clock itself (`as_reported`): the record's own ``clock`` reason,
+    given for the band it reported, then blocks nothing."""
+    own_clock = len(band) == 5 and band[4]
+    alpha, lower, upper, sd = (np.asarray(a, float) for a in band[:4])
     truth = np.asarray(r["truth"], float)
     half = slice(truth.size // 2, truth.size)
     inside = (truth >= lower) & (truth <= upper)
     width = float(np.median((upper - lower)[half]) / 2)
-    ident = width <= HALFWIDTH and not r["other_reasons"]
+    others = [x for x in r["other_reasons"] if not (own_clock and x == "clock")]
+    ident = width <= HALFWIDTH and not others
     cov = float(np.mean(inside[half]))
     z = (alpha - truth)[half] / np.maximum(sd[half], 1e-300)
     return dict(identified=ident, coverage=cov, inside=int(np.sum(inside[half])),
@@ -183,6 +188,10 @@ def report(rows, out=None):
             delta=4.0),
     }
     rules.update({
+        # the evidence floor (`TrackerSettings.envelope_evidence`) on every alternative
+        # smoothing, at the default and nearer (docs/calibration.md)
+        **{f"as reported, floor {e:g} nats": (lambda e: lambda r: as_reported(
+            r, evidence_floor=e))(e) for e in (200.0, 120.0, 5.0)},
         "library stated": library_rule("stated"),
         "library conditional": library_rule("conditional"),
         "library conditional k=1.5": library_rule("conditional", scale=1.5),
@@ -217,6 +226,34 @@ def library_bands(r, **kwargs):
     stated = {"free": np.inf, "constant": 0.0, "constant-x0": 0.0, "free-x0": np.inf}.get(
         r["setting"], r.get("stated") or np.inf)
     return bands(ex, r["bounds"], len(r["truth"]), stated, **kwargs)
+
+
+def as_reported(r, **kwargs):
+    """The band as the tracker reports it, from the library's `bands` (with `kwargs`, e.g.
+    `evidence_floor`) on the saved explanations: the stated band about the reported
+    estimate, its σ at least a quarter of its width, widened to the second clock's tuned
+    smoothing where that order lies outside (`vojax._tracker._clock`); the fifth element
+    True (see `score`)."""
+    from vojax import TrackerSettings
+    from vojax._tracker._band import outside, union
+
+    s = TrackerSettings()
+    n = len(r["truth"])
+    kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
+                       half=n // 2, level_weights=s.level_weights), **kwargs)
+    b = library_bands(r, **kwargs)
+    if b is None:
+        return None
+    alpha = np.asarray(r["alpha"], float)
+    _, lower, upper, sd = (np.asarray(a, float)[:n] for a in b.stated)
+    band = (alpha, lower, upper, np.maximum(sd, (upper - lower) / 4))
+    other = r.get("other")
+    if other is not None and other["converged"]:
+        o_alpha = np.asarray(other["alpha"], float)
+        if outside(o_alpha, (*band[:3], 0.0), n // 2):
+            band = union(band, (o_alpha, np.asarray(other["lower"], float),
+                                np.asarray(other["upper"], float), 0.0))
+    return (*band, True)
 
 
 def library_rule(which, **kwargs):

@@ -855,13 +855,22 @@ MUTATIONS = {
           "    data = jnp.sum(residuals * residuals) / r")],
         ["tests/test_tracker.py::test_damped_step_minimises_the_linearised_posterior_it_predicts"],
     ),
-    "the band ignores the evidence floor of drifting smoothings": (
+    "the band ignores the evidence floor of alternative smoothings": (
         'vojax/_tracker/_band.py',
         [
             ('        and e.evidence < tuned.evidence - evidence_floor)',
              '        and False)'),
         ],
-        ['tests/test_band.py::test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count'],
+        ['tests/test_band.py::test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count',
+         'tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
+    ),
+    "the free band covers integrated smoothings the evidence excludes": (
+        'vojax/_tracker/_band.py',
+        [
+            ('                  if e.kind in INTEGRATED and e.fits and e.converged and plausible(e)]',
+             '                  if e.kind in INTEGRATED and e.fits and e.converged]'),
+        ],
+        ['tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
     ),
     "the held scales' spread about the tuned order left out of the band": (
         'vojax/_tracker/_band.py',

@@ -279,6 +279,24 @@ def test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count():
     assert b.breakdown_drift == pytest.approx(0.4)
 
 
+@pytest.mark.parametrize("kind", ["start", "order_drift", "param_drift", "held_order"])
+def test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band(kind):
+    """With the parameters free, an alternative smoothing of any kind that fits (χ² test)
+    but whose evidence lies more than `evidence_floor` nats below the tuned one's is no
+    account the band covers (the data exclude it: a smoothing freer than they need fits
+    below the noise); one just inside the floor is covered. (The level profile's held
+    scales enter the reference's variance by their own weights: `reference_variance`.)"""
+    tuned = ex("tuned", 0.0, evidence=0.0)
+    alone = halfwidth(bands([tuned], BOUNDS, N, np.inf).stated)
+    far = ex(kind, 3.0, drift=0.2, evidence=-250.0)
+    b = bands([tuned, far], BOUNDS, N, np.inf, evidence_floor=200.0)
+    assert halfwidth(b.stated) == pytest.approx(alone, rel=1e-12)
+    assert b.breakdown_drift == np.inf
+    near = ex(kind, 3.0, drift=0.2, evidence=-150.0)
+    b = bands([tuned, near], BOUNDS, N, np.inf, evidence_floor=200.0)
+    np.testing.assert_allclose(b.stated[2], order_of_np(3.2, BOUNDS)[0])
+
+
 def test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty():
     """`chi2_fits` is a 2σ test of χ² (mean dof, standard deviation √(2·dof)): on residuals
     of a correct model (Gaussian, known σ) it rejects 2.6 % of records at dof = 400

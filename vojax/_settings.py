@@ -65,7 +65,9 @@ class TrackerSettings:
     alt_order_drift: tuple[float, ...] = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift …
     order_drift_base: float = 1e-3  # … or × this, where the tuned drift is smaller
     alt_param_drift: tuple[float, ...] = (1e-3, 1e-2, 1e-1)  # parameter drifts tried
-    envelope_evidence: float = 200.0  # nats below the tuned run beyond which drift won't count
+    # nats below the tuned smoothing beyond which an alternative smoothing that fits covers
+    # nothing: the data exclude it (a run freer than they need fits below the noise)
+    envelope_evidence: float = 200.0
     # the trade-off profile: constant orders with the parameters drifting on hat functions
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
     trade_orders: int = 25  # constant orders profiled, evenly across the bounds

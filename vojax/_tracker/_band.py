@@ -27,6 +27,9 @@ INTEGRATED = ("start", "order_drift", "level")
 # outside the band by a fixed offset (`vojax._tracker._moving`), so a band that covered them
 # would be as wide as the offset, not as the data allow
 REACH_ONLY = ("moving",)
+# the alternatives that are smoothings, with a Laplace evidence the tuned one's is weighed
+# against (the trade-off's and the moving orders' profiles have their own rule)
+SMOOTHINGS = ("start", "order_drift", "param_drift", "held_order", "held", "level")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,10 +117,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
     factor on each explanation's standard deviation; `drift_floor`: drifts below it count as
     none (a held smoothing's parameters still move a little); `floor`: the least standard deviation of the order (its model error: quadrature,
-    interpolation of the input between samples); `evidence_floor`: a smoothing with drifting
-    parameters whose Laplace evidence lies more than this many nats below the tuned one's
-    does not count, however well it fits (such runs fit almost any record, their order's
-    level free); `half`: where the second half of the fitted samples begins (None:
+    interpolation of the input between samples); `evidence_floor`: an alternative smoothing whose
+    Laplace evidence lies more than this many nats below the tuned one's neither widens a
+    band nor sets the breakdown drift, however well it fits: the data exclude it (a
+    smoothing freer than the data need fits below the noise, its χ² no test of it); `half`: where the second half of the fitted samples begins (None:
     ``span // 2``, every sample fitted); `level_weights`: see `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
@@ -132,7 +135,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
                                                          level_weights), bounds,
                            scale, floor)
     plausible = lambda e: not (  # noqa: E731
-        e.kind in ("param_drift", "held_order") and np.isfinite(tuned.evidence)
+        e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)
         and e.evidence < tuned.evidence - evidence_floor)
     ladder = [e for e in explanations if e.kind not in ("tuned", *INTEGRATED) and e is not held
               and e.fits and e.converged and plausible(e)]
@@ -165,7 +168,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
-        others = [e for e in explanations if e.kind in INTEGRATED and e.fits and e.converged]
+        others = [e for e in explanations
+                  if e.kind in INTEGRATED and e.fits and e.converged and plausible(e)]
         for e in [*others, *ladder]:
             if e.kind not in REACH_ONLY and (
                     e.drift <= max(stated_drift, reference.drift) + drift_floor):
