@@ -2,15 +2,17 @@
 parameters, the conditional answer (the band the data give while the parameters drift less
 than its breakdown drift), and that breakdown drift.
 
-Each explanation that fits the data (`Explanation.fits`) is an account the band must cover
-when the statement allows its drift. The reference is the fitting smoothing whose parameters
-drift least (the tuned smoothing where none fits); its band is the evidence-weighted mixture
-of the tuned intensities' modes and order drifts, with the parameters' scale integrated over
-the level profile where they are held. Going up in drift, each fitting explanation inside the
-band so far joins it; the first one outside it sets the breakdown drift: with that much drift
-an order outside the band explains the data as well, and no test of this record tells them
-apart. Moving orders (`vojax._tracker._moving`) join the ladder where a constant order
-breaks the conditional answer: they can only lower the breakdown drift.
+Each explanation that fits the data (`Explanation.fits`), a smoothing only where its
+evidence is not far below the tuned one's (`bands`' `evidence_floor`), is an account the
+band must cover when the statement allows its drift. The reference is the fitting smoothing
+whose parameters drift least (the tuned smoothing where none fits); its band is the
+evidence-weighted mixture of the tuned intensities' modes and order drifts, with the
+parameters' scale integrated over the level profile where they are held. Going up in drift,
+each fitting explanation inside the band so far joins it; the first one outside it sets the
+breakdown drift: with that much drift an order outside the band explains the data as well,
+and no test of this record tells them apart. Moving orders (`vojax._tracker._moving`) join
+the ladder where a constant order breaks the conditional answer: they can only lower the
+breakdown drift.
 """
 
 import dataclasses
@@ -116,12 +118,14 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
     factor on each explanation's standard deviation; `drift_floor`: drifts below it count as
-    none (a held smoothing's parameters still move a little); `floor`: the least standard deviation of the order (its model error: quadrature,
-    interpolation of the input between samples); `evidence_floor`: an alternative smoothing whose
-    Laplace evidence lies more than this many nats below the tuned one's neither widens a
-    band nor sets the breakdown drift, however well it fits: the data exclude it (a
-    smoothing freer than the data need fits below the noise, its χ² no test of it); `half`: where the second half of the fitted samples begins (None:
-    ``span // 2``, every sample fitted); `level_weights`: see `reference_variance`."""
+    none (a held smoothing's parameters still move a little); `floor`: the least standard
+    deviation of the order (its model error: quadrature, interpolation of the input between
+    samples); `evidence_floor`: an alternative smoothing whose Laplace evidence lies more
+    than this many nats below the tuned one's neither widens a band nor sets the breakdown
+    drift, however well it fits: the data exclude it (a smoothing freer than the data need
+    fits below the noise, its χ² no test of it); `half`: where the second half of the
+    fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
+    `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
     # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
