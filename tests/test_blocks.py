@@ -188,3 +188,33 @@ def test_a_long_record_on_the_level_ridge_is_not_confidently_wrong(parameters):
     assert res.diagnostics.block == 101
     assert not res.diagnostics.identified or np.mean(inside) > 0.5
     assert np.mean(inside) > 0.95  # and here the band covers it
+
+
+def test_the_second_clocks_quick_look_runs_no_memory_over_every_sample(monkeypatch):
+    """The default fits a blocked record on the span's clock and on the data's unit of time;
+    only the span's answer is reported at every sample, so the whole record's memory runs
+    (the output and the coarse clock's model error) belong to it alone: one run of the two
+    orders over every sample and one block run, not two of each. The output is still the
+    reported order's, by direct sums."""
+    import vojax._integral as integral
+
+    calls = {"orders": 0, "blocks": 0}
+    orders, blocks = integral.scan_memory_orders, integral.scan_memory
+
+    def counted_orders(*args, **kwargs):
+        calls["orders"] += 1
+        return orders(*args, **kwargs)
+
+    def counted_blocks(*args, **kwargs):
+        calls["blocks"] += 1
+        return blocks(*args, **kwargs)
+
+    monkeypatch.setattr(integral, "scan_memory_orders", counted_orders)
+    monkeypatch.setattr(integral, "scan_memory", counted_blocks)
+    t, u, y, alpha, x = _record(1200, 0.01, 0.01)
+    res = vojax.identify(u, y, 0.01, max_points=300, warn=False)  # span 12 s: two clocks
+    assert res.diagnostics.block == 5  # blocks of 4 would make 301 points
+    assert calls == {"orders": 1, "blocks": 1}
+    phi = np.asarray(reference.fractional_integral(u, np.asarray(res.alpha), 0.01))
+    expected = float(res.x0) + np.asarray(res.p)[:, 0] * phi
+    np.testing.assert_allclose(np.asarray(res.y_hat), expected, rtol=0, atol=1e-8 * np.ptp(y))

@@ -79,7 +79,9 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     ``(TrackResult, fit)``, `fit` what the tracker fitted, for the diagnostics, with the
     coarse clock's model error (`block_error`). `dt`, `t` are on the tracker's clock (the
     user's time over `time_scale`); `times` the sample times on that clock (from `dt` when
-    None)."""
+    None). ``weigh=False`` (the second clock's quick look, which only its order and band
+    serve): the order, its band and the parameters at every sample, no ``y_hat`` (None) and
+    no `block_error`, so no memory run over every sample."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
     from .._stats import noise_variance
     from .._xla import to_device
@@ -105,13 +107,17 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
         parameters=tracker.parameters, x0=x0, batched=size >= s.batched_block,
         time_scale=time_scale, weigh=weigh,
     )
-    mem = make_memory(tracker.memory, dt, num, rule=tracker.rule, tol=tracker.tol,
-                      order_range=bounds, times=t)
     # everything at every sample: linear between block times; the output from the reported
     # parameters brought to the tracker's clock (× time_scale^α at each sample's order)
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
     alpha = at_samples(res.alpha)
     p_user = at_samples(res.p)
+    if not weigh:
+        return _at_samples(res, at_samples, alpha, p_user, None), dict(
+            alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+            span=t_b.shape[0], mask=None if mask is None else mask_b)
+    mem = make_memory(tracker.memory, dt, num, rule=tracker.rule, tol=tracker.tol,
+                      order_range=bounds, times=t)
     p = p_user * time_scale ** alpha[:, None]
     # the two runs over every sample, at the constant-order fit and at the tracked order, as
     # one batched scan
@@ -128,7 +134,22 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
     block_noise = max(noise_variance(y_np[:span][fitted]) / size, 1e-300)
     block_error = float(np.sqrt(np.mean(error[mask_b > 0][1:] ** 2) / block_noise))
-    full = dataclasses.replace(
+    full = _at_samples(res, at_samples, alpha, p_user,
+                       to_device(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)))
+    fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
+               held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],
+               mask=None if mask is None else mask_b, block_error=block_error,
+               conditional=res.conditional)
+    return full, fit
+
+
+def _at_samples(res, at_samples, alpha, p_user, y_hat):
+    """The blocks' result `res` at every sample (`at_samples`: linear between block times),
+    with the order `alpha` and the parameters `p_user` already there, and the output
+    `y_hat`."""
+    from .._xla import to_device
+
+    return dataclasses.replace(
         res,
         alpha=to_device(alpha),
         alpha_std=to_device(at_samples(res.alpha_std)),
@@ -136,14 +157,9 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
         alpha_upper=to_device(at_samples(res.alpha_upper)),
         p=to_device(p_user),
         p_std=to_device(at_samples(res.p_std)),
-        y_hat=to_device(float(np.asarray(res.x0)) + np.sum(p * phi, axis=1)),
+        y_hat=y_hat,
         y_pred=to_device(at_samples(res.y_pred)),
         alpha_held=None if res.alpha_held is None else to_device(at_samples(res.alpha_held)),
         conditional=None if res.conditional is None else tuple(
             to_device(at_samples(a)) for a in res.conditional),
     )
-    fit = dict(alpha=res.alpha, lower=res.alpha_lower, upper=res.alpha_upper,
-               held=res.alpha_held, y=y_b, y_pred=res.y_pred, span=t_b.shape[0],
-               mask=None if mask is None else mask_b, block_error=block_error,
-               conditional=res.conditional)
-    return full, fit
