@@ -80,8 +80,9 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     coarse clock's model error (`block_error`). `dt`, `t` are on the tracker's clock (the
     user's time over `time_scale`); `times` the sample times on that clock (from `dt` when
     None). ``weigh=False`` (the second clock's quick look, which only its order and band
-    serve): the order, its band and the parameters at every sample, no ``y_hat`` (None) and
-    no `block_error`, so no memory run over every sample."""
+    serve): the order, its band and the parameters at every sample, no ``y_hat`` (None), and
+    a `fit` of the fitted points' order and band only (no `block_error`), so no memory run
+    over every sample."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
     from .._stats import noise_variance
     from .._xla import to_device
