@@ -1682,6 +1682,17 @@ MUTATIONS = {
         [("dict(solver, order0=start[0]), active=start[1])", "dict(solver, order0=start[0]))")],
         ["tests/test_refit_settles.py"],
     ),
+    "the second clock's quick look runs the memory over every sample": (
+        "vojax/_tracker/_blocks.py",
+        [("    if not weigh:\n        return _at_samples(", "    if False:\n        return _at_samples(")],
+        ["tests/test_blocks.py::test_the_second_clocks_quick_look_runs_no_memory_over_every_sample"],
+    ),
+    "a blocked fit's output from the quick look's order": (
+        "vojax/_tracker/_blocks.py",
+        [("    full = _at_samples(res, at_samples, alpha, p_user,",
+          "    alpha = alpha + 0.01\n    full = _at_samples(res, at_samples, alpha, p_user,")],
+        ["tests/test_blocks.py::test_the_second_clocks_quick_look_runs_no_memory_over_every_sample"],
+    ),
 }
 
 
