@@ -199,18 +199,16 @@ def test_the_second_clocks_quick_look_runs_no_memory_over_every_sample(monkeypat
     import vojax._integral as integral
 
     calls = {"orders": 0, "blocks": 0}
-    orders, blocks = integral.scan_memory_orders, integral.scan_memory
 
-    def counted_orders(*args, **kwargs):
-        calls["orders"] += 1
-        return orders(*args, **kwargs)
+    def counted(key, run):
+        def wrapped(*args, **kwargs):
+            calls[key] += 1
+            return run(*args, **kwargs)
+        return wrapped
 
-    def counted_blocks(*args, **kwargs):
-        calls["blocks"] += 1
-        return blocks(*args, **kwargs)
-
-    monkeypatch.setattr(integral, "scan_memory_orders", counted_orders)
-    monkeypatch.setattr(integral, "scan_memory", counted_blocks)
+    monkeypatch.setattr(integral, "scan_memory_orders",
+                        counted("orders", integral.scan_memory_orders))
+    monkeypatch.setattr(integral, "scan_memory", counted("blocks", integral.scan_memory))
     t, u, y, alpha, x = _record(1200, 0.01, 0.01)
     res = vojax.identify(u, y, 0.01, max_points=300, warn=False)  # span 12 s: two clocks
     assert res.diagnostics.block == 5  # blocks of 4 would make 301 points
