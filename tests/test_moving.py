@@ -13,7 +13,14 @@ from vojax._integral import make_memory
 from vojax._tracker._band import outside
 from vojax._tracker._explanations import relative_drift
 from vojax._tracker._model import order_of_np
-from vojax._tracker._moving import columns_at, design, levenberg, moving_orders, penalised_fit
+from vojax._tracker._moving import (
+    columns_at,
+    design,
+    levenberg,
+    moving_orders,
+    penalised_fit,
+    penalised_jacobian,
+)
 from vojax._tracker._trade import trade_interval
 
 from .helpers import make_problem
@@ -105,10 +112,85 @@ def test_levenberg_reaches_known_minima_within_bounds():
     def rosen(th):
         return np.array([10 * (th[1] - th[0] ** 2), 1 - th[0]])
 
-    free = levenberg(rosen, np.array([-1.2, 1.0]), -2.0, 2.0, iterations=200, tol=1e-14)
+    def rosen_jac(th):
+        return np.array([[-20 * th[0], 10.0], [-1.0, 0.0]])
+
+    free = levenberg(rosen, rosen_jac, np.array([-1.2, 1.0]), -2.0, 2.0, iterations=200,
+                     tol=1e-14)
     assert np.allclose(free, [1.0, 1.0], atol=2e-3)
-    held = levenberg(rosen, np.array([0.0, 0.0]), -2.0, 0.8, iterations=200, tol=1e-14)
+    held = levenberg(rosen, rosen_jac, np.array([0.0, 0.0]), -2.0, 0.8, iterations=200,
+                     tol=1e-14)
     assert np.allclose(held, [0.8, 0.64], atol=2e-3)
+
+
+def _off_nodes(profile, alpha, step):
+    """`alpha` nudged so that no sample lies within `step` of a profiled order, where the
+    interpolant's slope jumps (a central difference there straddles two stencils)."""
+    grid = profile.alphas
+    h = grid[1] - grid[0]
+    x = (alpha - grid[0]) / h
+    near = np.abs(x - np.round(x)) * h < 10 * step
+    return np.where(near, alpha + 20 * step, alpha)
+
+
+def test_the_columns_slopes_are_the_interpolants_derivatives():
+    """The memory columns' derivatives with respect to each sample's order equal central
+    differences of the columns themselves (step 1e-6) to 1e-6 of their largest, every column;
+    where the trajectory is held at the profiled range's ends, they are 0; and the values
+    returned with them are the columns, bit for bit."""
+    t, _, _, _, _, profile = _profile()
+    s = t / t[-1]
+    step = 1e-6
+    alpha = _off_nodes(profile, 0.3 + 0.25 * np.sin(4 * s) ** 2, step)
+    values, slopes = columns_at(profile, alpha, slopes=True)
+    np.testing.assert_array_equal(values, columns_at(profile, alpha))
+    want = (columns_at(profile, alpha + step) - columns_at(profile, alpha - step)) / (2 * step)
+    err = np.max(np.abs(slopes - want), axis=0) / np.max(np.abs(want), axis=0)
+    assert np.max(err) < 1e-6
+    held = np.where(s > 0.5, profile.alphas[-1] + 0.1, alpha)
+    _, held_slopes = columns_at(profile, held, slopes=True)
+    assert np.all(held_slopes[s > 0.5] == 0.0) and np.any(slopes[s > 0.5] != 0.0)
+    np.testing.assert_array_equal(held_slopes[s <= 0.5], slopes[s <= 0.5])
+
+
+def _coloured_profile(profile):
+    """The profile under an AR(1)-plus-white noise's whitener (the tracker's own)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from vojax._tracker._coloured import ar_whitener
+
+    num = profile.y.size
+    tuning = SimpleNamespace(coloured_noise=2.0, noise=0.5, noise_time=0.05)
+    whiten = ar_whitener(np.ones(num), profile.mask, num, tuning)
+    return dataclasses.replace(profile, whiten=whiten, scale=1.0)
+
+
+@pytest.mark.parametrize("coloured", [False, True])
+@pytest.mark.parametrize("level, form, lam", [(0, 0, 0.0), (0, 1, 1e-2), (1, 0, 1.0),
+                                               (1, 1, 100.0)])
+def test_the_shape_fits_jacobian_equals_central_differences(level, form, lam, coloured):
+    """The Jacobian of the shape fit's residuals (the penalised fit at a moving order, the
+    order piecewise linear on 8 knots, the drifting parameters projected out) equals central
+    differences of those residuals in each knot's order (step 1e-6), to 1e-6 of its largest
+    entry: each form and level, with the penalty off and on (its unit moves with the
+    columns), white and under an AR(1) whitener."""
+    profile = _profile()[-1]
+    if coloured:
+        profile = _coloured_profile(profile)
+    shape, step = profile.shape, 1e-6
+    theta = 0.45 + 0.08 * np.sin(np.arange(shape.shape[1]) * 1.3)
+
+    def res(th):
+        return penalised_fit(profile, design(profile, shape @ th, level, form), level, lam,
+                             False)[0]
+
+    x, dx = design(profile, shape @ theta, level, form, slopes=True)
+    got = penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam)
+    want = np.stack([(res(theta + step * e) - res(theta - step * e)) / (2 * step)
+                     for e in np.eye(theta.size)], axis=1)
+    assert got.shape == want.shape
+    assert np.max(np.abs(got - want)) < 1e-6 * np.max(np.abs(want))
 
 
 def test_moving_orders_lie_outside_the_band_and_fit_within_the_limit():

@@ -5,9 +5,9 @@ moves may need less: the breakdown drift is the least over both.
 The order is taken piecewise linear on the drift's `trade_knots` coarse knots, its second
 half's mean placed just outside the band (`moving_offsets`). Its shape is fitted by
 Levenberg–Marquardt while the drifting parameters are solved for at each shape by penalised
-least squares (variable projection); the penalty on their drift is raised, as in
-`least_drift`, while the χ² stays within `trade_chi2` of the best fit of the moving orders
-(or of the constant ones, where that is lower). The memory columns at a moving order are
+least squares (variable projection, its Jacobian exact: `penalised_jacobian`); the penalty
+on their drift is raised, as in `least_drift`, while the χ² stays within `trade_chi2` of the
+best fit of the moving orders (or of the constant ones, where that is lower). The memory columns at a moving order are
 interpolated across the profiled constant orders (4-point Lagrange): the order acts where the
 memory is evaluated, so sample i's column at a trajectory is its column at the constant order
 the trajectory has there.
@@ -23,14 +23,15 @@ from ._trade import gain_design, penalised_system, refinement
 LADDER = 10.0 ** np.arange(-6.0, 5.0)  # penalties on the drift tried, in its unit, rising
 TARGET_WEIGHT = 1e3  # the second half's mean held at its target: 1e-3 off costs χ² 1
 LM_ITERATIONS = 15  # Levenberg–Marquardt iterations of one shape fit
-LM_STEP = 1e-4  # the finite-difference step of its Jacobian, on the order's scale
 LM_TOL = 0.05  # … ending where a step lowers the χ² by less than this
 
 
-def columns_at(profile, alpha, columns=slice(None)):
+def columns_at(profile, alpha, columns=slice(None), slopes=False):
     """The memory columns (N, n + n·k) at the order trajectory `alpha` (N,), or those of
     `columns`: each sample's from the four profiled constant orders about its order
-    (Lagrange), the trajectory kept within the profiled range."""
+    (Lagrange), the trajectory kept within the profiled range. ``slopes=True``: also their
+    derivatives with respect to each sample's order (the interpolant's; 0 where the
+    trajectory is held at the range's ends)."""
     grid = profile.alphas
     h = grid[1] - grid[0]
     a = np.clip(alpha, grid[0], grid[-1])
@@ -39,27 +40,47 @@ def columns_at(profile, alpha, columns=slice(None)):
     rows = np.arange(a.size)
     d = [x - node for node in range(4)]
     memory = profile.memory[:, :, columns]
-    out = 0.0
+    out, slope = 0.0, 0.0
     for m in range(4):
         o = [node for node in range(4) if node != m]
         w = d[o[0]] / (m - o[0]) * (d[o[1]] / (m - o[1])) * (d[o[2]] / (m - o[2]))
-        out = out + w[:, None] * memory[j + m, rows]
-    return out
+        near = memory[j + m, rows]
+        out = out + w[:, None] * near
+        if slopes:  # d w / d x: the product rule over the three factors
+            f = [d[q] / (m - q) for q in o]
+            dw = f[1] * f[2] / (m - o[0]) + f[0] * f[2] / (m - o[1]) + f[0] * f[1] / (m - o[2])
+            slope = slope + dw[:, None] * near
+    if not slopes:
+        return out
+    held = (alpha < grid[0]) | (alpha > grid[-1])
+    return out, np.where(held[:, None], 0.0, slope / h)
 
 
-def design(profile, alpha, level, form):
+def design(profile, alpha, level, form, slopes=False):
     """The design (N, n·k) of the drifting parameters at the order trajectory `alpha`: on the
     coarse (`level` 0) or the fine hat functions, as a gain on the memory term (`form` 0) or
-    inside the integral (see `vojax._tracker._trade.drift_profile`)."""
+    inside the integral (see `vojax._tracker._trade.drift_profile`). ``slopes=True``: also
+    its derivative with respect to each sample's order (the design is linear in the memory
+    columns)."""
     num, width = profile.memory.shape[1:]
     k = profile.bases[1].shape[1]
     n = width // (k + 1)
     if form == 0:
-        return gain_design(columns_at(profile, alpha, slice(0, n)), profile.bases[level])
-    inside = columns_at(profile, alpha, slice(n, None)).reshape(num, n, k)
-    if level == 0:
-        inside = inside @ refinement(profile.settings.trade_knots)
-    return inside.reshape(num, -1)
+        both = columns_at(profile, alpha, slice(0, n), slopes)
+        return _maybe(slopes, both, lambda c: gain_design(c, profile.bases[level]))
+
+    def inside(c):
+        c = c.reshape(num, n, k)
+        if level == 0:
+            c = c @ refinement(profile.settings.trade_knots)
+        return c.reshape(num, -1)
+
+    return _maybe(slopes, columns_at(profile, alpha, slice(n, None), slopes), inside)
+
+
+def _maybe(slopes, both, linear):
+    """`linear` applied to the columns, or to the columns and their slopes."""
+    return (linear(both[0]), linear(both[1])) if slopes else linear(both)
 
 
 def penalised_fit(profile, x, level, lam, drift=True):
@@ -83,22 +104,50 @@ def penalised_fit(profile, x, level, lam, drift=True):
     return np.concatenate([res, rows]), float(res @ res), relative_drift(params, profile.span)
 
 
-def levenberg(fun, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
-    """Levenberg–Marquardt on the residuals `fun` (θ) from `theta`, every θ kept within
-    [`lo`, `hi`], the Jacobian by forward differences (backward at the upper bound): at most
-    `iterations` steps, ending where a step lowers the squared residuals by less than `tol`
-    (χ² units in the shape fit)."""
+def penalised_jacobian(profile, x, dx, level, lam):
+    """The derivatives (R, m) of `penalised_fit`'s residuals (``drift=False``) with respect
+    to m parameters of the design, given its derivatives `dx` (m, N, n·k): the coefficients
+    differentiated through their normal equations, the penalty's unit through the columns'
+    trace (variable projection, exact)."""
+    k = profile.bases[level].shape[1]
+    a_mat, b, penalty, unit = penalised_system(x, profile.y, profile.mask, k, profile.whiten,
+                                               profile.offset)
+    cols = np.moveaxis(dx, 0, 1)  # (N, m, n·k): the whitener runs along the samples
+    if profile.offset:
+        cols = np.concatenate([cols, np.zeros(cols.shape[:2] + (1,))], axis=2)
+    if profile.whiten is not None:
+        cols = profile.whiten(cols)
+    da = np.moveaxis(cols * np.sqrt(np.asarray(profile.mask, float))[:, None, None], 1, 0)
+    da_t = np.ascontiguousarray(da.transpose(0, 2, 1))  # (m, W, N)
+    mat = a_mat.T @ a_mat + lam * unit * penalty
+    coef = np.linalg.lstsq(mat, a_mat.T @ b, rcond=None)[0]
+    dunit = unit * 2.0 * np.tensordot(da, a_mat, axes=([1, 2], [0, 1])) / np.sum(a_mat**2)
+    cross = da_t @ a_mat  # (m, W, W): dAᵀ A
+    dmat = cross + cross.transpose(0, 2, 1) + lam * dunit[:, None, None] * penalty
+    rhs = (da_t @ b - dmat @ coef).T  # (W, m)
+    dcoef = np.linalg.lstsq(mat, rhs, rcond=None)[0]
+    dres = -((da @ coef).T + a_mat @ dcoef) * np.sqrt(profile.scale)
+    n = x.shape[1] // k
+
+    def steps(c):  # each input's coefficients' first differences, as in `penalised_fit`
+        return np.concatenate([np.diff(c[j * k : (j + 1) * k], axis=0) for j in range(n)])
+
+    root = np.sqrt(lam * unit * profile.scale)
+    slope = np.sqrt(lam * profile.scale) * dunit / (2.0 * np.sqrt(unit)) if lam > 0 else 0.0
+    drows = slope * steps(coef)[:, None] + root * steps(dcoef)
+    return np.concatenate([dres, drows])
+
+
+def levenberg(fun, jac, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
+    """Levenberg–Marquardt on the residuals `fun` (θ), their Jacobian `jac` (θ), from
+    `theta`, every θ kept within [`lo`, `hi`]: at most `iterations` steps, ending where a
+    step lowers the squared residuals by less than `tol` (χ² units in the shape fit)."""
     theta = np.clip(theta, lo, hi)
     r = fun(theta)
     cost, mu = float(r @ r), 1e-2
     for _ in range(iterations):
-        jac = np.empty((r.size, theta.size))
-        for i in range(theta.size):
-            d = LM_STEP if theta[i] + LM_STEP <= hi else -LM_STEP
-            moved = theta.copy()
-            moved[i] += d
-            jac[:, i] = (fun(moved) - r) / d
-        grad, hess = jac.T @ r, jac.T @ jac
+        j = jac(theta)
+        grad, hess = j.T @ r, j.T @ j
         for _ in range(8):
             damped = hess + mu * np.diag(np.diag(hess) + 1e-12)
             trial = np.clip(theta - np.linalg.lstsq(damped, grad, rcond=None)[0], lo, hi)
@@ -131,7 +180,12 @@ def moving_orders(profile, band, half):
             return penalised_fit(profile, design(profile, shape @ theta, level, form), level,
                                  lam, drift)
 
-        free = levenberg(lambda th: fit(th, 0.0, False)[0], theta0, lo, hi)
+        def jac(theta, lam):  # the order at sample i moves with θ_j as shape[i, j]
+            x, dx = design(profile, shape @ theta, level, form, slopes=True)
+            return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam)
+
+        free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
+                         lo, hi)
         limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
         for sign, edge in edges:
             for offset in s.moving_offsets:
@@ -144,7 +198,10 @@ def moving_orders(profile, band, half):
                         return np.append(fit(th, lam, False)[0],
                                          TARGET_WEIGHT * (weights @ th - target))
 
-                    theta = levenberg(resid, theta, lo, hi)
+                    def resid_jac(th, lam=lam):
+                        return np.vstack([jac(th, lam), TARGET_WEIGHT * weights])
+
+                    theta = levenberg(resid, resid_jac, theta, lo, hi)
                     alpha = shape @ theta
                     _, chi2, drift = fit(theta, lam)
                     if chi2 > limit:
