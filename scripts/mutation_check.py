@@ -1693,6 +1693,22 @@ MUTATIONS = {
           "    alpha = alpha + 0.01\n    full = _at_samples(res, at_samples, alpha, p_user,")],
         ["tests/test_blocks.py::test_the_second_clocks_quick_look_runs_no_memory_over_every_sample"],
     ),
+    "the moving orders' Jacobian without the penalty's unit moving with the columns": (
+        "vojax/_tracker/_moving.py",
+        [("    dunit = unit * 2.0 *", "    dunit = 0.0 * unit * 2.0 *")],
+        ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
+    ),
+    "the moving orders' Jacobian on unwhitened columns": (
+        "vojax/_tracker/_moving.py",
+        [("        cols = profile.whiten(cols)", "        pass")],
+        ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
+    ),
+    "the memory's slope in the order off by a factor": (
+        "vojax/_tracker/_moving.py",
+        [("    return out, np.where(held[:, None], 0.0, slope / h)",
+          "    return out, np.where(held[:, None], 0.0, slope / h * 1.001)")],
+        ["tests/test_moving.py::test_the_columns_slopes_are_the_interpolants_derivatives"],
+    ),
 }
 
 
