@@ -63,6 +63,23 @@ def _halfwidth(res):
     return float(np.median(np.asarray(res.alpha_upper - res.alpha_lower)[half:]) / 2)
 
 
+def test_a_band_wide_for_two_reasons_states_its_width_once():
+    """Where a drifting parameter and the unit of time both widen the band, the message
+    states the width once and gives both causes, the unit of time's joined to the first;
+    alone, the unit of time's clause states the width itself."""
+    wide = _band(0.3)
+    both = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), trade=(0.1, 0.7), clock=0.55)
+    assert both.reasons == ("trade_off", "clock")
+    assert both.message.count("±0.3 wide") == 1
+    assert "the band covers both; and because the order depends on the unit of time" in (
+        both.message)
+    assert "constant in the data's unit of time 0.55" in both.message
+    alone = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), clock=0.55)
+    assert alone.reasons == ("clock",)
+    assert alone.message.startswith("the order band is ±0.3 wide because the order depends on "
+                                    "the unit of time")
+
+
 def test_a_drift_bound_admits_the_explanations_that_drift_no_more(drifting_gain):
     """The band under a stated drift bound lies between the conditional band and the free
     one, growing with the bound, and equals the free one once the bound passes every

@@ -84,7 +84,10 @@ def _trade_off(c):
 _FINDINGS = {
     Reason.TRADE_OFF: _trade_off,
     Reason.CLOCK: lambda c: (
-        f"the order band is ±{c['width']:.2g} wide because the order depends on the unit of "
+        # after the trade-off's clause, which states the width, only the second cause
+        ("and because" if c.get("traded") else
+         f"the order band is ±{c['width']:.2g} wide because")
+        + " the order depends on the unit of "
         "time in which the parameters are constant: constant over the record's span (the "
         f"estimate) it is {c['span_order']:.2f}, constant in the data's unit of time "
         f"{c['clock']:.2f} (medians over the second half); one record cannot tell which "
@@ -302,7 +305,7 @@ def diagnose(
     verdict = ("identified" if identified else "conditional" if conditional_answer
                else "not identified")
     context.update(conditional=conditional_answer, cond_width=cond_width,
-                   breakdown=breakdown_drift)
+                   breakdown=breakdown_drift, traded=Reason.TRADE_OFF in reasons)
     finding = "; ".join(r.finding(**context) for r in reasons)
     taken = set(given)
     steps = tuple(dict.fromkeys(
