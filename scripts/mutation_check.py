@@ -1709,6 +1709,11 @@ MUTATIONS = {
           "    return out, np.where(held[:, None], 0.0, slope / h * 1.001)")],
         ["tests/test_moving.py::test_the_columns_slopes_are_the_interpolants_derivatives"],
     ),
+    "the whitener's doubling scan one step short": (
+        "vojax/_tracker/_coloured.py",
+        [("range(max(num - 1, 1).bit_length())", "range(max(num - 1, 1).bit_length() - 1)")],
+        ["tests/test_coloured.py::test_whitener_equals_the_kalman_filter_step_by_step"],
+    ),
 }
 
 

@@ -46,6 +46,39 @@ def test_hyper_transition_keeps_the_ar_part_stationary():
     assert np.asarray(white.process(jnp.asarray(steps), horizon, 1)).shape == (30, 3)
 
 
+@pytest.mark.parametrize("memory", ["short", "long"])
+@pytest.mark.parametrize("n", [1, 2, 3, 64, 65, 1000])
+def test_whitener_equals_the_kalman_filter_step_by_step(n, memory):
+    """The whitener (a doubling scan over the AR(1) part's predictions) equals the scalar
+    Kalman filter run sample by sample, written here, to 1e-12 of the data's scale: on an
+    irregular clock with skipped samples (their state carried forward unseen), on arrays of
+    one, two and three dimensions (each column alone), at lengths about powers of two; with
+    a correlation time of 4 % of the record and one of ten records under a white part six
+    times the coloured one (each prediction then weighs the whole record)."""
+    rng, times, steps = _irregular(n, 3)
+    s, tau_frac, r = (0.8, 0.04, 0.05) if memory == "short" else (0.8, 10.0, 5.0)
+    horizon = float(times[-1]) if n > 1 else 1.0
+    mask = (rng.uniform(size=n) > 0.2).astype(float)
+    tuning = Tuning(0.1, 1e-6, r, (), 0.0, True, s, tau_frac)
+    whiten = ar_whitener(steps, mask, horizon, tuning)
+    a = np.exp(-steps / (tau_frac * horizon))
+
+    def filtered(x):
+        out, pred, var = np.empty_like(x), np.zeros(x.shape[1:]), s
+        for k in range(n):
+            g = mask[k] * var / (var + r)
+            out[k] = (x[k] - pred) / np.sqrt(var + r)
+            pred = a[k] * (pred + g * (x[k] - pred))
+            var = a[k] ** 2 * (1.0 - g) * var + s * (1.0 - a[k] ** 2)
+        return out
+
+    for shape in ((n,), (n, 4), (n, 3, 5)):
+        x = rng.standard_normal(shape)
+        got = whiten(x)
+        assert got.shape == x.shape
+        np.testing.assert_allclose(got, filtered(x), rtol=0, atol=1e-12)
+
+
 def test_whitener_gives_the_dense_quadratic_form_and_gls():
     n = 60
     rng, times, steps = _irregular(n, 2)
