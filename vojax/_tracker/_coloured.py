@@ -21,7 +21,7 @@ def ar_whitener(steps, mask, horizon, tuning):
     ``a_k = exp(−(t_{k+1} − t_k)/τ)``. A scalar Kalman filter of the AR(1) part: each sample's
     innovation over its standard deviation, so ``Σ mask·whiten(x)²`` is ``xᵀ Σ⁻¹ x`` over the
     fitted samples (skipped samples carry the state forward unseen). Returns a function of
-    an array (N,) or (N, m), on the host."""
+    an array (N, …), each column whitened alone, on the host."""
     steps, mask = np.asarray(steps, float), np.asarray(mask, float)
     s, r, tau = tuning.coloured_noise, tuning.noise, tuning.noise_time * float(horizon)
     a = np.exp(-steps / tau)
