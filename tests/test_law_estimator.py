@@ -44,27 +44,51 @@ def _by_hand(u, y, *, gamma, lam, alpha0, bounds, x0, r0, memory="exponential"):
     return np.array(alpha), np.array(y_hat)
 
 
+def _rounding(est, u, y):
+    """How far rounding alone moves the estimator's ``(α̂, ŷ)``: the largest change of each
+    when the data change in their last digits (y × (1 ± 1e-15)), the scale on which two
+    computations of the same recursion (a scan, a loop of compiled steps) can differ."""
+    base = est.fit(u, y, H, warn=False)
+    moved = [est.fit(u, y * (1.0 + sign * 1e-15), H, warn=False) for sign in (1.0, -1.0)]
+    return tuple(max(float(np.max(np.abs(np.asarray(getattr(m, name))
+                                          - np.asarray(getattr(base, name)))))
+                     for m in moved) for name in ("alpha", "y_hat"))
+
+
+def _agree(got, want, rounding):
+    """`got` equals `want` to 1e-12 relative or, where the recursion amplifies rounding
+    more, to 10 times the change that rounding alone makes (`_rounding`)."""
+    got, want = np.asarray(got), np.asarray(want)
+    tol = np.maximum(1e-12 * np.abs(want) + 1e-14, 10.0 * rounding)
+    assert np.all(np.abs(got - want) <= tol), float(np.max(np.abs(got - want) - tol))
+
+
 def test_the_estimator_runs_the_law_with_its_own_options(record):
     """Every option given reaches the law: the result equals the law stepped by hand with
-    the same γ, λ, α̂(0), bounds, offset and R_0 (a field dropped on the way, or a default
-    put in its place, changes the trajectory by far more than rounding)."""
+    the same γ, λ, α̂(0), bounds, offset and R_0, to rounding (a field dropped on the way,
+    or a default put in its place, changes the trajectory by far more). The recursion
+    amplifies rounding: a change of y in its last digits moves α̂ by about 1e-13–3e-12 on
+    some CPUs and JAX versions, and the two computations may differ by as much."""
     u, y = record
     opts = dict(gamma=0.3, lam=0.7, alpha0=0.35, bounds=(0.1, 0.8), x0=1.25, r0=2.0 * np.eye(2))
     est = vojax.LawEstimator(gamma=0.3, lam=0.7, alpha0=0.35, alpha_bounds=(0.1, 0.8),
                              x0=1.25, r0=2.0 * np.eye(2))
     res = est.fit(u, y, H, warn=False)
     alpha, y_hat = _by_hand(u, y, **opts)
-    np.testing.assert_allclose(np.asarray(res.alpha), alpha, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(np.asarray(res.y_hat), y_hat, rtol=1e-12, atol=1e-12)
+    rounding = _rounding(est, u, y)
+    assert max(rounding) < 1e-10  # rounding, not a different computation
+    _agree(res.alpha, alpha, rounding[0])
+    _agree(res.y_hat, y_hat, rounding[1])
     assert float(res.gamma) == 0.3 and float(res.lam) == 0.7 and float(res.alpha0) == 0.35
     assert float(res.x0) == 1.25 and res.alpha_bounds == (0.1, 0.8)
     assert res.method == "gradient" and res.memory == "exponential"
     # the defaults are the paper's λ and y[0] as the offset
-    paper = vojax.LawEstimator(gamma=0.3, r0=2.0 * np.eye(2)).fit(u, y, H, warn=False)
+    default = vojax.LawEstimator(gamma=0.3, r0=2.0 * np.eye(2))
+    paper = default.fit(u, y, H, warn=False)
     assert float(paper.lam) == 0.9 and float(paper.x0) == y[0]
     alpha, _ = _by_hand(u, y, gamma=0.3, lam=0.9, alpha0=0.5, bounds=(0.05, 0.95), x0=y[0],
                         r0=2.0 * np.eye(2))
-    np.testing.assert_allclose(np.asarray(paper.alpha), alpha, rtol=1e-12, atol=1e-14)
+    _agree(paper.alpha, alpha, _rounding(default, u, y)[0])
 
 
 def test_identify_with_the_law_is_the_estimators_fit(record):
