@@ -14,6 +14,7 @@ from vojax._tracker._band import outside
 from vojax._tracker._explanations import relative_drift
 from vojax._tracker._model import order_of_np
 from vojax._tracker._moving import (
+    _last,
     columns_at,
     design,
     levenberg,
@@ -223,3 +224,22 @@ def test_moving_orders_lie_outside_the_band_and_fit_within_the_limit():
                 best_here = min(best_here, float(res @ res) / sd**2)
         assert best_here <= e.chi2 * (1 + 1e-6)
     assert min(e.drift for e in found) < 0.3
+
+
+def test_the_shape_fits_memory_answers_at_the_theta_asked_for():
+    """`_last` keeps one answer, that of the last θ: asked again at that θ it does not call
+    again; asked at another θ, or back at an earlier one, or at a θ that differs in its last
+    bit, it does (a kept answer returned for another θ would fit the wrong order)."""
+    calls = []
+
+    def norm(theta):
+        calls.append(theta.copy())
+        return float(np.sum(theta**2))
+
+    kept = _last(norm)
+    a, b = np.array([0.3, 0.4]), np.array([0.3, 0.5])
+    near = np.nextafter(a, 1.0)
+    answers = [kept(a), kept(a), kept(b), kept(a), kept(near), kept(near.copy())]
+    want = [float(np.sum(theta**2)) for theta in (a, a, b, a, near, near)]
+    assert answers == want and want[3] != want[4]
+    assert len(calls) == 4

@@ -83,17 +83,23 @@ def _maybe(slopes, both, linear):
     return (linear(both[0]), linear(both[1])) if slopes else linear(both)
 
 
-def penalised_fit(profile, x, level, lam, drift=True):
+def system_of(profile, x, level):
+    """`penalised_system` of the design `x` on `level`'s hat functions, with the profile's
+    data, mask, whitener and offset."""
+    return penalised_system(x, profile.y, profile.mask, profile.bases[level].shape[1],
+                            profile.whiten, profile.offset)
+
+
+def penalised_fit(profile, x, level, lam, drift=True, system=None):
     """The drifting parameters' penalised least squares on the design `x` at the penalty
     `lam`: ``(residuals, χ², drift)``, the residuals (whitened, × √scale) with the penalty's
     rows appended (their squares sum to the penalised objective), the χ² of the data alone,
     and the parameters' relative drift over the fitted span (``drift=False``: None, for the
-    shape fit's residuals)."""
+    shape fit's residuals). `system`: `system_of` the design, where already built."""
     basis = profile.bases[level]
     k = basis.shape[1]
     n = x.shape[1] // k
-    a_mat, b, penalty, unit = penalised_system(x, profile.y, profile.mask, k, profile.whiten,
-                                               profile.offset)
+    a_mat, b, penalty, unit = system_of(profile, x, level) if system is None else system
     coef = np.linalg.lstsq(a_mat.T @ a_mat + lam * unit * penalty, a_mat.T @ b, rcond=None)[0]
     res = (b - a_mat @ coef) * np.sqrt(profile.scale)
     steps = np.concatenate([np.diff(coef[j * k : (j + 1) * k]) for j in range(n)])
@@ -104,14 +110,13 @@ def penalised_fit(profile, x, level, lam, drift=True):
     return np.concatenate([res, rows]), float(res @ res), relative_drift(params, profile.span)
 
 
-def penalised_jacobian(profile, x, dx, level, lam):
+def penalised_jacobian(profile, x, dx, level, lam, system=None):
     """The derivatives (R, m) of `penalised_fit`'s residuals (``drift=False``) with respect
     to m parameters of the design, given its derivatives `dx` (m, N, n·k): the coefficients
     differentiated through their normal equations, the penalty's unit through the columns'
-    trace (variable projection, exact)."""
+    trace (variable projection, exact). `system`: as in `penalised_fit`."""
     k = profile.bases[level].shape[1]
-    a_mat, b, penalty, unit = penalised_system(x, profile.y, profile.mask, k, profile.whiten,
-                                               profile.offset)
+    a_mat, b, penalty, unit = system_of(profile, x, level) if system is None else system
     cols = np.moveaxis(dx, 0, 1)  # (N, m, n·k): the whitener runs along the samples
     if profile.offset:
         cols = np.concatenate([cols, np.zeros(cols.shape[:2] + (1,))], axis=2)
@@ -136,6 +141,27 @@ def penalised_jacobian(profile, x, dx, level, lam):
     slope = np.sqrt(lam * profile.scale) * dunit / (2.0 * np.sqrt(unit)) if lam > 0 else 0.0
     drows = slope * steps(coef)[:, None] + root * steps(dcoef)
     return np.concatenate([dres, drows])
+
+
+def _at_shape(profile, shape, theta, level, form):
+    """The design, its slopes and `system_of` it at the shape `theta` (the order ``shape @
+    theta``)."""
+    x, dx = design(profile, shape @ theta, level, form, slopes=True)
+    return x, dx, system_of(profile, x, level)
+
+
+def _last(fn):
+    """`fn` of one array, its last answer kept: the shape fit asks for the residuals and
+    then, where the step is taken, for the Jacobian at the same θ."""
+    kept = []
+
+    def call(theta):
+        key = np.asarray(theta).tobytes()
+        if not kept or kept[0] != key:
+            kept[:] = [key, fn(theta)]
+        return kept[1]
+
+    return call
 
 
 def levenberg(fun, jac, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
@@ -176,13 +202,17 @@ def moving_orders(profile, band, half):
     edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
     found = []
     for level, form, best, dof in profile.forms:
+        at = _last(lambda theta, level=level, form=form: _at_shape(profile, shape, theta,
+                                                                   level, form))
+
         def fit(theta, lam, drift=True):
-            return penalised_fit(profile, design(profile, shape @ theta, level, form), level,
-                                 lam, drift)
+            x, _, system = at(theta)
+            return penalised_fit(profile, x, level, lam, drift, system)
 
         def jac(theta, lam):  # the order at sample i moves with θ_j as shape[i, j]
-            x, dx = design(profile, shape @ theta, level, form, slopes=True)
-            return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam)
+            x, dx, system = at(theta)
+            return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
+                                      system)
 
         free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
                          lo, hi)
