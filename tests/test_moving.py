@@ -14,6 +14,7 @@ from vojax._tracker._band import outside
 from vojax._tracker._explanations import relative_drift
 from vojax._tracker._model import order_of_np
 from vojax._tracker._moving import (
+    LADDER,
     _last,
     columns_at,
     design,
@@ -223,6 +224,11 @@ def test_moving_orders_lie_outside_the_band_and_fit_within_the_limit():
                 res = y - cols @ np.linalg.lstsq(cols, y, rcond=None)[0]
                 best_here = min(best_here, float(res @ res) / sd**2)
         assert best_here <= e.chi2 * (1 + 1e-6)
+        # its χ² and drift are those of its own order: some form's penalised fit at one rung
+        # of the penalty ladder gives both (numbers kept from another shape would not)
+        assert any(np.allclose(penalised_fit(profile, design(profile, alpha, level, form), level,
+                                             lam)[1:], (e.chi2, e.drift), rtol=1e-8, atol=0.0)
+                   for level, form, _, _ in profile.forms for lam in LADDER)
     assert min(e.drift for e in found) < 0.3
 
 
