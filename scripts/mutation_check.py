@@ -1731,19 +1731,25 @@ def _copy(dst: Path):
     shutil.copytree(ROOT, dst, ignore=ignore, dirs_exist_ok=True)
 
 
+def plant(text: str, edits):
+    """`text` with a planted bug's `edits` (old, new) applied in order, and the old texts not
+    found exactly once in `text` (a stale entry: it plants nothing)."""
+    stale = [old for old, _ in edits if text.count(old) != 1]
+    for old, new in edits:
+        text = text.replace(old, new)
+    return text, stale
+
+
 def _run_one(tmp: Path, index: int, name: str, path: str, edits, tests, timeout: int):
     """Plants one bug in a fresh copy of the repository and runs its tests: (status, s)."""
     work = tmp / f"repo{index}"
     _copy(work)
     try:
         target = work / path
-        text = target.read_text()
-        stale = [old for old, _ in edits if text.count(old) != 1]
+        text, stale = plant(target.read_text(), edits)
         if stale:
             print(f"STALE     {name}: {stale[0][:60]!r} not found exactly once", flush=True)
             return "STALE", 0.0
-        for old, new in edits:
-            text = text.replace(old, new)
         target.write_text(text)
         # the copy's package must be the one imported (cwd first on sys.path)
         env = dict(os.environ, PYTHONPATH=str(work))

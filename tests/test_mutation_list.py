@@ -9,27 +9,27 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _mutations():
+def _mutation_check():
     spec = importlib.util.spec_from_file_location("mutation_check",
                                                   ROOT / "scripts" / "mutation_check.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.MUTATIONS
+    return module
 
 
 def test_every_planted_bug_is_found_once_and_changes_its_file():
+    check = _mutation_check()
     stale = []
-    for name, (path, replacements, tests) in _mutations().items():
+    for name, (path, replacements, tests) in check.MUTATIONS.items():
         text = (ROOT / path).read_text()
-        for old, new in replacements:  # applied in order, as the check applies them
-            if text.count(old) != 1 or old == new:
-                stale.append(f"{name}: {old[:60]!r}")
-            text = text.replace(old, new)
+        planted, missing = check.plant(text, replacements)  # as the check plants it
+        stale += [f"{name}: {old[:60]!r}" for old in missing]
+        if planted == text or any(old == new for old, new in replacements):
+            stale.append(f"{name}: a replacement changes nothing")
         for test in tests:
-            if not (ROOT / test.split("::")[0]).exists():
+            file, _, function = test.partition("::")
+            if not (ROOT / file).exists():
                 stale.append(f"{name}: no test file {test}")
-            elif "::" in test:
-                function = test.split("::")[1].split("[")[0]
-                if f"def {function}(" not in (ROOT / test.split("::")[0]).read_text():
-                    stale.append(f"{name}: no test {test}")
+            elif function and f"def {function.split('[')[0]}(" not in (ROOT / file).read_text():
+                stale.append(f"{name}: no test {test}")
     assert not stale, "\n".join(stale)
