@@ -359,6 +359,15 @@ MUTATIONS = {
         ],
         ['tests/test_tracker.py::test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch'],
     ),
+    "noise floor from the second differences alone": (
+        'vojax/_tracker/_fit.py',
+        [
+            ('max(s.noise_floor * least, s.noise_min)',
+             'max(s.noise_floor * noise_data, s.noise_min)'),
+        ],
+        ['tests/test_tracker.py::test_noise_floor_is_the_noise_where_the_signal_curves_at_the_sampling_scale',
+         'tests/test_tracker.py::test_an_oscillation_sampled_coarsely_is_identified'],
+    ),
     "refit keeps coefficients that are rounding": (
         "vojax/_refit_solve.py",
         [("ROUNDING = 1e-12\n", "ROUNDING = 0.0\n")],

@@ -946,6 +946,53 @@ def test_first_pass_noise_levels_follow_the_data_and_the_constant_fits_misfit():
     assert st.misfit < s.misfit_ratio * noise0 and st.noises == (noise0,)
 
 
+def _oscillation_record(per_cycle, num=300, dt=0.1, order=0.4, seed=1):
+    """A constant order's response to a sine of `per_cycle` samples a cycle (as a large
+    amplitude oscillatory test samples it), with 1 % white noise: ``(u, y, x, sd)``."""
+    from vojax import reference
+
+    t = dt * np.arange(num)
+    u = np.sin(2 * np.pi * t / (per_cycle * dt)) + 0.2
+    x = np.asarray(reference.fractional_integral(u, np.full(num, order), dt, memory="direct"))
+    sd = 0.01 * np.ptp(x)
+    return u, x + sd * np.random.default_rng(seed).standard_normal(num), x, sd
+
+
+def test_noise_floor_is_the_noise_where_the_signal_curves_at_the_sampling_scale():
+    """A sine of 12 samples a cycle puts its curvature into the second differences (their
+    estimate of the noise is many times the true one); the differences of order 4 and 6 see
+    through it. The noise's floor is `noise_floor` times the least of the three: within 30 %
+    of that fraction of the true noise, not the inflated second-difference one."""
+    import jax.numpy as jnp
+
+    from vojax._integral import make_memory
+    from vojax._tracker._fit import start
+
+    s = vojax.TrackerSettings()
+    dt = 0.1
+    u, y, _, sd = _oscillation_record(12, dt=dt)
+    memory = make_memory("exponential", dt, y.size, order_range=(0.01, 0.99))
+    st = start(memory, jnp.asarray(u[:, None]), jnp.asarray(y), dt, (0.01, 0.99), s, None,
+               None, None, False)
+    true = (sd / st.scales.y_scale) ** 2  # the noise's variance on the normalised output
+    assert st.noise_data > 3 * true  # second differences: the sine's curvature as noise
+    assert 0.7 < st.noise_floor / (s.noise_floor * true) < 1.3
+
+
+@pytest.mark.parametrize("per_cycle", [12, 16])
+def test_an_oscillation_sampled_coarsely_is_identified(per_cycle):
+    """With a floor from the second differences alone, the tuned noise of these records sat at
+    its floor's edge (an inflated one) and the order was refused at an error below 0.001; the
+    order is now identified, its band within ±0.1 and covering the truth."""
+    u, y, *_ = _oscillation_record(per_cycle)
+    res = vojax.identify(u, y, 0.1, warn=False)
+    d = res.diagnostics
+    assert "noise" not in d.at_edge and d.verdict == "identified", d.reasons
+    half = slice(y.size // 2, None)
+    lower, upper = (np.asarray(a)[half] for a in (res.alpha_lower, res.alpha_upper))
+    assert np.all((lower <= 0.4) & (0.4 <= upper)) and np.max(upper - lower) <= 0.2
+
+
 def test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift():
     """`held_order` smooths again with the parameters held at the floor drift: its
     parameters' drift is the same (to 1e-6) from intensities whose parameters drift freely

@@ -121,7 +121,12 @@ def start(memory, u, y, dt, bounds, settings, mask, times, x0, batched) -> Start
     starts = starting_trajectories(problem, alpha_c, offset=not known)
     dof = max(float(np.sum(np.asarray(mask))) - n - 2, 1.0)
     # the data's own noise level (second differences), capped by the constant fit's residual
-    noise_data = noise_variance(np.asarray(yn)[np.asarray(mask) > 0])
+    fitted = np.asarray(yn)[np.asarray(mask) > 0]
+    noise_data = noise_variance(fitted)
+    # the noise's floor from the least of the differences of order 2, 4 and 6: a signal that
+    # curves at the sampling scale (an oscillation of few samples per cycle) inflates the
+    # second differences, the higher orders less
+    least = min(noise_data, noise_variance(fitted, 4), noise_variance(fitted, 6))
     misfit = max(rss / dof, s.noise_min)
     noise0 = float(np.clip(noise_data, s.noise_min, misfit))
     # first-pass noise levels, tried in turn until a run converges: the data's, then the
@@ -131,7 +136,7 @@ def start(memory, u, y, dt, bounds, settings, mask, times, x0, batched) -> Start
     if misfit >= s.misfit_ratio * noise0:
         noises = (misfit, noise0) if noise_data < s.noise_min else (noise0, misfit)
     return Start(problem, scales, p_scale, alpha_c, misfit, starts, noise_data,
-                 max(s.noise_floor * noise_data, s.noise_min), noises, known)
+                 max(s.noise_floor * least, s.noise_min), noises, known)
 
 
 def given_intensities(st, noise):
