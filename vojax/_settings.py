@@ -32,7 +32,7 @@ class TrackerSettings:
     constant_drift: float = 1e-6  # a parameter drift this small holds the parameters constant
     grid_order: tuple[float, ...] = (1e-1, 1.0, 1e1)  # order drifts of the first pass
     start_orders: tuple[float, ...] = (0.15, 0.35, 0.5, 0.65, 0.85)  # starts, fractions of range
-    noise_floor: float = 0.25  # the noise variance stays ≥ this × the data's least difference estimate
+    noise_floor: float = 0.25  # the noise variance stays ≥ this × the least difference estimate
     max_iter: int = 400  # Levenberg–Marquardt iterations of one smoothing
     # iterations of each run of the first pass: enough for the run that reaches the best mode
     grid_max_iter: int = 60

@@ -68,8 +68,9 @@ class TrackResult(eqx.Module):
 class Start:
     """What the start gives the later passes: the `problem`, the normalisation `scales` and
     the factor `p_scale` from normalised to physical parameters, the constant-order fit's
-    order `alpha_c` and misfit, the `starts` (S, d), the data's own noise variance and its
-    floor, the first pass's noise levels, whether the offset is `known`."""
+    order `alpha_c` and misfit, the `starts` (S, d), the data's own noise variance (second
+    differences), its estimates from differences of order 4 and 6 and the noise's floor, the
+    first pass's noise levels, whether the offset is `known`."""
 
     problem: Problem
     scales: Scales
@@ -78,6 +79,7 @@ class Start:
     misfit: float
     starts: np.ndarray
     noise_data: float
+    noise_higher: tuple[float, float]
     noise_floor: float
     noises: tuple[float, ...]
     known: bool
@@ -126,7 +128,8 @@ def start(memory, u, y, dt, bounds, settings, mask, times, x0, batched) -> Start
     # the noise's floor from the least of the differences of order 2, 4 and 6: a signal that
     # curves at the sampling scale (an oscillation of few samples per cycle) inflates the
     # second differences, the higher orders less
-    least = min(noise_data, noise_variance(fitted, 4), noise_variance(fitted, 6))
+    higher = (noise_variance(fitted, 4), noise_variance(fitted, 6))
+    least = min(noise_data, *higher)
     misfit = max(rss / dof, s.noise_min)
     noise0 = float(np.clip(noise_data, s.noise_min, misfit))
     # first-pass noise levels, tried in turn until a run converges: the data's, then the
@@ -135,7 +138,7 @@ def start(memory, u, y, dt, bounds, settings, mask, times, x0, batched) -> Start
     noises = (noise0,)
     if misfit >= s.misfit_ratio * noise0:
         noises = (misfit, noise0) if noise_data < s.noise_min else (noise0, misfit)
-    return Start(problem, scales, p_scale, alpha_c, misfit, starts, noise_data,
+    return Start(problem, scales, p_scale, alpha_c, misfit, starts, noise_data, higher,
                  max(s.noise_floor * least, s.noise_min), noises, known)
 
 
@@ -244,9 +247,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     res = assemble(st, problem, theta, cov, beta_var, None if hold else trade, y_hat_n,
                    y_pred_n, sm.phi if y_hat_n is None else None, converged, tuning,
                    alpha_held, weights, found, time_scale)
-    fitted = np.asarray(problem.y)[np.asarray(problem.mask) > 0]
     levels = dict(fit=fit_noise, tuned=tuning.noise, data2=st.noise_data,
-                  data4=noise_variance(fitted, 4), data6=noise_variance(fitted, 6),
+                  data4=st.noise_higher[0], data6=st.noise_higher[1],
                   coloured=whiten is not None)
     return dataclasses.replace(res, explanations=explanations, noise_levels=levels)
 
