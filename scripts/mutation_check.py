@@ -335,8 +335,8 @@ MUTATIONS = {
     'held smoothing keeps the tuned parameter drift': (
         'vojax/_tracker/_mixture.py',
         [
-            ('        held = Hyper(jnp.log(to_device(np.asarray(drift, dtype))),\n                     jnp.log(to_device(np.asarray(s.constant_drift, dtype))),',
-             '        held = Hyper(jnp.log(to_device(np.asarray(drift, dtype))),\n                     hyper.log_q_params,'),
+            ('        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     jnp.log(to_device(np.asarray(s.constant_drift, dtype))),',
+             '        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     hyper.log_q_params,'),
         ],
         ['tests/test_tracker.py::test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift'],
     ),
@@ -367,6 +367,17 @@ MUTATIONS = {
         ],
         ['tests/test_tracker.py::test_noise_floor_is_the_noise_where_the_signal_curves_at_the_sampling_scale',
          'tests/test_tracker.py::test_an_oscillation_sampled_coarsely_is_identified'],
+    ),
+    "held smoothing stops at its first ladder": (
+        'vojax/_tracker/_mixture.py',
+        [('    while len(runs) < len(s.held_order_drift) + s.held_order_climb:',
+          '    while False:')],
+        ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
+    ),
+    "held smoothing not refined between its rungs": (
+        'vojax/_tracker/_mixture.py',
+        [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],
+        ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
     ),
     "refit keeps coefficients that are rounding": (
         "vojax/_refit_solve.py",

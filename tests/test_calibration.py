@@ -129,7 +129,8 @@ def test_the_held_smoothing_follows_a_step_that_drifting_parameters_absorbed(sui
     case = module.draw_case("lengths", 7, signals)
     half = case["t"] > case["t"][-1] / 2
     truth = float(np.median(case["alpha"][half]))
-    _, stuck = _held_explanation(case, vojax.TrackerSettings(held_order_drift=(1.0,)))
+    _, stuck = _held_explanation(case, vojax.TrackerSettings(held_order_drift=(1.0,),
+                                                             held_order_climb=0))
     assert not stuck.fits
     res, held = _held_explanation(case, vojax.TrackerSettings())
     assert held.fits
@@ -139,6 +140,49 @@ def test_the_held_smoothing_follows_a_step_that_drifting_parameters_absorbed(sui
     lower, upper = np.asarray(res.alpha_lower), np.asarray(res.alpha_upper)
     inside = (case["alpha"] >= lower) & (case["alpha"] <= upper)
     assert inside[half].mean() > 0.5  # 0.77; the step's edge lies in the second half
+
+
+def test_the_held_smoothing_reaches_its_evidence_peak_where_the_tuned_drift_is_at_the_floor(
+        suite):
+    """White draw 9 (a silicone force record, the order constant at 0.50, the parameters
+    constant, 1.8 % noise): the tuned smoothing lets the parameters drift 32 % with its order
+    drift at the range's floor (1.1e-6). The held smoothing's ladder (×1, 1e2, 1e4 of that)
+    ends below its evidence's peak (×1e5–1e6): χ² 742 for 597 degrees of freedom, no fit,
+    and the conditional answer fell back on the drifting tuned smoothing, promising a drift
+    of 35 % with the truth outside its band (a false promise). Climbed to the peak, the held
+    smoothing fits and has the larger evidence, and no conditional answer misses the
+    truth."""
+    module, signals = suite
+    case = module.draw_case("white", 9, signals)
+    _, ladder = _held_explanation(case, vojax.TrackerSettings(held_order_climb=0))
+    assert not ladder.fits
+    _, held = _held_explanation(case, vojax.TrackerSettings())
+    assert held.fits and held.evidence > ladder.evidence + 100.0  # 667 against 423
+    row = module.score(case, module.run_method("tracker", case))
+    assert not row.get("false_promise", False), row  # no conditional answer: no promise
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="open (issue 50): on stated-drift draw 16 (an adhesive shear relaxation, the order "
+    "moving smoothly about 0.29, the gain drifting 21.5 %, the user stating at most 30 %, "
+    "which is true) the answer under the statement is the held smoothing's, 0.47 +- 0.08, "
+    "with the truth outside at 86 % of the second half: the drifting runs the band weighs "
+    "drift 42 % or more, and constant orders with a drift do not fit a moving order, so no "
+    "explanation with a drift between 0 and 30 % is tried. The tuning stops in a local mode "
+    "(the order drift at its floor, the parameters drifting 52 %, evidence 1599): at an order "
+    "drift of 0.1 and a parameter drift intensity of 1e-3 the evidence is 1615, the "
+    "parameters drift 6 % and the order is 0.35 over the second half",
+)
+def test_a_true_stated_drift_bound_is_not_confidently_wrong_on_stated_drift_draw_16(suite):
+    """Stated-drift draw 16 with its stated bound (30 %, true: the drift is 21.5 %): the
+    answer is not identified-and-wrong (the suite's line: the truth outside the band at more
+    than half of the second half)."""
+    module, signals = suite
+    case = module.draw_case("stated-drift", 16, signals)
+    assert case["true_drift"] < case["stated"]
+    row = module.score(case, module.run_method("tracker-stated", case))
+    assert not (row["identified"] and row["wrong"]), row
 
 
 def _rows(module, signals, method, families, count=6):

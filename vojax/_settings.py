@@ -58,10 +58,14 @@ class TrackerSettings:
 
     # ---- the alternatives the band integrates over
     held_ratio: float = 2.0  # a tuned parameter drift above this × `constant_drift` is drift
-    # the held smoothing's order drifts, × the tuned one (the best by evidence is kept): a
-    # step in the order that drifting parameters absorbed needs a faster order once they are
-    # held (lengths draw 7: χ²/dof 16 at the tuned drift, the truth's 0.12 unseen)
+    # the held smoothing's first order drifts, × the tuned one (the best by evidence is
+    # kept): a step in the order that drifting parameters absorbed needs a faster order once
+    # they are held (lengths draw 7: χ²/dof 16 at the tuned drift, the truth's 0.12 unseen)
     held_order_drift: tuple[float, ...] = (1.0, 1e2, 1e4)
+    # then up to this many runs climb to the evidence's peak (white draw 9: the peak at
+    # ×1e5–1e6; stopped at ×1e4, χ² 742 for 597 dof, the band's reference lost) …
+    held_order_climb: int = 7
+    held_order_step: float = 10.0  # … by this factor, then half and a quarter of it (logs)
     alt_order_drift: tuple[float, ...] = (1e-2, 1e-1, 1e1, 1e2)  # × the tuned order drift …
     order_drift_base: float = 1e-3  # … or × this, where the tuned drift is smaller
     alt_param_drift: tuple[float, ...] = (1e-3, 1e-2, 1e-1)  # parameter drifts tried
@@ -126,6 +130,10 @@ class TrackerSettings:
                         f"got {value!r}."
                     )
                 continue
+            if f.name == "held_order_step" and not (isinstance(value, (int, float))
+                                                    and 1 < value < math.inf):
+                raise ValueError(
+                    f"`held_order_step` must be a finite factor above 1, got {value!r}.")
             if f.name == "level_weights":
                 if value not in ("evidence", "chi2"):
                     raise ValueError(

@@ -28,30 +28,72 @@ def fitting(residuals, mask, n, fit_noise, whiten=None):
     return np.asarray(chi2_fits(chi2, dof), bool)
 
 
+def held_drift_search(run, log_tuned, settings):
+    """The order drift (log) of the held smoothing with the largest evidence: `run(log_drift)`
+    → ``(smoothing, score)``, tried at the tuned drift `log_tuned` × each of
+    `held_order_drift`, then up to `held_order_climb` more runs: a step of
+    `held_order_step` beyond the best while it is the highest (lowest) one tried and the
+    range allows, then half a step either side of the best, then a quarter. The evidence
+    peaks where the held parameters' misfit stops paying for a freer order, and the tuned
+    drift (at its range's floor where the parameters drift) does not say where that is: a
+    ladder relative to it alone can stop short of the peak by a factor set by the tuning's
+    rounding. Returns ``(smoothing, score)``, ``(None, -inf)`` where no run converged."""
+    s = settings
+    lowest, highest = (float(v) for v in np.log(np.asarray(s.order_drift_range, float)))
+    runs = {}
+
+    def at(log_drift):
+        key = round(float(np.clip(log_drift, lowest, highest)), 9)
+        if key not in runs and len(runs) < len(s.held_order_drift) + s.held_order_climb:
+            runs[key] = run(key)
+
+    for factor in s.held_order_drift:
+        at(log_tuned + np.log(max(factor, 1e-300)))  # a factor 0: the range's floor
+
+    def top():
+        return max(runs, key=lambda k: runs[k][1])
+
+    step = float(np.log(s.held_order_step))
+    while len(runs) < len(s.held_order_drift) + s.held_order_climb:
+        best, keys = top(), sorted(runs)
+        if not np.isfinite(runs[best][1]):
+            break
+        if best == keys[-1] and best < highest:
+            at(best + step)
+        elif best == keys[0] and best > lowest:
+            at(best - step)
+        if len(runs) == len(keys):  # the peak bracketed, or the range's end reached
+            break
+    for fraction in (0.5, 0.25):
+        best = top()
+        if np.isfinite(runs[best][1]):
+            at(best - fraction * step)
+            at(best + fraction * step)
+    best = top()
+    return runs[best] if np.isfinite(runs[best][1]) else (None, -np.inf)
+
+
 def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     """The order trajectory smoothed again with the parameters held (drift `constant_drift`)
     and the measurement noise at `noise` (the tuned one), from the constant-order fit
-    `start`, at the tuned order drift × each of `held_order_drift` (within the order drift's
-    range), the run with the largest Laplace evidence kept. With one input an order and
-    drifting parameters trade off; where the tuned parameters drift, this is the order the
-    data give without that drift, and the order drift the tuned run needed is not that
-    order's: a step in the order that drifting parameters absorbed, the held order must
+    `start`, its order drift chosen by Laplace evidence (`held_drift_search`). With one input
+    an order and drifting parameters trade off; where the tuned parameters drift, this is the
+    order the data give without that drift, and the order drift the tuned run needed is not
+    that order's: a step in the order that drifting parameters absorbed, the held order must
     follow. Returns ``(order, explanation)``, the smoothing as an `Explanation` of kind
     "held" (χ² at `fit_noise`, or under `whiten`); ``(None, None)`` if no run converges."""
     s = problem.settings
     dtype = problem.u.dtype
-    qo = float(np.exp(np.asarray(hyper.log_q_order)))
-    best, best_score = None, -np.inf
-    for factor in s.held_order_drift:
-        drift = float(np.clip(qo * factor, *s.order_drift_range))  # a factor 0 too
-        held = Hyper(jnp.log(to_device(np.asarray(drift, dtype))),
+
+    def run(log_drift):
+        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),
                      jnp.log(to_device(np.asarray(s.constant_drift, dtype))),
                      jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
                      hyper.log_ar_time)
         sm = problem.smooth_from(held, start)
-        score = host_score(sm)  # −∞ where the run did not converge
-        if score > best_score:
-            best, best_score = sm, score
+        return sm, host_score(sm)  # −∞ where the run did not converge
+
+    best, best_score = held_drift_search(run, float(np.asarray(hyper.log_q_order)), s)
     if best is None:
         return None, None
     theta, n = np.asarray(best.theta), problem.n
