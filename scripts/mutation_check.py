@@ -379,6 +379,26 @@ MUTATIONS = {
         [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],
         ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
     ),
+    "tuning keeps a second climb of lower evidence": (
+        'vojax/_tracker/_tuning.py',
+        [('        if host_score(other[1]) > host_score(out[1]):', '        if True:')],
+        ['tests/test_tuning_starts.py::test_tune_keeps_the_second_climb_where_its_evidence_is_higher'],
+    ),
+    "tuning climbs again with the parameters held": (
+        'vojax/_tracker/_tuning.py',
+        [('    if s.second_climb and not hold and j >= 0', '    if s.second_climb and j >= 0')],
+        ['tests/test_tuning_starts.py::test_tune_keeps_the_second_climb_where_its_evidence_is_higher'],
+    ),
+    "tuning's second start at the first one's order drift": (
+        'vojax/_tracker/_tuning.py',
+        [('if r[0] != rows[i][0] and np.isfinite', 'if np.isfinite')],
+        ['tests/test_tuning_starts.py::test_the_second_start_is_the_best_run_at_another_order_drift'],
+    ),
+    "a climb collapsed whatever the parameters do": (
+        'vojax/_tracker/_tuning.py',
+        [('        and tuning.parameter_drift > s.held_ratio * s.constant_drift)', '        )')],
+        ['tests/test_tuning_starts.py::test_a_climb_has_collapsed_only_with_the_order_at_its_floor_and_the_parameters_drifting'],
+    ),
     "refit keeps coefficients that are rounding": (
         "vojax/_refit_solve.py",
         [("ROUNDING = 1e-12\n", "ROUNDING = 0.0\n")],

@@ -129,7 +129,9 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     can have several modes. One compiled smoothing of every start × order drift of
     `grid_order` (parameter drift `constant_drift`, noise ``noises[0]``), each given
     `grid_max_iter` iterations; if none converges, the same at each further level of `noises`
-    in turn, then at ``noises[0]`` with `max_iter` iterations. From the best run, `climb`.
+    in turn, then at ``noises[0]`` with `max_iter` iterations. From the best run, `climb`;
+    where that ends `collapsed` (`second_climb`), climb also from the best run at another
+    order drift and keep the higher evidence.
     Returns ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`:
     smooth records otherwise reach a higher likelihood by explaining every wiggle with
     drifting states and no noise at all, with meaningless, vanishing bands. `hold`: the
@@ -151,7 +153,31 @@ def tune(problem, starts, noises, noise_floor, hold=False):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
         sm = problem.smooth_from(hyper, first[i])
-    return climb(problem, limits, hyper, sm, s.climb_rounds)
+    out = climb(problem, limits, hyper, sm, s.climb_rounds)
+    j = second_start(rows, scores, i)
+    if s.second_climb and not hold and j >= 0 and collapsed(out[2], limits, s):
+        hyper = Hyper(*(to_device(np.log(float(v))) for v in rows[j]))
+        other = climb(problem, limits, hyper, problem.smooth_from(hyper, first[j]),
+                      s.climb_rounds)
+        if host_score(other[1]) > host_score(out[1]):
+            out = other
+    return out
+
+
+def second_start(rows, scores, i) -> int:
+    """The best first-pass run (by score) at an order drift other than run `i`'s, or -1."""
+    scores = np.asarray(scores, float)
+    other = [k for k, r in enumerate(rows) if r[0] != rows[i][0] and np.isfinite(scores[k])]
+    return max(other, key=lambda k: scores[k]) if other else -1
+
+
+def collapsed(tuning, limits, settings) -> bool:
+    """Whether the climb ended in the mode where drifting parameters explain everything: the
+    order's drift at the bottom of its box while the parameters drift."""
+    s = settings
+    return (tuning.order_drift <= np.exp(limits["order_drift"][0] + s.edge * (
+        limits["order_drift"][1] - limits["order_drift"][0]))
+        and tuning.parameter_drift > s.held_ratio * s.constant_drift)
 
 
 def climb(problem, limits, hyper, sm, rounds, radius=None, fatal=None):
