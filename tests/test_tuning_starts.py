@@ -1,8 +1,9 @@
 """The tuning's second climb: where the first climb ends with the order's drift at the
 bottom of its box while the parameters drift (`collapsed`), the tuning climbs again from the
 first pass's best run at another order drift (`second_start`). Checked here on the choice of
-that run and on the test of collapse; the record that needs it is in the slow tier
-(`tests/test_calibration.py`, stated-drift draw 16)."""
+that run, on the test of collapse and on `tune` with its runs stubbed (which climb it keeps);
+the record that needs it is in the slow tier (`tests/test_calibration.py`, stated-drift draw
+16)."""
 
 import dataclasses
 import importlib

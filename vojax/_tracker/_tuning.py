@@ -1,6 +1,7 @@
 """The noise intensities by the marginal likelihood: a first pass over starting orders and
 order drifts, then a climb that alternates a BFGS refinement of the linearised model's
-likelihood with a re-smoothing, while the evidence rises."""
+likelihood with a re-smoothing, while the evidence rises (and a second climb from another
+order drift where the first ends with drifting parameters explaining everything)."""
 
 import dataclasses
 
