@@ -232,9 +232,12 @@ def test_tune_tries_each_noise_level_then_the_full_budget(monkeypatch):
         return "smoothed", 1 if converged else -1, 0, scores
 
     monkeypatch.setattr(_tuning, "run_batch_shares", batch)
-    monkeypatch.setattr(_tuning, "climb", lambda problem, limits, hyper, sm, rounds: (hyper, sm))
+    # the climb as it returns: (Hyper, Smoothed, Tuning), here not collapsed (no second climb)
+    tuning = _tuning.Tuning(s.grid_order[1], s.constant_drift, 0.01, (), 0.0, True)
+    monkeypatch.setattr(_tuning, "climb",
+                        lambda problem, limits, hyper, sm, rounds: (hyper, sm, tuning))
     problem = SimpleNamespace(settings=s)
-    hyper, sm = _tuning.tune(problem, np.zeros((2, 3)), (0.01, 0.5), 1e-6)
+    hyper, sm, _ = _tuning.tune(problem, np.zeros((2, 3)), (0.01, 0.5), 1e-6)
     assert seen == [(0.01, s.grid_max_iter), (0.5, s.grid_max_iter), (0.01, s.max_iter)]
     assert sm == "smoothed"
     np.testing.assert_allclose(np.exp(float(hyper.log_q_order)), s.grid_order[1], rtol=1e-12)
