@@ -396,7 +396,7 @@ MUTATIONS = {
     ),
     "a climb collapsed whatever the parameters do": (
         'vojax/_tracker/_tuning.py',
-        [('        and tuning.parameter_drift > s.held_ratio * s.constant_drift)', '        )')],
+        [('            and tuning.parameter_drift > s.held_ratio * s.constant_drift)', '            )')],
         ['tests/test_tuning_starts.py::test_a_climb_has_collapsed_only_with_the_order_at_its_floor_and_the_parameters_drifting'],
     ),
     "refit keeps coefficients that are rounding": (

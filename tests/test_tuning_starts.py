@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import vojax
-from vojax._tracker._tuning import Tuning, box, collapsed, second_start
+from vojax._tracker._tuning import Tuning, at_edges, box, collapsed, second_start
 
 _tuning = importlib.import_module("vojax._tracker._tuning")  # the module, not a name in it
 S = vojax.TrackerSettings()
@@ -33,8 +33,9 @@ def test_the_second_start_skips_runs_that_did_not_score_and_may_be_none():
     assert second_start(ROWS, [math.nan, 30.0, math.nan, math.nan, 29.0, math.nan], 1) == -1
 
 
-def _tuned(order_drift, parameter_drift):
-    return Tuning(order_drift, parameter_drift, 1e-4, (), 0.0, True)
+def _tuned(order_drift, parameter_drift, limits):
+    x = (math.log(order_drift), math.log(parameter_drift), math.log(1e-4))
+    return Tuning(order_drift, parameter_drift, 1e-4, at_edges(x, limits, S.edge), 0.0, True)
 
 
 def test_a_climb_has_collapsed_only_with_the_order_at_its_floor_and_the_parameters_drifting():
@@ -43,11 +44,11 @@ def test_a_climb_has_collapsed_only_with_the_order_at_its_floor_and_the_paramete
     near = float(np.exp(lo + 0.5 * S.edge * (hi - lo)))  # inside the edge's margin
     beyond = float(np.exp(lo + 2.0 * S.edge * (hi - lo)))  # outside it
     drifting, held = 10 * S.held_ratio * S.constant_drift, S.held_ratio * S.constant_drift
-    assert collapsed(_tuned(S.order_drift_range[0], drifting), limits, S)
-    assert collapsed(_tuned(near, drifting), limits, S)
-    assert not collapsed(_tuned(beyond, drifting), limits, S)
-    assert not collapsed(_tuned(S.order_drift_range[0], held), limits, S)  # nothing drifts
-    assert not collapsed(_tuned(S.order_drift_range[1], drifting), limits, S)  # the top
+    assert collapsed(_tuned(S.order_drift_range[0], drifting, limits), S)
+    assert collapsed(_tuned(near, drifting, limits), S)
+    assert not collapsed(_tuned(beyond, drifting, limits), S)
+    assert not collapsed(_tuned(S.order_drift_range[0], held, limits), S)  # nothing drifts
+    assert not collapsed(_tuned(S.order_drift_range[1], drifting, limits), S)  # the top
 
 
 @pytest.mark.parametrize("value", ["yes", 1, None])
@@ -91,8 +92,8 @@ def test_tune_keeps_the_second_climb_where_its_evidence_is_higher(monkeypatch, h
     def climb(problem, limits, hyper, sm, rounds):
         climbs.append(float(np.exp(hyper.log_q_order)))
         if len(climbs) == 1:
-            return hyper, _Run(1599.0), _tuned(S.order_drift_range[0], 0.04)
-        return hyper, _Run(second_score), _tuned(0.13, 0.007)
+            return hyper, _Run(1599.0), _tuned(S.order_drift_range[0], 0.04, limits)
+        return hyper, _Run(second_score), _tuned(0.13, 0.007, limits)
 
     monkeypatch.setattr(_tuning, "run_batch_shares", first_pass)
     monkeypatch.setattr(_tuning, "climb", climb)

@@ -149,20 +149,25 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     i = i if i >= 0 else i_alt
     if i < 0:
         raise ValueError("the tracker diverged from every starting order; check the data.")
-    hyper = Hyper(*(to_device(np.log(float(v))) for v in rows[i]))
+    hyper = _hyper(rows[i])
     if not np.isfinite(np.asarray(scores)[i]):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
         sm = problem.smooth_from(hyper, first[i])
     out = climb(problem, limits, hyper, sm, s.climb_rounds)
     j = second_start(rows, scores, i)
-    if s.second_climb and not hold and j >= 0 and collapsed(out[2], limits, s):
-        hyper = Hyper(*(to_device(np.log(float(v))) for v in rows[j]))
+    if s.second_climb and not hold and j >= 0 and collapsed(out[2], s):
+        hyper = _hyper(rows[j])
         other = climb(problem, limits, hyper, problem.smooth_from(hyper, first[j]),
                       s.climb_rounds)
         if host_score(other[1]) > host_score(out[1]):
             out = other
     return out
+
+
+def _hyper(row) -> Hyper:
+    """The intensities of a first-pass row ``(order drift, parameter drift, noise)``."""
+    return Hyper(*(to_device(np.log(float(v))) for v in row))
 
 
 def second_start(rows, scores, i) -> int:
@@ -172,13 +177,13 @@ def second_start(rows, scores, i) -> int:
     return max(other, key=lambda k: scores[k]) if other else -1
 
 
-def collapsed(tuning, limits, settings) -> bool:
+def collapsed(tuning, settings) -> bool:
     """Whether the climb ended in the mode where drifting parameters explain everything: the
-    order's drift at the bottom of its box while the parameters drift."""
+    order's drift at the lower edge of its box (as `at_edges` named it) while the parameters
+    drift."""
     s = settings
-    return (tuning.order_drift <= np.exp(limits["order_drift"][0] + s.edge * (
-        limits["order_drift"][1] - limits["order_drift"][0]))
-        and tuning.parameter_drift > s.held_ratio * s.constant_drift)
+    return ("order_drift" + LOWER_EDGE in tuning.at_edge
+            and tuning.parameter_drift > s.held_ratio * s.constant_drift)
 
 
 def climb(problem, limits, hyper, sm, rounds, radius=None, fatal=None):
