@@ -394,6 +394,34 @@ MUTATIONS = {
         [('if r[0] != rows[i][0] and np.isfinite', 'if np.isfinite')],
         ['tests/test_tuning_starts.py::test_the_second_start_is_the_best_run_at_another_order_drift'],
     ),
+    "no level profile about the held smoothing": (
+        "vojax/_tracker/_fit.py",
+        [("        explanations += level_profile(problem, *held, fit_noise, whiten, kind=\"held_level\")\n",
+          "        pass\n")],
+        ["tests/test_held_level.py::test_the_level_profile_runs_about_the_smoothing_with_the_parameters_constant"],
+    ),
+    "the held answer without its held scales": (
+        "vojax/_tracker/_band.py",
+        [("held.var + spread", "held.var")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the level profile about the tuned smoothing where the held one answers": (
+        "vojax/_tracker/_fit.py",
+        [("level_profile(problem, *held, fit_noise, whiten, kind=\"held_level\")",
+          "level_profile(problem, tuning, sm, fit_noise, whiten, kind=\"held_level\")")],
+        ["tests/test_held_level.py::test_the_level_profile_runs_about_the_smoothing_with_the_parameters_constant"],
+    ),
+    "the held smoothing's scales floored at the degrees of freedom": (
+        "vojax/_tracker/_band.py",
+        [('    at_dof = kind == "level"\n', "    at_dof = True\n")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the held smoothing's scales unioned with the free band": (
+        "vojax/_tracker/_band.py",
+        [('INTEGRATED = ("start", "order_drift", "level")\n',
+          'INTEGRATED = ("start", "order_drift", "level", "held_level")\n')],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
     "a climb collapsed whatever the parameters do": (
         'vojax/_tracker/_tuning.py',
         [('            and tuning.parameter_drift > s.held_ratio * s.constant_drift)', '            )')],
@@ -886,7 +914,7 @@ MUTATIONS = {
     ),
     "the level profile rewards a fit below the noise": (
         "vojax/_tracker/_band.py",
-        [("np.array([max(e.chi2, e.dof) for e in members])",
+        [("np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])",
           "np.array([e.chi2 for e in members])")],
         ["tests/test_band.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
     ),
@@ -913,10 +941,10 @@ MUTATIONS = {
         ],
         ['tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
     ),
-    "the held scales' spread about the tuned order left out of the band": (
+    "the held scales' spread about the reference order left out of the band": (
         'vojax/_tracker/_band.py',
         [
-            ('    spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))',
+            ('    spread = sum(wi * (e.var + (e.beta - reference.beta) ** 2) for wi, e in zip(w, members))',
              '    spread = sum(wi * e.var for wi, e in zip(w, members))'),
         ],
         ['tests/test_band.py::test_integrated_alternatives_are_weighed_not_unioned'],

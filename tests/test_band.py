@@ -122,6 +122,40 @@ def test_the_held_smoothing_answers_where_the_tuned_parameters_drift():
     assert b.reference_drift == pytest.approx(0.2)
 
 
+def test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood():
+    """Where the held smoothing answers, the level profile ran about it (kind "held_level"):
+    its held scales weigh by exp(−Δχ²/2) with no floor at the degrees of freedom (they share
+    every intensity with it). One as good (both χ² below dof) weighs alike: the band's
+    variance on the β scale is 0.5·0.0025 + 0.5·(0.02 + 0.6²) about the held β; one 4 above
+    weighs e^−2 : 1. They move neither the estimate nor the breakdown drift the tuned run
+    sets, and are never unioned: a scale with no weight leaves the band, free or not, as
+    the held smoothing's own. The tuned smoothing's own scales (kind "level") do not enter."""
+    tuned = ex("tuned", 1.5, drift=0.2, chi2=DOF - 20.0)
+    held = ex("held", 0.0, var=0.0025, chi2=DOF - 15.0)
+    same = ex("held_level", 0.6, var=0.02, chi2=DOF - 15.0)
+    b = bands([tuned, held, same], BOUNDS, N, np.inf)
+    np.testing.assert_allclose(b.conditional[0], 0.5)
+    sd = np.sqrt(0.5 * 0.0025 + 0.5 * (0.02 + 0.36))
+    np.testing.assert_allclose(b.conditional[2], order_of_np(2 * sd, BOUNDS)[0])
+    assert b.breakdown_drift == pytest.approx(0.2)  # the tuned β 1.5 is beyond 2σ = 0.87
+    worse = ex("held_level", 0.6, var=0.02, chi2=DOF - 11.0)
+    w = np.exp(-2.0) / (1.0 + np.exp(-2.0))
+    b = bands([tuned, held, worse], BOUNDS, N, np.inf)
+    sd = np.sqrt((1 - w) * 0.0025 + w * (0.02 + 0.36))
+    np.testing.assert_allclose(b.conditional[2], order_of_np(2 * sd, BOUNDS)[0])
+    # a scale that passes the χ² test but weighs e^−12.5 leaves the free band where the
+    # tuned run (β 1.5 ± 0.2) puts its edge: unioned, it would reach β 3.2
+    far = ex("held_level", 3.0, chi2=DOF + 10.0)
+    assert far.fits
+    b = bands([tuned, held, far], BOUNDS, N, np.inf)
+    assert np.all(b.stated[2] < order_of_np(2.0, BOUNDS)[0])
+    for far in (ex("held_level", 3.0, chi2=FAILS + 500.0), ex("level", 0.6, chi2=DOF - 15.0)):
+        b = bands([tuned, held, far], BOUNDS, N, 0.0)  # stated constant: the reference's band
+        np.testing.assert_allclose(b.stated[2], order_of_np(0.1, BOUNDS)[0])
+        b = bands([tuned, held, far], BOUNDS, N, np.inf)
+        assert b.breakdown_drift == pytest.approx(0.2)
+
+
 def test_integrated_alternatives_are_weighed_not_unioned():
     """Other starts and order drifts enter by evidence, the level profile's held scales by
     exp(−Δχ²/2): the variance is the weighted spread about the tuned mode, and an

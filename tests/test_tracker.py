@@ -1021,7 +1021,7 @@ def test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift():
     drifts = {}
     for q in (1e-6, 1.0):
         hyper = Hyper(jnp.log(1e-2), jnp.log(q), jnp.log(st.noises[0]))
-        _, held = held_order(st.problem, hyper, st.starts[0], st.noises[0], st.noises[0])
+        _, held, _ = held_order(st.problem, hyper, st.starts[0], st.noises[0], st.noises[0])
         drifts[q] = held.drift
     free = st.problem.smooth_from(hyper, st.starts[0])
     assert relative_drift(np.asarray(free.theta)[:, 1:2], st.problem.span) > 0.1

@@ -25,6 +25,10 @@ from ._smoother import mix_modes
 # the alternatives that share the reference's assumption about the parameters: weighed into
 # its variance (by evidence, or the level profile's χ²), never unioned with it
 INTEGRATED = ("start", "order_drift", "level")
+# the held smoothing's own held scales: weighed into its variance where it is the reference,
+# never unioned with a band nor a rung of the ladder (where the tuned smoothing is the
+# reference, they were run about another smoothing)
+HELD_SCALES = ("held_level",)
 # the alternatives that only set the breakdown drift, never widen a band: moving orders placed
 # outside the band by a fixed offset (`vojax._tracker._moving`), so a band that covered them
 # would be as wide as the offset, not as the data allow
@@ -69,19 +73,31 @@ def reference_variance(explanations, tuned, span, level_weights="chi2"):
     mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
-    levels = [e for e in explanations if e.kind == "level" and e.converged]
+    return var + level_spread(explanations, tuned, level_weights)
+
+
+def level_spread(explanations, reference, level_weights="chi2", kind="level"):
+    """What the level profile adds to the variance of β (N,) of the `reference` (the
+    smoothing it ran about, or one with the parameters as constant): its held scales (the
+    explanations of `kind`) and the reference weighed as `reference_variance` says, their
+    mixture's variance about the reference's β less the reference's own; 0 where the profile
+    did not run. About the held smoothing (``kind="held_level"``) by exp(−Δχ²/2) from the
+    best, with no floor at the degrees of freedom: the held smoothing and its scales share
+    every intensity, so their χ² differ by the likelihood ratio alone."""
+    at_dof = kind == "level"
+    levels = [e for e in explanations if e.kind == kind and e.converged]
     if not levels:
-        return var
-    members = [tuned] + levels
+        return 0.0
+    members = [reference] + levels
     if level_weights == "evidence" and all(np.isfinite(e.evidence) for e in members):
         score = np.array([e.evidence for e in members])
         w = np.exp(score - score.max())
     else:
-        chi2 = np.array([max(e.chi2, e.dof) for e in members])
+        chi2 = np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])
         w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
-    spread = sum(wi * (e.var + (e.beta - tuned.beta) ** 2) for wi, e in zip(w, members))
-    return var + spread - tuned.var
+    spread = sum(wi * (e.var + (e.beta - reference.beta) ** 2) for wi, e in zip(w, members))
+    return spread - reference.var
 
 
 def first_fitted(mask) -> int:
@@ -132,7 +148,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     # the parameters held where the tuned one lets them drift and the held one fits too
     if held is not None and tuned.drift > drift_floor:
         reference = held
-        ref_band = _orders(held.beta, held.var, bounds, scale, floor)
+        spread = level_spread(explanations, held, level_weights, "held_level")
+        ref_band = _orders(held.beta, held.var + spread, bounds, scale, floor)
     else:
         reference = tuned
         ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
@@ -141,7 +158,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     plausible = lambda e: not (  # noqa: E731
         e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)
         and e.evidence < tuned.evidence - evidence_floor)
-    ladder = [e for e in explanations if e.kind not in ("tuned", *INTEGRATED) and e is not held
+    ladder = [e for e in explanations
+              if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
               and e.fits and e.converged and plausible(e)]
     if reference is held:
         ladder.append(tuned)

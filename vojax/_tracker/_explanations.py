@@ -15,6 +15,7 @@ KINDS = {
     "held_order": "the order held, the parameters drifting",
     "held": "the tuned order drift with the parameters held (where the tuned ones drift)",
     "level": "the parameters held at another scale",
+    "held_level": "the parameters held at another scale, about the held smoothing",
     "trade": "a constant order with the parameters drifting on hat functions",
     "moving": "a moving order outside the band with the parameters drifting on hat functions",
 }

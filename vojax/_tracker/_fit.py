@@ -154,11 +154,12 @@ def given_intensities(st, noise):
     return hyper, sm, Tuning.of(host_hyper(hyper), (), sm.log_likelihood, False)
 
 
-def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten):
+def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten, held=None):
     """The smoothed order's variance on the β scale (the mixture's), the mixture's weights,
-    and every alternative run as an `Explanation`: the mixture's, and where the parameters
-    are constant (stated so, or tuned to no more drift than `held_order` tolerates) the
-    level profile's."""
+    and every alternative run as an `Explanation`: the mixture's, and the level profile's
+    about the smoothing with the parameters constant: the tuned one where they are stated
+    so or tuned to no more drift than `held_order` tolerates, else the `held` run
+    ``(Tuning, Smoothed)`` where it fits (then the conditional answer's reference)."""
     if not tuning.tuned:
         return np.asarray(sm.cov)[:, 0, 0], None, []
     beta_var, weights, explanations = mixture(problem, tuning, starts, sm, hold, fit_noise,
@@ -166,6 +167,8 @@ def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten):
     s = problem.settings
     if hold or tuning.parameter_drift <= s.held_ratio * s.constant_drift:
         explanations += level_profile(problem, tuning, sm, fit_noise, whiten)
+    elif held is not None:
+        explanations += level_profile(problem, *held, fit_noise, whiten, kind="held_level")
     return beta_var, weights, explanations
 
 
@@ -200,18 +203,20 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     # the χ² tests of what fits, at the larger of the tuned noise and the data's own
     # (drifting states absorb noise)
     fit_noise = max(tuning.noise, st.noise_data)
-    alpha_held, held = None, None
+    alpha_held, held, held_run = None, None, None
     drifting = tuning.parameter_drift > s.held_ratio * s.constant_drift
     if smooth and weigh and tuning.tuned and drifting:
-        alpha_held, held = held_order(problem, hyper, starts[0], tuning.noise, fit_noise,
-                                      whiten)
+        alpha_held, held, held_run = held_order(problem, hyper, starts[0], tuning.noise,
+                                                fit_noise, whiten)
+        if held is None or not (held.fits and held.converged):
+            held_run = None  # never the reference: no level profile about it
     weights, explanations = None, []
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
         converged = bool(sm.converged)
         if weigh:
             beta_var, weights, explanations = alternatives(problem, tuning, starts, sm, hold,
-                                                           fit_noise, whiten)
+                                                           fit_noise, whiten, held_run)
         else:  # the tuned smoothing's own band
             beta_var = np.asarray(sm.cov)[:, 0, 0]
     else:

@@ -11,11 +11,11 @@ from ._smoother import smoother_modes
 from ._threads import in_threads, stack_hypers
 
 
-def level_profile(problem, tuning, sm, fit_noise, whiten=None):
+def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
     """The smoothings at the tuned intensities `tuning` with the parameters held at one of
     `level_ratios` × their mean over the tuned mode `sm` (a prior of variance `level_pin` on
     θ_0's parameters, which the parameters' floor drift then keeps), each an `Explanation` of
-    kind "level" (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
+    kind `kind` (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
     ratio still fits (the χ² test of `Explanation.fits`), the profile goes on by factors of
     `level_step` up to `level_max` (down to its inverse) until one does not. Between the tuned
     scale (or a ratio that fits) and the nearest ratio that does not, it bisects on the log
@@ -60,7 +60,7 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None):
     explanations = []
     while ratios:
         betas, variances, scores, residuals, params = held_runs(ratios)
-        explanations += smoothing_explanations(["level"] * len(ratios), betas, variances, scores,
+        explanations += smoothing_explanations([kind] * len(ratios), betas, variances, scores,
                                                residuals, params, problem, fit_noise, whiten)
         fits = fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)
         for r, f, b, v in zip(ratios, fits, betas, variances):

@@ -8,7 +8,8 @@ from .._xla import to_device
 from ._explanations import smoothing_explanations
 from ._model import Hyper, model_output, order_of_np
 from ._smoother import host_score, mix_modes
-from ._threads import run_mode_shares
+from ._threads import host_hyper, run_mode_shares
+from ._tuning import Tuning
 
 
 def chi2_fits(chi2, dof):
@@ -80,8 +81,10 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     an order and drifting parameters trade off; where the tuned parameters drift, this is the
     order the data give without that drift, and the order drift the tuned run needed is not
     that order's: a step in the order that drifting parameters absorbed, the held order must
-    follow. Returns ``(order, explanation)``, the smoothing as an `Explanation` of kind
-    "held" (χ² at `fit_noise`, or under `whiten`); ``(None, None)`` if no run converges."""
+    follow. Returns ``(order, explanation, run)``: the smoothing as an `Explanation` of kind
+    "held" (χ² at `fit_noise`, or under `whiten`), and the held run ``(Tuning, Smoothed)``
+    (its intensities and smoothing: the level profile's anchor where it is the reference);
+    ``(None, None, None)`` if no run converges."""
     s = problem.settings
     dtype = problem.u.dtype
 
@@ -91,17 +94,19 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
                      jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
                      hyper.log_ar_time)
         sm = problem.smooth_from(held, start)
-        return sm, host_score(sm)  # −∞ where the run did not converge
+        return (sm, held), host_score(sm)  # −∞ where the run did not converge
 
-    best, best_score = held_drift_search(run, float(np.asarray(hyper.log_q_order)), s)
-    if best is None:
-        return None, None
+    found, best_score = held_drift_search(run, float(np.asarray(hyper.log_q_order)), s)
+    if found is None:
+        return None, None, None
+    best, held = found
     theta, n = np.asarray(best.theta), problem.n
     residuals = np.asarray(problem.y) - model_output(theta, np.asarray(best.phi), n)
     (explanation,) = smoothing_explanations(
         ["held"], theta[None, :, 0], np.asarray(best.cov)[None, :, 0, 0], [best_score],
         residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten)
-    return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation
+    tuning = Tuning.of(host_hyper(held), (), best_score, True)
+    return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation, (tuning, best)
 
 
 def alternative_rows(settings, tuning, starts, hold):

@@ -1,0 +1,90 @@
+"""The level profile about the held smoothing: where the tuned parameters drift and the
+smoothing with them held fits, that smoothing is the conditional answer's reference, and the
+parameters' scale along the level ridge is integrated about it (the profile runs about the
+held run, not the tuned one). Checked here on `held_order`'s run (its intensities and
+smoothing) and on which smoothing `alternatives` profiles; the band's rule on stand-ins is in
+`test_band.py`, a record that needs it (white draw 16, the offset stated) in the slow tier
+(`test_calibration.py`)."""
+
+import importlib
+from types import SimpleNamespace
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vojax
+from vojax import reference
+from vojax._integral import make_memory
+from vojax._tracker import Hyper
+from vojax._tracker._fit import alternatives, start
+from vojax._tracker._mixture import held_order
+from vojax._tracker._tuning import Tuning
+
+_fit = importlib.import_module("vojax._tracker._fit")  # the module, not a name in it
+
+
+@pytest.fixture(scope="module")
+def record():
+    """A springpot of order 0.4 under a step with an oscillation, 200 samples, 2 % noise."""
+    s = vojax.TrackerSettings()
+    dt, num = 0.05, 200
+    t = dt * np.arange(num)
+    u = 1 - np.exp(-t / 2) + 0.3 * np.sin(1.3 * t)
+    x = np.asarray(reference.fractional_integral(u[:, None], 0.4, dt))[:, 0]
+    y = x + 0.02 * np.ptp(x) * np.random.default_rng(0).standard_normal(num)
+    memory = make_memory("exponential", dt, num, order_range=(0.01, 0.99))
+    return start(memory, jnp.asarray(u[:, None]), jnp.asarray(y), dt, (0.01, 0.99), s, None,
+                 None, None, False)
+
+
+def test_the_held_run_is_the_held_smoothing_at_its_own_intensities(record):
+    """`held_order`'s run: the parameters' drift at `constant_drift`, the noise the one
+    given, the order drift the one it chose, and the smoothing whose β its explanation is."""
+    st, s = record, record.problem.settings
+    noise = st.noises[0]
+    hyper = Hyper(jnp.log(1e-2), jnp.log(1.0), jnp.log(noise))
+    _, held, (tuning, sm) = held_order(st.problem, hyper, st.starts[0], noise, noise)
+    assert tuning.parameter_drift == pytest.approx(s.constant_drift, rel=1e-12)
+    assert tuning.noise == pytest.approx(noise, rel=1e-12)
+    lo, hi = s.order_drift_range  # within rounding of the search's range (logs, and back)
+    assert lo * (1 - 1e-9) <= tuning.order_drift <= hi * (1 + 1e-9)
+    assert tuning.tuned and tuning.log_likelihood == held.evidence
+    np.testing.assert_array_equal(np.asarray(sm.theta)[:, 0], held.beta)
+
+
+def _drifting(s, ratio):
+    return Tuning(0.01, ratio * s.held_ratio * s.constant_drift, 1e-3, (), 0.0, True)
+
+
+@pytest.mark.parametrize("case", ["drifting, held run", "drifting, none", "held by tuning",
+                                  "stated constant"])
+def test_the_level_profile_runs_about_the_smoothing_with_the_parameters_constant(
+        monkeypatch, case):
+    """`alternatives` with the mixture and the profile stubbed: the profile runs about the
+    tuned smoothing where the parameters are stated constant or tuned constant, about the
+    held run where they drift and it is given (its scales of kind "held_level"), and not at
+    all where it is not."""
+    s = vojax.TrackerSettings()
+    calls = []
+    monkeypatch.setattr(_fit, "mixture", lambda *a: (np.zeros(3), None, []))
+    monkeypatch.setattr(_fit, "level_profile", lambda problem, tuning, sm, *a, kind="level":
+                        calls.append((tuning, sm, kind)) or [])
+    problem = SimpleNamespace(settings=s)
+    tuned_sm, held_sm = SimpleNamespace(name="tuned"), SimpleNamespace(name="held")
+    held_tuning = _drifting(s, 0.0)
+    drifting, constant = _drifting(s, 10.0), _drifting(s, 1.0)
+    tuning, hold, held = {
+        "drifting, held run": (drifting, False, (held_tuning, held_sm)),
+        "drifting, none": (drifting, False, None),
+        "held by tuning": (constant, False, (held_tuning, held_sm)),
+        "stated constant": (drifting, True, None),
+    }[case]
+    alternatives(problem, tuning, [], tuned_sm, hold, 1e-3, None, held)
+    want = {  # about the held run, its scales are of their own kind (`bands` weighs them)
+        "drifting, held run": [(held_tuning, held_sm, "held_level")],
+        "drifting, none": [],
+        "held by tuning": [(constant, tuned_sm, "level")],
+        "stated constant": [(drifting, tuned_sm, "level")],
+    }[case]
+    assert calls == want
