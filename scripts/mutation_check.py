@@ -338,7 +338,7 @@ MUTATIONS = {
             ('        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     jnp.log(to_device(np.asarray(s.constant_drift, dtype))),',
              '        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     hyper.log_q_params,'),
         ],
-        ['tests/test_tracker.py::test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift'],
+        ['tests/test_held_level.py::test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift'],
     ),
     "first pass never tried at the constant fit's misfit": (
         'vojax/_tracker/_fit.py',

@@ -17,6 +17,7 @@ import vojax
 from vojax import reference
 from vojax._integral import make_memory
 from vojax._tracker import Hyper
+from vojax._tracker._explanations import relative_drift
 from vojax._tracker._fit import alternatives, start
 from vojax._tracker._mixture import held_order
 from vojax._tracker._tuning import Tuning
@@ -51,6 +52,22 @@ def test_the_held_run_is_the_held_smoothing_at_its_own_intensities(record):
     assert lo * (1 - 1e-9) <= tuning.order_drift <= hi * (1 + 1e-9)
     assert tuning.tuned and tuning.log_likelihood == held.evidence
     np.testing.assert_array_equal(np.asarray(sm.theta)[:, 0], held.beta)
+
+
+def test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift(record):
+    """`held_order` smooths again with the parameters held at the floor drift: its
+    parameters' drift is the same (to 1e-6) from intensities whose parameters drift freely
+    (variance 1 over the record: that smoothing drifts by more than 10 %) as from held ones,
+    and below 1e-3."""
+    st = record
+    drifts = {}
+    for q in (1e-6, 1.0):
+        hyper = Hyper(jnp.log(1e-2), jnp.log(q), jnp.log(st.noises[0]))
+        _, held, _ = held_order(st.problem, hyper, st.starts[0], st.noises[0], st.noises[0])
+        drifts[q] = held.drift
+    free = st.problem.smooth_from(hyper, st.starts[0])
+    assert relative_drift(np.asarray(free.theta)[:, 1:2], st.problem.span) > 0.1
+    assert drifts[1.0] == pytest.approx(drifts[1e-6], rel=1e-6) and drifts[1.0] < 1e-3
 
 
 def _drifting(s, ratio):

@@ -996,38 +996,6 @@ def test_an_oscillation_sampled_coarsely_is_identified(per_cycle):
     assert np.all((lower <= 0.4) & (0.4 <= upper)) and np.max(upper - lower) <= 0.2
 
 
-def test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift():
-    """`held_order` smooths again with the parameters held at the floor drift: its
-    parameters' drift is the same (to 1e-6) from intensities whose parameters drift freely
-    (variance 1 over the record: that smoothing drifts by more than 10 %) as from held ones,
-    and below 1e-3."""
-    import jax.numpy as jnp
-
-    from vojax import reference
-    from vojax._integral import make_memory
-    from vojax._tracker._explanations import relative_drift
-    from vojax._tracker._fit import start
-    from vojax._tracker._mixture import held_order
-
-    s = vojax.TrackerSettings()
-    dt, num = 0.05, 200
-    t = dt * np.arange(num)
-    u = 1 - np.exp(-t / 2) + 0.3 * np.sin(1.3 * t)
-    x = np.asarray(reference.fractional_integral(u[:, None], 0.4, dt))[:, 0]
-    y = x + 0.02 * np.ptp(x) * np.random.default_rng(0).standard_normal(num)
-    memory = make_memory("exponential", dt, num, order_range=(0.01, 0.99))
-    st = start(memory, jnp.asarray(u[:, None]), jnp.asarray(y), dt, (0.01, 0.99), s, None,
-               None, None, False)
-    drifts = {}
-    for q in (1e-6, 1.0):
-        hyper = Hyper(jnp.log(1e-2), jnp.log(q), jnp.log(st.noises[0]))
-        _, held, _ = held_order(st.problem, hyper, st.starts[0], st.noises[0], st.noises[0])
-        drifts[q] = held.drift
-    free = st.problem.smooth_from(hyper, st.starts[0])
-    assert relative_drift(np.asarray(free.theta)[:, 1:2], st.problem.span) > 0.1
-    assert drifts[1.0] == pytest.approx(drifts[1e-6], rel=1e-6) and drifts[1.0] < 1e-3
-
-
 @pytest.mark.slow
 def test_smoother_recovers_a_ramp_order_driven_by_the_myocardium_stretch():
     """Semi-synthetic: the shipped myocardium stretch (a measured ramp–hold) on 600 samples
