@@ -1,8 +1,9 @@
 """The level profile about the held smoothing: where the tuned parameters drift and the
 smoothing with them held fits, that smoothing is the conditional answer's reference, and the
 parameters' scale along the level ridge is integrated about it (the profile runs about the
-held run, not the tuned one). Checked here on `held_order`'s run (its intensities and
-smoothing) and on which smoothing `alternatives` profiles; the band's rule on stand-ins is in
+held run, not the tuned one). Checked here on `held_order`'s run (its intensities, its
+smoothing, its parameters held whatever the tuned drift) and on which smoothing
+`alternatives` profiles; the band's rule on stand-ins is in
 `test_band.py`, a record that needs it (white draw 16, the offset stated) in the slow tier
 (`test_calibration.py`)."""
 
