@@ -416,6 +416,12 @@ MUTATIONS = {
         [('    at_dof = kind == "level"\n', "    at_dof = True\n")],
         ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
+    "the held smoothing's scales weighed however far the evidence excludes them": (
+        "vojax/_tracker/_band.py",
+        [("level_spread([e for e in explanations if plausible(e)], held,",
+          "level_spread(explanations, held,")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
     "the held smoothing's scales unioned with the free band": (
         "vojax/_tracker/_band.py",
         [('INTEGRATED = ("start", "order_drift", "level")\n',

@@ -143,6 +143,14 @@ def test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood():
     b = bands([tuned, held, worse], BOUNDS, N, np.inf)
     sd = np.sqrt((1 - w) * 0.0025 + w * (0.02 + 0.36))
     np.testing.assert_allclose(b.conditional[2], order_of_np(2 * sd, BOUNDS)[0])
+    # a scale as good by χ² but 300 nats of evidence below the tuned run (beyond the
+    # evidence floor): the data exclude it, and the band is the held smoothing's own
+    excluded = ex("held_level", 0.6, var=0.02, chi2=DOF - 15.0, evidence=-300.0)
+    b = bands([tuned, held, excluded], BOUNDS, N, np.inf, evidence_floor=200.0)
+    np.testing.assert_allclose(b.conditional[2], order_of_np(0.1, BOUNDS)[0])
+    b = bands([tuned, held, same], BOUNDS, N, np.inf, evidence_floor=200.0)  # 0 nats below
+    np.testing.assert_allclose(b.conditional[2], order_of_np(2 * np.sqrt(
+        0.5 * 0.0025 + 0.5 * (0.02 + 0.36)), BOUNDS)[0])
     # a scale that passes the χ² test but weighs e^−12.5 leaves the free band where the
     # tuned run (β 1.5 ± 0.2) puts its edge: unioned, it would reach β 3.2
     far = ex("held_level", 3.0, chi2=DOF + 10.0)

@@ -35,7 +35,8 @@ HELD_SCALES = ("held_level",)
 REACH_ONLY = ("moving",)
 # the alternatives that are smoothings, with a Laplace evidence the tuned one's is weighed
 # against (the trade-off's and the moving orders' profiles have their own rule)
-SMOOTHINGS = ("start", "order_drift", "param_drift", "held_order", "held", "level")
+SMOOTHINGS = ("start", "order_drift", "param_drift", "held_order", "held", "level",
+              "held_level")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,20 +145,22 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
+    plausible = lambda e: not (  # noqa: E731
+        e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)
+        and e.evidence < tuned.evidence - evidence_floor)
     # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
-    # the parameters held where the tuned one lets them drift and the held one fits too
+    # the parameters held where the tuned one lets them drift and the held one fits too, with
+    # its held scales that the data do not exclude
     if held is not None and tuned.drift > drift_floor:
         reference = held
-        spread = level_spread(explanations, held, level_weights, "held_level")
+        spread = level_spread([e for e in explanations if plausible(e)], held, level_weights,
+                              "held_level")
         ref_band = _orders(held.beta, held.var + spread, bounds, scale, floor)
     else:
         reference = tuned
         ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
                                                          level_weights), bounds,
                            scale, floor)
-    plausible = lambda e: not (  # noqa: E731
-        e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)
-        and e.evidence < tuned.evidence - evidence_floor)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
               and e.fits and e.converged and plausible(e)]
