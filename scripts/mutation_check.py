@@ -866,10 +866,17 @@ MUTATIONS = {
         ],
         ['tests/test_envelope.py'],
     ),
+    "a run whose optimiser failed stands for the data if its chi2 passes": (
+        'vojax/_tracker/_explanations.py',
+        [
+            ('        return self.fits and self.converged', '        return self.fits'),
+        ],
+        ['tests/test_band.py'],
+    ),
     "the band's members need not fit (every alternative widens the band)": (
         'vojax/_tracker/_band.py',
         [
-            ('              and e.fits and e.converged and plausible(e)]',
+            ('              and e.holds and plausible(e)]',
              '              and e.converged and plausible(e)]'),
         ],
         ['tests/test_band.py'],
@@ -942,8 +949,8 @@ MUTATIONS = {
     "the free band covers integrated smoothings the evidence excludes": (
         'vojax/_tracker/_band.py',
         [
-            ('                  if e.kind in INTEGRATED and e.fits and e.converged and plausible(e)]',
-             '                  if e.kind in INTEGRATED and e.fits and e.converged]'),
+            ('                  if e.kind in INTEGRATED and e.holds and plausible(e)]',
+             '                  if e.kind in INTEGRATED and e.holds]'),
         ],
         ['tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
     ),

@@ -42,6 +42,26 @@ def test_the_tuned_smoothing_alone_is_its_own_band():
     np.testing.assert_allclose(wider.stated[3], 1.5 * std)
 
 
+def test_a_run_that_did_not_converge_neither_widens_the_band_nor_becomes_its_reference():
+    """A smoothing whose optimiser failed (evidence −∞) may pass the χ² test by chance: it
+    neither joins the band, nor sets the breakdown drift, nor replaces the tuned smoothing as
+    the held reference where the tuned parameters drift."""
+    failed = dict(chi2=FITS, evidence=-np.inf)
+    tuned = ex("tuned", 0.0, var=0.04, drift=0.2)
+    alone = bands([tuned], BOUNDS, N, np.inf)
+    b = bands([tuned, ex("held", 1.0, **failed), ex("param_drift", 2.0, drift=0.5, **failed)],
+              BOUNDS, N, np.inf)
+    assert b.breakdown_drift == np.inf
+    assert b.reference_drift == pytest.approx(0.2)
+    for got, want in zip(b.stated, alone.stated):
+        np.testing.assert_array_equal(got, want)
+    # converged, the same runs are the reference and the breakdown drift
+    held = ex("held", 0.1, var=0.04)  # the tuned β 0 inside its ±0.4
+    b = bands([tuned, held, ex("param_drift", -2.0, drift=0.5)], BOUNDS, N, np.inf)
+    assert b.reference_drift == 0.0
+    assert b.breakdown_drift == pytest.approx(0.5)
+
+
 def test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits():
     """Going up in drift, a fitting explanation inside the band joins it; the first outside
     it sets the breakdown drift. One that does not fit never counts, whatever its drift."""

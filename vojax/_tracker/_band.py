@@ -144,7 +144,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
     `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
-    held = next((e for e in explanations if e.kind == "held" and e.fits and e.converged), None)
+    held = next((e for e in explanations if e.kind == "held" and e.holds), None)
     plausible = lambda e: not (  # noqa: E731
         e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)
         and e.evidence < tuned.evidence - evidence_floor)
@@ -163,7 +163,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
                            scale, floor)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
-              and e.fits and e.converged and plausible(e)]
+              and e.holds and plausible(e)]
     if reference is held:
         ladder.append(tuned)
     ladder.sort(key=lambda e: e.drift)
@@ -194,7 +194,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
         others = [e for e in explanations
-                  if e.kind in INTEGRATED and e.fits and e.converged and plausible(e)]
+                  if e.kind in INTEGRATED and e.holds and plausible(e)]
         for e in [*others, *ladder]:
             if e.kind not in REACH_ONLY and (
                     e.drift <= max(stated_drift, reference.drift) + drift_floor):

@@ -53,6 +53,11 @@ class Explanation:
     def converged(self) -> bool:
         return bool(np.isfinite(self.chi2) and not self.evidence == -np.inf)
 
+    @property
+    def holds(self) -> bool:
+        """It fits and converged: it may stand for the data (a band's member, a reference)."""
+        return self.fits and self.converged
+
 
 def relative_drift(params, span):
     """``(max − min)/|mean|`` of each parameter's trajectory (N, n) over its first `span`

@@ -208,7 +208,7 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     if smooth and weigh and tuning.tuned and drifting:
         alpha_held, held, held_run = held_order(problem, hyper, starts[0], tuning.noise,
                                                 fit_noise, whiten)
-        if held is None or not (held.fits and held.converged):
+        if held is None or not held.holds:
             held_run = None  # never the reference: no level profile about it
     weights, explanations = None, []
     if smooth:
