@@ -866,6 +866,23 @@ MUTATIONS = {
         ],
         ['tests/test_envelope.py'],
     ),
+    "the held scales may narrow the held band": (
+        'vojax/_tracker/_band.py',
+        [
+            ('        spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                         level_weights, "held_level"), 0.0)',
+             '        spread = level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                         level_weights, "held_level")'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    "the held scales profiled about a held band too wide to answer": (
+        'vojax/_tracker/_fit.py',
+        [
+            ('        problem.span) <= s.identified_halfwidth', '        problem.span) <= np.inf'),
+        ],
+        ['tests/test_held_level.py'],
+    ),
     "a run whose optimiser failed stands for the data if its chi2 passes": (
         'vojax/_tracker/_explanations.py',
         [

@@ -6,7 +6,7 @@ against a brute-force search. What the bands do on recorded inputs: `test_calibr
 import numpy as np
 import pytest
 
-from vojax._tracker._band import bands, reference_variance
+from vojax._tracker._band import bands, own_halfwidth, reference_variance
 from vojax._tracker._explanations import Explanation, relative_drift
 from vojax._tracker._model import order_of_np
 from vojax._tracker._trade import least_drift
@@ -182,6 +182,19 @@ def test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood():
         np.testing.assert_allclose(b.stated[2], order_of_np(0.1, BOUNDS)[0])
         b = bands([tuned, held, far], BOUNDS, N, np.inf)
         assert b.breakdown_drift == pytest.approx(0.2)
+
+
+def test_the_held_scales_never_narrow_the_held_band():
+    """A held scale at the held β with a sharper curvature (variance 0.0004 against 0.0025),
+    as likely: the mixture's variance (0.00145) would be below the held smoothing's own; the
+    band stays the held smoothing's own (±2·0.05 on β), the width `own_halfwidth` reads."""
+    tuned = ex("tuned", 1.5, drift=0.2, chi2=DOF - 20.0)
+    held = ex("held", 0.0, var=0.0025, chi2=DOF - 15.0)
+    sharp = ex("held_level", 0.0, var=0.0004, chi2=DOF - 15.0)
+    b = bands([tuned, held, sharp], BOUNDS, N, np.inf)
+    np.testing.assert_allclose(b.conditional[2], order_of_np(0.1, BOUNDS)[0])
+    assert halfwidth(b.conditional) == pytest.approx(
+        own_halfwidth(held, BOUNDS, 1.0, 0.0, N // 2, N), rel=1e-12)
 
 
 def test_integrated_alternatives_are_weighed_not_unioned():

@@ -18,8 +18,9 @@ import vojax
 from vojax import reference
 from vojax._integral import make_memory
 from vojax._tracker import Hyper
-from vojax._tracker._explanations import relative_drift
-from vojax._tracker._fit import alternatives, start
+from vojax._tracker._band import bands, own_halfwidth
+from vojax._tracker._explanations import Explanation, relative_drift
+from vojax._tracker._fit import alternatives, profiles_held, start
 from vojax._tracker._mixture import held_order
 from vojax._tracker._tuning import Tuning
 
@@ -106,3 +107,34 @@ def test_the_level_profile_runs_about_the_smoothing_with_the_parameters_constant
         "stated constant": [(drifting, tuned_sm, "level")],
     }[case]
     assert calls == want
+
+
+def _held(halfwidth, chi2=10.0, evidence=0.0, num=40):
+    """A held explanation of constant β 0 whose own ±2σ band is ±`halfwidth` on the order
+    scale (bounds (0, 1): dα/dβ = 1/4 at β 0, to first order; exact below)."""
+    sd = np.log((0.5 + halfwidth) / (0.5 - halfwidth)) / 2  # logit(0.5 ± h) = ±2σ
+    return Explanation("held", np.zeros(num), np.full(num, sd**2), chi2, 30.0, evidence, 0.0)
+
+
+def test_the_held_scales_are_profiled_only_about_a_band_narrow_enough_to_answer():
+    """`profiles_held`: the held smoothing's own band at ±0.099 is profiled, at ±0.101 not
+    (above `identified_halfwidth`, 0.1: its scales only widen it); one that does not fit or
+    did not converge, or none, is not. Its width is the one the verdict reads: the
+    conditional band `bands` builds about it alone, its median half-width over the second
+    half."""
+    s = vojax.TrackerSettings()
+    num = 40
+    problem = SimpleNamespace(settings=s, bounds=(0.0, 1.0), mask=None, span=num)
+    assert profiles_held(_held(0.099), problem)
+    assert not profiles_held(_held(0.101), problem)
+    assert not profiles_held(_held(0.05, chi2=1e3), problem)  # does not fit
+    assert not profiles_held(_held(0.05, evidence=-np.inf), problem)  # did not converge
+    assert not profiles_held(None, problem)
+    held = _held(0.1)
+    tuned = Explanation("tuned", np.zeros(num), held.var, 10.0, 30.0, 0.0, 0.2)
+    b = bands([tuned, held], (0.0, 1.0), num, np.inf, 1.0, s.drift_floor, s.band_floor)
+    _, lower, upper, _ = b.conditional
+    width = np.median((upper - lower)[num // 2:]) / 2
+    assert own_halfwidth(held, (0.0, 1.0), 1.0, s.band_floor, num // 2, num) == pytest.approx(
+        width, rel=1e-12)
+    assert width == pytest.approx(0.1, rel=1e-12)

@@ -63,6 +63,14 @@ def _orders(beta, var, bounds, scale, floor=0.0):
             slope * sd)
 
 
+def own_halfwidth(explanation, bounds, scale, floor, half, span) -> float:
+    """The median ±2σ half-width over the second half of the fitted points, ``[half, span)``,
+    of `explanation`'s own band (its Laplace variance alone; `scale`, `floor` as `bands`):
+    the width the verdict reads, of the narrowest band `bands` builds about it."""
+    _, lower, upper, _ = _orders(explanation.beta, explanation.var, bounds, scale, floor)
+    return float(np.median((upper - lower)[half:span]) / 2)
+
+
 def reference_variance(explanations, tuned, span, level_weights="chi2"):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
@@ -153,8 +161,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     # its held scales that the data do not exclude
     if held is not None and tuned.drift > drift_floor:
         reference = held
-        spread = level_spread([e for e in explanations if plausible(e)], held, level_weights,
-                              "held_level")
+        # its scales widen it, never narrow it: a scale whose curvature is sharper than the
+        # held smoothing's is no evidence that the held smoothing's own σ is too wide
+        spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,
+                                         level_weights, "held_level"), 0.0)
         ref_band = _orders(held.beta, held.var + spread, bounds, scale, floor)
     else:
         reference = tuned

@@ -12,7 +12,7 @@ from jax import lax
 
 from .._stats import noise_variance
 from .._xla import to_device
-from ._band import bands, second_half
+from ._band import bands, own_halfwidth, second_half
 from ._coloured import ar_whitener, coloured
 from ._filter import KalmanTracker
 from ._level import level_profile
@@ -154,6 +154,17 @@ def given_intensities(st, noise):
     return hyper, sm, Tuning.of(host_hyper(hyper), (), sm.log_likelihood, False)
 
 
+def profiles_held(held, problem) -> bool:
+    """The level profile runs about the held smoothing (explanation `held`, or None): where
+    it stands for the data (it may be the reference) and its own band is no wider than an
+    identified one. Its scales only widen the held band (`bands`), so about a wider one the
+    answer is neither identified nor conditional whatever they say."""
+    s = problem.settings
+    return held is not None and held.holds and own_halfwidth(
+        held, problem.bounds, s.band_scale, s.band_floor, second_half(problem.mask, problem.span),
+        problem.span) <= s.identified_halfwidth
+
+
 def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten, held=None):
     """The smoothed order's variance on the β scale (the mixture's), the mixture's weights,
     and every alternative run as an `Explanation`: the mixture's, and the level profile's
@@ -208,8 +219,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     if smooth and weigh and tuning.tuned and drifting:
         alpha_held, held, held_run = held_order(problem, hyper, starts[0], tuning.noise,
                                                 fit_noise, whiten)
-        if held is None or not held.holds:
-            held_run = None  # never the reference: no level profile about it
+        if not profiles_held(held, problem):
+            held_run = None  # no level profile about it
     weights, explanations = None, []
     if smooth:
         theta, cov, y_hat_n, y_pred_n = sm.theta, sm.cov, None, sm.y_pred
