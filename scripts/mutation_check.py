@@ -370,9 +370,14 @@ MUTATIONS = {
     ),
     "held smoothing stops at its first ladder": (
         'vojax/_tracker/_mixture.py',
-        [('    while len(runs) < len(s.held_order_drift) + s.held_order_climb:',
-          '    while False:')],
+        [('    while len(runs) < budget:', '    while False:')],
         ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
+    ),
+    "held smoothing's pair of refinements run as one side only": (
+        'vojax/_tracker/_mixture.py',
+        [('            at(best - fraction * step, best + fraction * step)',
+          '            at(best - fraction * step)')],
+        ['tests/test_held_search.py::test_the_runs_side_by_side_are_the_runs_one_by_one'],
     ),
     "held smoothing not refined between its rungs": (
         'vojax/_tracker/_mixture.py',

@@ -14,17 +14,76 @@ def _search(peak, settings=None, width=3.0, dead=None):
     """The search on a concave score in the log drift with its maximum at `peak` (log);
     `dead`: a predicate on the log drift where the run does not converge (score −∞).
     Returns the chosen log drift and every log drift run."""
-    settings = settings or vojax.TrackerSettings()
-    tried = []
+    chosen, tried, _ = _search_calls(peak, settings, width, dead)
+    return chosen, tried
 
-    def run(log_drift):
+
+def _search_calls(peak, settings=None, width=3.0, dead=None):
+    """`_search`, and the log drifts of each call of `run` (the runs it may put side by
+    side)."""
+    settings = settings or vojax.TrackerSettings()
+    tried, calls = [], []
+
+    def one(log_drift):
         tried.append(log_drift)
         if dead is not None and dead(log_drift):
             return None, -np.inf
         return log_drift, -((log_drift - peak) / width) ** 2
 
+    def run(log_drifts):
+        calls.append(list(log_drifts))
+        return [one(d) for d in log_drifts]
+
     chosen, _ = held_drift_search(run, np.log(1e-6), settings)
-    return chosen, tried
+    return chosen, tried, calls
+
+
+def _one_by_one(peak, settings, width=3.0):
+    """The search as a sequence of single runs, written out: the ladder, the climb while the
+    best is the outermost, then half and a quarter step either side of the best."""
+    s = settings
+    lo, hi = np.log(s.order_drift_range)
+    budget = len(s.held_order_drift) + s.held_order_climb
+    runs = {}
+
+    def at(d):
+        d = round(float(np.clip(d, lo, hi)), 9)
+        if d not in runs and len(runs) < budget:
+            runs[d] = -((d - peak) / width) ** 2
+
+    for factor in s.held_order_drift:
+        at(np.log(1e-6) + np.log(factor))
+    step = np.log(s.held_order_step)
+    while len(runs) < budget:
+        best, keys = max(runs, key=runs.get), sorted(runs)
+        count = len(runs)
+        if best == keys[-1] and best < hi:
+            at(best + step)
+        elif best == keys[0] and best > lo:
+            at(best - step)
+        if len(runs) == count:
+            break
+    for fraction in (0.5, 0.25):
+        best = max(runs, key=runs.get)
+        at(best - fraction * step)
+        at(best + fraction * step)
+    return max(runs, key=runs.get), sorted(runs)
+
+
+@pytest.mark.parametrize("peak_factor", [1.0, 30.0, 3e5, 2e7])
+def test_the_runs_side_by_side_are_the_runs_one_by_one(peak_factor):
+    """The ladder goes to `run` as one call and each refinement's pair as one call (the
+    runs of a call may run in threads); the drifts run and the drift chosen are those of
+    the search written out one run at a time."""
+    s = vojax.TrackerSettings()
+    peak = np.log(1e-6 * peak_factor)
+    chosen, tried, calls = _search_calls(peak)
+    want_chosen, want_tried = _one_by_one(peak, s)
+    assert chosen == want_chosen and sorted(tried) == want_tried
+    assert len(calls[0]) == len(s.held_order_drift)
+    assert all(len(c) <= 2 for c in calls[1:])
+    if peak_factor in (30.0, 3e5):  # inside the range: both refinements run in pairs
+        assert [len(c) for c in calls[-2:]] == [2, 2]
 
 
 @pytest.mark.parametrize("peak_factor", [1.0, 30.0, 1e4, 3e5, 1e6, 2e7])

@@ -8,7 +8,7 @@ from .._xla import to_device
 from ._explanations import smoothing_explanations
 from ._model import Hyper, model_output, order_of_np
 from ._smoother import host_score, mix_modes
-from ._threads import host_hyper, run_mode_shares
+from ._threads import host_hyper, in_threads, run_mode_shares
 from ._tuning import Tuning
 
 
@@ -30,32 +30,37 @@ def fitting(residuals, mask, n, fit_noise, whiten=None):
 
 
 def held_drift_search(run, log_tuned, settings):
-    """The order drift (log) of the held smoothing with the largest evidence: `run(log_drift)`
-    → ``(smoothing, score)``, tried at the tuned drift `log_tuned` × each of
-    `held_order_drift`, then up to `held_order_climb` more runs: a step of
-    `held_order_step` beyond the best while it is the highest (lowest) one tried and the
-    range allows, then half a step either side of the best, then a quarter. The evidence
-    peaks where the held parameters' misfit stops paying for a freer order, and the tuned
-    drift (at its range's floor where the parameters drift) does not say where that is: a
-    ladder relative to it alone can stop short of the peak by a factor set by the tuning's
-    rounding. Returns ``(smoothing, score)``, ``(None, -inf)`` where no run converged."""
+    """The order drift (log) of the held smoothing with the largest evidence: `run(log_drifts)`
+    → ``[(smoothing, score)]``, one for each (the runs of one call independent: they may run
+    side by side), tried at the tuned drift `log_tuned` × each of `held_order_drift` (one
+    call), then up to `held_order_climb` more runs: a step of `held_order_step` beyond the
+    best while it is the highest (lowest) one tried and the range allows, then half a step
+    either side of the best (one call), then a quarter. The evidence peaks where the held
+    parameters' misfit stops paying for a freer order, and the tuned drift (at its range's
+    floor where the parameters drift) does not say where that is: a ladder relative to it
+    alone can stop short of the peak by a factor set by the tuning's rounding. Returns
+    ``(smoothing, score)``, ``(None, -inf)`` where no run converged."""
     s = settings
     lowest, highest = (float(v) for v in np.log(np.asarray(s.order_drift_range, float)))
+    budget = len(s.held_order_drift) + s.held_order_climb
     runs = {}
 
-    def at(log_drift):
-        key = round(float(np.clip(log_drift, lowest, highest)), 9)
-        if key not in runs and len(runs) < len(s.held_order_drift) + s.held_order_climb:
-            runs[key] = run(key)
+    def at(*log_drifts):
+        keys = []
+        for log_drift in log_drifts:
+            key = round(float(np.clip(log_drift, lowest, highest)), 9)
+            if key not in runs and key not in keys and len(runs) + len(keys) < budget:
+                keys.append(key)
+        if keys:
+            runs.update(zip(keys, run(keys)))
 
-    for factor in s.held_order_drift:
-        at(log_tuned + np.log(max(factor, 1e-300)))  # a factor 0: the range's floor
+    at(*(log_tuned + np.log(max(factor, 1e-300)) for factor in s.held_order_drift))
 
     def top():
         return max(runs, key=lambda k: runs[k][1])
 
     step = float(np.log(s.held_order_step))
-    while len(runs) < len(s.held_order_drift) + s.held_order_climb:
+    while len(runs) < budget:
         best, keys = top(), sorted(runs)
         if not np.isfinite(runs[best][1]):
             break
@@ -68,8 +73,7 @@ def held_drift_search(run, log_tuned, settings):
     for fraction in (0.5, 0.25):
         best = top()
         if np.isfinite(runs[best][1]):
-            at(best - fraction * step)
-            at(best + fraction * step)
+            at(best - fraction * step, best + fraction * step)
     best = top()
     return runs[best] if np.isfinite(runs[best][1]) else (None, -np.inf)
 
@@ -88,13 +92,19 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     s = problem.settings
     dtype = problem.u.dtype
 
-    def run(log_drift):
+    def one(log_drift):
         held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),
                      jnp.log(to_device(np.asarray(s.constant_drift, dtype))),
                      jnp.log(to_device(np.asarray(noise, dtype))), hyper.log_ar_var,
                      hyper.log_ar_time)
         sm = problem.smooth_from(held, start)
         return (sm, held), host_score(sm)  # −∞ where the run did not converge
+
+    def run(log_drifts):  # side by side in threads (`in_threads`), the same runs
+        shares = in_threads(problem, held_order, len(log_drifts),
+                            lambda lo, hi: [one(d) for d in log_drifts[lo:hi]],
+                            (problem.u.shape, s.max_iter))
+        return [out for _, share in shares for out in share]
 
     found, best_score = held_drift_search(run, float(np.asarray(hyper.log_q_order)), s)
     if found is None:
