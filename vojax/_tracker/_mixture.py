@@ -54,6 +54,7 @@ def held_drift_search(run, log_tuned, settings):
         if keys:
             runs.update(zip(keys, run(keys)))
 
+    # the ladder, in one call; a factor 0 is the range's floor
     at(*(log_tuned + np.log(max(factor, 1e-300)) for factor in s.held_order_drift))
 
     def top():
