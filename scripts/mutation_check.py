@@ -379,6 +379,23 @@ MUTATIONS = {
           '            at(best - fraction * step)')],
         ['tests/test_held_search.py::test_the_runs_side_by_side_are_the_runs_one_by_one'],
     ),
+    "the two clocks run side by side while cold": (
+        'vojax/_tracker/_threads.py',
+        [('    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:',
+          '    if min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:')],
+        ['tests/test_mappings.py::test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed'],
+    ),
+    "the two clocks side by side whatever run_threads says": (
+        'vojax/_tracker/_threads.py',
+        [('    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:',
+          '    if not warm or (os.cpu_count() or 1) < 2:')],
+        ['tests/test_mappings.py::test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed'],
+    ),
+    "the two clocks' outputs swapped when side by side": (
+        'vojax/_tracker/_threads.py',
+        [('        return first(), later.result()', '        return later.result(), first()')],
+        ['tests/test_clock.py::test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other'],
+    ),
     "held smoothing not refined between its rungs": (
         'vojax/_tracker/_mixture.py',
         [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],
@@ -1531,8 +1548,8 @@ MUTATIONS = {
     ),
     "the default fits only on the span's clock": (
         "vojax/_tracker/_estimator.py",
-        [("        if self.time_scale is None and second_clock(scale):",
-          "        if False:")],
+        [("        both = self.time_scale is None and second_clock(scale)",
+          "        both = False")],
         ["tests/test_verdict.py::test_the_default_band_holds_an_order_whose_parameter_is_constant_in_another_unit"],
     ),
     "the second clock fitted where the span is one unit": (

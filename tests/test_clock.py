@@ -123,3 +123,43 @@ def test_where_the_clocks_agree_the_default_is_the_spans_fit_to_the_last_bit():
         np.testing.assert_array_equal(np.asarray(getattr(default, name)),
                                       np.asarray(getattr(stated, name)))
     assert "clock" not in default.diagnostics.reasons
+
+
+def test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other(monkeypatch):
+    """The span's fit and the data's-unit quick look run in two threads once warm: the same
+    answer, to the last bit, as one after the other, on a record whose clocks disagree (the
+    order moves, the parameter constant in the data's unit)."""
+    import threading
+
+    from vojax._tracker import _estimator, _threads
+
+    n, span = 240, 200.0
+    t = np.linspace(0.0, span, n)
+    dt = t[1] - t[0]
+    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.1 * np.sin(2 * np.pi * 12 * t / span)
+    x = np.asarray(vojax.simulate(u, np.linspace(0.3, 0.55, n), np.array([2.0]), dt))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    threads = []
+    original = _estimator.Tracker._fit_on
+
+    def spy(self, scale, *args, **kwargs):
+        threads.append(threading.get_ident())
+        return original(self, scale, *args, **kwargs)
+
+    monkeypatch.setattr(_estimator.Tracker, "_fit_on", spy)
+    monkeypatch.setattr(_threads.os, "cpu_count", lambda: 2)
+    answers = []
+    for settings in (vojax.TrackerSettings(run_threads=1), vojax.TrackerSettings(),
+                     vojax.TrackerSettings()):  # one thread; cold; warm: two threads
+        threads.clear()
+        res = vojax.identify(u, y, dt, warn=False, settings=settings)
+        answers.append(res)
+    assert len(threads) == 2 and len(set(threads)) == 2  # the last call: two threads
+    first = answers[0]
+    for res in answers[1:]:
+        for name in ("alpha", "alpha_lower", "alpha_upper", "alpha_std", "p"):
+            np.testing.assert_array_equal(np.asarray(getattr(res, name)),
+                                          np.asarray(getattr(first, name)))
+        d, d0 = res.diagnostics, first.diagnostics
+        assert (d.verdict, d.reasons) == (d0.verdict, d0.reasons)
+        assert np.array_equal(d.breakdown_drift, d0.breakdown_drift, equal_nan=True)

@@ -129,3 +129,32 @@ def test_after_a_drop_the_tracker_runs_its_shares_one_after_another_again(monkey
     monkeypatch.setattr(_xla, "_dropped", _xla.programs_dropped() + 1)
     assert not threads_used()
     assert threads_used()
+
+
+def test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed():
+    """`two_at_once`: cold, one after the other in this thread; warm, the second in a thread
+    of its own; the outputs in order; one thread where `run_threads` is 1, a parallel-in-time
+    schedule runs on a CPU, or the machine has one core; no second: it is not called."""
+    here = threading.get_ident()
+
+    def run(settings, schedule="sequential", key=("k",), cores=2):
+        seen = []
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(_threads.os, "cpu_count", lambda: cores)
+            out = _threads.two_at_once(
+                settings, schedule, key, lambda: seen.append(("a", threading.get_ident())) or 1,
+                lambda: seen.append(("b", threading.get_ident())) or 2)
+        assert out == (1, 2) and [name for name, _ in seen] in (["a", "b"], ["b", "a"])
+        return dict(seen)["b"] != here
+
+    two, one = types.SimpleNamespace(run_threads=2), types.SimpleNamespace(run_threads=1)
+    key = (object(),)  # a key of its own
+    assert not run(two, key=key)  # cold: in this thread
+    assert run(two, key=key)  # warm: in a thread of its own
+    assert not run(one, key=key)
+    assert not run(two, key=key, cores=1)
+    if jax.default_backend() == "cpu":
+        other = (object(),)
+        run(two, "associative", key=other)
+        assert not run(two, "associative", key=other)
+    assert _threads.two_at_once(two, "sequential", key, lambda: 1, None) == (1, None)

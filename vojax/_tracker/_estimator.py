@@ -19,6 +19,8 @@ from ._band import first_fitted
 from ._blocks import block_size, fit_blocks
 from ._clock import second_clock, weigh_clock
 from ._fit import fit_points
+from ._smoother import resolve_schedule
+from ._threads import two_at_once
 
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
 # the most points `max_points` may ask for: the tracker's cost grows with its points (a few
@@ -147,13 +149,20 @@ class Tracker:
         # the tracker's clock: time over the record's span (or `time_scale`), so that
         # parameters held constant (or drift-bounded) mean the same in any unit of time
         scale = self._time_scale(dt, t, length)
-        res, fit = self._fit_on(scale, u2, y, dt, t, mask, length, size, bounds)
+        def on(unit, weigh=True):
+            return lambda: self._fit_on(unit, u2, y, dt, t, mask, length, size, bounds,
+                                        weigh=weigh)
+
+        # the parameters constant in the data's own unit of time too: an account the band
+        # must cover where its order lies outside (see `vojax._tracker._clock`); its tuned
+        # smoothing and that smoothing's own band, in a second thread beside the span's fit
+        both = self.time_scale is None and second_clock(scale)
+        (res, fit), other = two_at_once(
+            self.settings, resolve_schedule(self.settings.schedule),
+            (u2.shape, size, self.parameters, self.x0 is None, self.smooth), on(scale),
+            on(1.0, weigh=False) if both else None)
         clock = None
-        if self.time_scale is None and second_clock(scale):
-            # the parameters constant in the data's own unit of time: an account the band
-            # must cover where its order lies outside (see `vojax._tracker._clock`); its
-            # tuned smoothing and that smoothing's own band
-            other = self._fit_on(1.0, u2, y, dt, t, mask, length, size, bounds, weigh=False)
+        if other is not None:
             res, fit, clock = weigh_clock(res, fit, *other)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:

@@ -22,12 +22,8 @@ def in_threads(problem, fn, count, call, key):
     first time one share after another, so that two threads never compile the same
     program (again after `spare_mappings` has dropped the compiled programs). Returns the
     shares' outputs in order, with their ``(lo, hi)``."""
-    limit = problem.settings.run_threads
-    if problem.schedule != "sequential" and jax.default_backend() == "cpu":
-        # XLA:CPU's runtime was seen to deadlock running the prefix sums' programs from two
-        # threads at once (1e6 samples, 1,000 block means): one thread on a CPU
-        limit = 1
-    workers = max(1, min(count, os.cpu_count() or 1, limit or 1))
+    workers = max(1, min(count, os.cpu_count() or 1,
+                         thread_limit(problem.settings, problem.schedule)))
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
     key = (programs_dropped(), id(fn), size, *key)
@@ -41,6 +37,35 @@ def in_threads(problem, fn, count, call, key):
         with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
             out = list(pool.map(lambda share: call(*share), shares))
     return list(zip(shares, out))
+
+
+def thread_limit(settings, schedule) -> int:
+    """The threads the tracker may run its smoothings in: `run_threads`, but one with a
+    parallel-in-time `schedule` on a CPU (XLA:CPU's runtime was seen to deadlock running the
+    prefix sums' programs from two threads at once: 1e6 samples, 1,000 block means)."""
+    if schedule != "sequential" and jax.default_backend() == "cpu":
+        return 1
+    return settings.run_threads or 1
+
+
+def two_at_once(settings, schedule, key, first, second=None):
+    """``first()`` and ``second()`` (None: not run, its output None) side by side in two
+    threads where two are allowed (`thread_limit`, two cores) and both have run for `key`
+    before (so that two threads never compile the same program); else one after the other.
+    Returns both outputs."""
+    if second is None:
+        return first(), None
+    key = (programs_dropped(), "two_at_once", *key)
+    with _warm_lock:
+        warm = key in _warm
+    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:
+        out = first(), second()
+        with _warm_lock:
+            _warm.add(key)
+        return out
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        later = pool.submit(second)
+        return first(), later.result()
 
 
 def host_hyper(hyper):
