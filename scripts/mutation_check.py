@@ -396,6 +396,17 @@ MUTATIONS = {
         [('        return first(), later.result()', '        return later.result(), first()')],
         ['tests/test_clock.py::test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other'],
     ),
+    "a pass's threads run without the caller's scopes": (
+        'vojax/_tracker/_threads.py',
+        [('            out = list(pool.map(lambda share: scoped(*share), shares))',
+          '            out = list(pool.map(lambda share: call(*share), shares))')],
+        ['tests/test_mappings.py::test_identify_under_a_float64_scope_runs_its_threads_in_float64'],
+    ),
+    "a thread's float64 scope not carried over": (
+        'vojax/_tracker/_threads.py',
+        [('                scopes.enter_context(x64_scope(x64))', '                pass')],
+        ['tests/test_mappings.py::test_a_thread_runs_under_the_callers_float64_and_device_scopes'],
+    ),
     "held smoothing not refined between its rungs": (
         'vojax/_tracker/_mixture.py',
         [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],

@@ -158,3 +158,54 @@ def test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_a
         run(two, "associative", key=other)
         assert not run(two, "associative", key=other)
     assert _threads.two_at_once(two, "sequential", key, lambda: 1, None) == (1, None)
+
+
+def test_a_thread_runs_under_the_callers_float64_and_device_scopes():
+    """`callers_scope`: a new thread does not inherit JAX's thread-local scopes; the function
+    it runs sees the caller's float64 setting and default device (here float64 off and the
+    CPU, against the process's float64 on and no default device)."""
+    cpu = jax.devices("cpu")[0]
+
+    def seen():
+        return bool(jax.config.jax_enable_x64), jax.config.jax_default_device
+
+    def in_a_thread(fn):
+        out = []
+        worker = threading.Thread(target=lambda: out.append(fn()))
+        worker.start()
+        worker.join()
+        return out[0]
+
+    with _xla.x64_scope(False), jax.default_device(cpu):
+        assert seen() == (False, cpu)
+        assert in_a_thread(seen) == (True, None)  # what a bare thread sees
+        assert in_a_thread(_threads.callers_scope(seen)) == (False, cpu)
+    assert in_a_thread(_threads.callers_scope(seen)) == (True, None)
+
+
+def test_identify_under_a_float64_scope_runs_its_threads_in_float64(tmp_path):
+    """In a process whose float64 is on only in a scope (``jax.enable_x64``), the second
+    call (its smoothings side by side in threads) gives the first call's answer."""
+    code = """
+import jax, numpy as np
+import vojax
+from vojax import _xla
+from vojax._tracker import _threads
+_threads.os.cpu_count = lambda: 2
+with _xla.x64_scope(True):
+    n = 160
+    t = np.linspace(0.0, 40.0, n)
+    u = 1.0 + 0.5 * np.floor(4 * t / 40.0)
+    x = np.asarray(vojax.simulate(u, np.full(n, 0.4), np.array([2.0]), t[1] - t[0]))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(1).standard_normal(n)
+    a, b = (vojax.identify(u, y, t[1] - t[0], warn=False) for _ in range(2))
+    assert np.asarray(b.alpha).dtype == np.float64
+    assert np.array_equal(np.asarray(a.alpha_upper), np.asarray(b.alpha_upper))
+print("ok", jax.config.jax_enable_x64)
+"""
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split()[-2:] == ["ok", "False"]

@@ -224,3 +224,15 @@ def programs_dropped() -> int:
     """How many times `spare_mappings` has dropped the compiled programs in this process (a
     program known to have run may have to compile again since)."""
     return _dropped
+
+
+def x64_scope(on: bool = True):
+    """A scope with float64 on (or off) in this thread only: ``jax.enable_x64`` where JAX has
+    it, its experimental form before."""
+    import jax
+
+    if hasattr(jax, "enable_x64"):
+        return jax.enable_x64(on)
+    from jax.experimental import enable_x64
+
+    return enable_x64(on)

@@ -8,9 +8,9 @@ import subprocess
 import sys
 import time
 
-import jax
 import numpy as np
 
+from .._xla import x64_scope
 from ._compute import _compute_group
 
 DASK_TASKS_PER_WORKER = 2  # a bucket is cut into about this many tasks per Dask worker
@@ -40,16 +40,6 @@ sys.exit(0)
 """
 
 
-def _x64():
-    """float64 for the duration of a task on a Dask worker (a scope, not a setting of the
-    worker process): ``jax.enable_x64`` where JAX has it, its experimental form before."""
-    if hasattr(jax, "enable_x64"):
-        return jax.enable_x64(True)
-    from jax.experimental import enable_x64
-
-    return enable_x64()
-
-
 def _compute_chunk(chunk, num, dt, config):
     """`_compute_group` as a Dask task: ``[(index in chunk, state, result)]``, a failure as a
     `RuntimeError` holding its one-line reason (an exception of any class travels back)."""
@@ -57,7 +47,7 @@ def _compute_chunk(chunk, num, dt, config):
     index = {id(r): k for k, (r, _) in enumerate(chunk)}
     # one record per worker thread: the tracker's smoothings run one after another there
     config = dict(config, fit=dict(config["fit"], threads=1))
-    with _x64():
+    with x64_scope(True):  # float64 for the task, not a setting of the worker process
         for r, state, result in _compute_group(chunk, num, dt, config):
             i = index[id(r)]
             if isinstance(result, Exception):

@@ -2,13 +2,14 @@
 for every share), each share's runs batched where that is faster."""
 
 import concurrent.futures
+import contextlib
 import os
 import threading
 
 import jax
 import numpy as np
 
-from .._xla import programs_dropped, to_device
+from .._xla import programs_dropped, to_device, x64_scope
 from ._model import Hyper
 from ._smoother import batch_pays, smoother_batch, smoother_modes
 
@@ -34,9 +35,28 @@ def in_threads(problem, fn, count, call, key):
         with _warm_lock:
             _warm.add(key)
     else:
+        scoped = callers_scope(call)
         with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
-            out = list(pool.map(lambda share: call(*share), shares))
+            out = list(pool.map(lambda share: scoped(*share), shares))
     return list(zip(shares, out))
+
+
+def callers_scope(fn):
+    """`fn` for another thread, run there under the calling thread's JAX scopes, which a new
+    thread does not inherit: float64 (``jax.enable_x64``, as a Dask task uses) and the
+    default device (``jax.default_device``); where the thread's own differ."""
+    x64 = bool(jax.config.jax_enable_x64)
+    device = getattr(jax.config, "jax_default_device", None)
+
+    def scoped(*args):
+        with contextlib.ExitStack() as scopes:
+            if bool(jax.config.jax_enable_x64) != x64:
+                scopes.enter_context(x64_scope(x64))
+            if getattr(jax.config, "jax_default_device", None) is not device:
+                scopes.enter_context(jax.default_device(device))
+            return fn(*args)
+
+    return scoped
 
 
 def thread_limit(settings, schedule) -> int:
@@ -64,7 +84,7 @@ def two_at_once(settings, schedule, key, first, second=None):
             _warm.add(key)
         return out
     with concurrent.futures.ThreadPoolExecutor(1) as pool:
-        later = pool.submit(second)
+        later = pool.submit(callers_scope(second))
         return first(), later.result()
 
 
