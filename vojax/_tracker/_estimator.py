@@ -149,6 +149,7 @@ class Tracker:
         # the tracker's clock: time over the record's span (or `time_scale`), so that
         # parameters held constant (or drift-bounded) mean the same in any unit of time
         scale = self._time_scale(dt, t, length)
+
         def on(unit, weigh=True):
             return lambda: self._fit_on(unit, u2, y, dt, t, mask, length, size, bounds,
                                         weigh=weigh)
@@ -159,7 +160,9 @@ class Tracker:
         both = self.time_scale is None and second_clock(scale)
         (res, fit), other = two_at_once(
             self.settings, resolve_schedule(self.settings.schedule),
-            (u2.shape, size, self.parameters, self.x0 is None, self.smooth), on(scale),
+            # what selects the programs a call compiles: a new one runs one after the other
+            (u2.shape, size, self.memory, self.rule, t is None, mask is None, self.parameters,
+             self.x0 is None, self.smooth, self.noise is None), on(scale),
             on(1.0, weigh=False) if both else None)
         clock = None
         if other is not None:
