@@ -379,16 +379,15 @@ MUTATIONS = {
           '            at(best - fraction * step)')],
         ['tests/test_held_search.py::test_the_runs_side_by_side_are_the_runs_one_by_one'],
     ),
-    "the two clocks run side by side while cold": (
+    "threads run side by side while cold (the two clocks, a pass's shares)": (
         'vojax/_tracker/_threads.py',
-        [('    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:',
-          '    if min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:')],
+        [('    if warm and side_by_side is not None:', '    if side_by_side is not None:')],
         ['tests/test_mappings.py::test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed'],
     ),
     "the two clocks side by side whatever run_threads says": (
         'vojax/_tracker/_threads.py',
-        [('    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:',
-          '    if not warm or (os.cpu_count() or 1) < 2:')],
+        [('    two = min(os.cpu_count() or 1, thread_limit(settings, schedule)) >= 2',
+          '    two = (os.cpu_count() or 1) >= 2')],
         ['tests/test_mappings.py::test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed'],
     ),
     "the two clocks' outputs swapped when side by side": (
@@ -398,8 +397,8 @@ MUTATIONS = {
     ),
     "a pass's threads run without the caller's scopes": (
         'vojax/_tracker/_threads.py',
-        [('            out = list(pool.map(lambda share: scoped(*share), shares))',
-          '            out = list(pool.map(lambda share: call(*share), shares))')],
+        [('            return list(pool.map(lambda share: scoped(*share), shares))',
+          '            return list(pool.map(lambda share: call(*share), shares))')],
         ['tests/test_mappings.py::test_identify_under_a_float64_scope_runs_its_threads_in_float64'],
     ),
     "a thread's float64 scope not carried over": (

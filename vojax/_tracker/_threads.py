@@ -28,17 +28,28 @@ def in_threads(problem, fn, count, call, key):
     size = -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
     key = (programs_dropped(), id(fn), size, *key)
-    with _warm_lock:
-        warm = key in _warm
-    if not warm or len(shares) == 1:
-        out = [call(lo, hi) for lo, hi in shares]
-        with _warm_lock:
-            _warm.add(key)
-    else:
+
+    def side_by_side():
         scoped = callers_scope(call)
         with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
-            out = list(pool.map(lambda share: scoped(*share), shares))
-    return list(zip(shares, out))
+            return list(pool.map(lambda share: scoped(*share), shares))
+
+    return list(zip(shares, once_warm(key, lambda: [call(lo, hi) for lo, hi in shares],
+                                      side_by_side if len(shares) > 1 else None)))
+
+
+def once_warm(key, in_turn, side_by_side=None):
+    """``side_by_side()`` where `key`'s programs have run before (so that two threads never
+    compile the same program) and it is given; else ``in_turn()``, after which `key` counts
+    as run."""
+    with _warm_lock:
+        warm = key in _warm
+    if warm and side_by_side is not None:
+        return side_by_side()
+    out = in_turn()
+    with _warm_lock:
+        _warm.add(key)
+    return out
 
 
 def callers_scope(fn):
@@ -75,17 +86,14 @@ def two_at_once(settings, schedule, key, first, second=None):
     Returns both outputs."""
     if second is None:
         return first(), None
-    key = (programs_dropped(), "two_at_once", *key)
-    with _warm_lock:
-        warm = key in _warm
-    if not warm or min(os.cpu_count() or 1, thread_limit(settings, schedule)) < 2:
-        out = first(), second()
-        with _warm_lock:
-            _warm.add(key)
-        return out
-    with concurrent.futures.ThreadPoolExecutor(1) as pool:
-        later = pool.submit(callers_scope(second))
-        return first(), later.result()
+    def side_by_side():
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            later = pool.submit(callers_scope(second))
+            return first(), later.result()
+
+    two = min(os.cpu_count() or 1, thread_limit(settings, schedule)) >= 2
+    return once_warm((programs_dropped(), "two_at_once", *key), lambda: (first(), second()),
+                     side_by_side if two else None)
 
 
 def host_hyper(hyper):
