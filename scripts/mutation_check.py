@@ -1225,12 +1225,29 @@ MUTATIONS = {
         ["tests/test_compare.py::test_the_verdict_words_follow_the_bayes_factor"],
     ),
     "A-criterion over the first half of the test": (
-        "vojax/_design.py",
+        "vojax/_protocol.py",
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "optimal protocol searches with the parameters constant whatever parameter_knots says": (
+        "vojax/_protocol.py",
+        [("jac = _jacobian(mem, u2, b, jnp.asarray(pj), hats_j, x0, drift_hats)",
+          "jac = _jacobian(mem, u2, b, jnp.asarray(pj), hats_j, x0, None)")],
+        ["tests/test_protocol.py::test_the_best_oscillation_under_drifting_parameters_is_a_minimum_of_its_own_bound"],
+    ),
+    "optimal protocol's Design forgets its drifting parameters": (
+        "vojax/_protocol.py",
+        [("                                parameter_knots=parameter_knots)",
+          "                                parameter_knots=None)")],
+        ["tests/test_protocol.py::test_the_best_oscillation_under_drifting_parameters_is_a_minimum_of_its_own_bound"],
+    ),
+    "optimal protocol takes a protocol whose inputs are not finite": (
+        "vojax/_protocol.py",
+        [("    if not np.all(np.isfinite(u)):", "    if False:")],
+        ["tests/test_protocol.py::test_a_protocol_it_cannot_use_is_refused_with_a_reason"],
+    ),
     "optimal protocol's Design forgets its knots": (
-        "vojax/_design.py",
+        "vojax/_protocol.py",
         [("noise_std=noise_std, knots=knots, x0=x0,", "noise_std=noise_std, knots=1, x0=x0,")],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),

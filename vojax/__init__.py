@@ -17,7 +17,6 @@ from ._compare import Comparison as Comparison
 from ._compare import compare as compare
 from ._design import Design as Design
 from ._design import fisher_information as fisher_information
-from ._design import optimal_protocol as optimal_protocol
 from ._diagnostics import Diagnostics as Diagnostics
 from ._diagnostics import IdentifiabilityWarning as IdentifiabilityWarning
 from ._diagnostics import Reason as Reason
@@ -62,6 +61,7 @@ from ._models import (
 )
 from ._models._closed import mittag_leffler as mittag_leffler
 from ._models._closed_jax import mittag_leffler_jax as mittag_leffler_jax
+from ._protocol import optimal_protocol as optimal_protocol
 from ._refit import Refit as Refit
 from ._refit import RefitWarning as RefitWarning
 from ._refit import refit as refit

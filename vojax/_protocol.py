@@ -1,0 +1,120 @@
+"""The loading protocol that determines the order best: a search over a protocol's
+parameters for the smallest predicted band (`fisher_information`'s bound)."""
+
+
+import jax.numpy as jnp
+import numpy as np
+
+from . import _validate as check
+from ._design import _check_design, _hats, _jacobian, fisher_information
+
+
+def optimal_protocol(
+    protocol,
+    start,
+    lower,
+    upper,
+    order,
+    p,
+    dt,
+    *,
+    noise_std,
+    knots: int = 1,
+    num_samples: int,
+    criterion: str = "order",
+    x0: bool = True,
+    memory: str = "direct",
+    order_range=(0.01, 0.99),
+    parameter_knots: int | None = None,
+    max_steps: int = 200,
+):
+    """The parameters of a loading protocol that make the order best determined.
+
+    `protocol(params, t)` gives the inputs (N,) or (N, n) at the times ``t = k·dt``
+    (k < `num_samples`) for the parameters `params` (k,), written with `jax.numpy` (it is
+    differentiated); `start`, `lower`, `upper` (k,): the first guess and the limits (the
+    search runs on a logistic map of the box, so the limits hold exactly). The criterion is
+    ``"order"`` (A-optimal for the order: the mean predicted variance of α(t) over the second
+    half of the test) or ``"D"`` (D-optimal: the information's log-determinant, every
+    quantity). With `parameter_knots` the parameters are free to drift as in
+    `fisher_information` (a gain on the memory term on this many hat functions): the
+    protocol that determines the order whatever the parameters do. Minimised by BFGS
+    (optimistix) from `start`; a criterion with several minima needs several starts.
+
+    **Returns:** ``(params, Design)``: the best parameters found and `fisher_information` of
+    the protocol they give (with the same `knots` and `parameter_knots`).
+
+    **Raises:** `ValueError` for an argument out of range, or a protocol whose inputs at
+    `start` are not finite or not of shape (N,) or (N, n) with one parameter in `p` per input.
+    """
+    import jax
+    import optimistix as optx
+
+    from ._integral import make_memory
+
+    if criterion not in ("order", "D"):
+        raise ValueError(f"`criterion` must be 'order' or 'D', got {criterion!r}.")
+    lo, hi, x = (np.atleast_1d(np.asarray(a, float)) for a in (lower, upper, start))
+    if not (lo.shape == hi.shape == x.shape) or not np.all(lo < hi):
+        raise ValueError("`start`, `lower` and `upper` must have one shape, with lower < upper.")
+    if not np.all((lo < x) & (x < hi)):
+        raise ValueError("`start` must lie strictly inside (lower, upper).")
+    if not (isinstance(num_samples, (int, np.integer)) and not isinstance(num_samples, bool)
+            and num_samples >= 4):
+        raise ValueError(f"`num_samples` must be an integer ≥ 4, got {num_samples!r}.")
+    order_range = check.interval(order_range, "order_range")
+    max_steps = check.count(max_steps, "max_steps", 1, 100_000)
+    check.flag(x0, "x0")
+    check.order(order, int(num_samples), bounds=order_range)
+    t = float(check.step(dt)) * np.arange(num_samples)
+    n = _inputs_at_start(protocol, x, t)
+    pj, _ = _check_design(p, n, int(num_samples), noise_std, knots, None, parameter_knots)
+    mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
+    hats, _ = _hats(t, int(knots))
+    drift_hats = (None if parameter_knots is None  # the constant part is p itself
+                  else jnp.asarray(_hats(t, int(parameter_knots))[0][:, 1:]))
+    half = num_samples // 2
+    b = jnp.broadcast_to(jnp.asarray(order, float), (num_samples,))
+    hats_j = jnp.asarray(hats)
+
+    def params_of(z):
+        return lo + (hi - lo) * jax.nn.sigmoid(z)
+
+    def loss(z, _):
+        u = jnp.asarray(protocol(params_of(z), jnp.asarray(t)), float)
+        u2 = u.reshape(num_samples, -1)
+        jac = _jacobian(mem, u2, b, jnp.asarray(pj), hats_j, x0, drift_hats)
+        info = jac.T @ jac / noise_std**2
+        scale = jnp.sqrt(jnp.diag(info))
+        unit = info / jnp.outer(scale, scale)
+        if criterion == "D":
+            return -(jnp.linalg.slogdet(unit)[1] + 2 * jnp.sum(jnp.log(scale)))
+        cov = jnp.linalg.inv(unit) / jnp.outer(scale, scale)
+        k = hats_j.shape[1]
+        var = jnp.einsum("ni,ij,nj->n", hats_j[half:], cov[:k, :k], hats_j[half:])
+        return jnp.log(jnp.mean(var))
+
+    z0 = jnp.log((x - lo) / (hi - x))
+    sol = optx.minimise(loss, optx.BFGS(rtol=1e-8, atol=1e-8), z0, max_steps=max_steps,
+                        throw=False)
+    best = np.asarray(params_of(sol.value))
+    u = np.asarray(protocol(jnp.asarray(best), jnp.asarray(t)), float)
+    design = fisher_information(u, order, pj, dt, noise_std=noise_std, knots=knots, x0=x0,
+                                memory=memory, order_range=order_range,
+                                parameter_knots=parameter_knots)
+    return best, design
+
+
+def _inputs_at_start(protocol, start, t):
+    """The number of inputs `protocol` gives at `start`, whose output is checked: finite, of
+    shape (N,) or (N, n) for the N times `t`."""
+    try:
+        u = np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"`protocol(start, t)` failed: {err}") from err
+    if u.ndim not in (1, 2) or u.shape[0] != t.size or (u.ndim == 2 and u.shape[1] < 1):
+        raise ValueError(f"`protocol(start, t)` must give shape ({t.size},) or ({t.size}, n), "
+                         f"got {u.shape}.")
+    if not np.all(np.isfinite(u)):
+        raise ValueError("`protocol(start, t)` gives inputs that are not finite (NaN or inf).")
+    return 1 if u.ndim == 1 else u.shape[1]
