@@ -1229,6 +1229,27 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "settings take a level step of 1 (the level profile loops for ever)": (
+        "vojax/_settings.py",
+        [(""" "level_step": ((1.0,), math.inf, False),""", """ "level_step": POSITIVE,""")],
+        ["tests/test_settings.py::test_a_setting_the_tracker_cannot_use_is_refused_naming_it"],
+    ),
+    "settings take a noise range upside down": (
+        "vojax/_settings.py",
+        [("        if not self.noise_min < self.noise_max:", "        if False:")],
+        ["tests/test_settings.py::test_a_setting_the_tracker_cannot_use_is_refused_naming_it"],
+    ),
+    "settings take 1 for True": (
+        "vojax/_settings.py",
+        [("if not any(type(value) is type(c) and value == c for c in choices):",
+          "if value not in choices:")],
+        ["tests/test_settings.py::test_a_setting_the_tracker_cannot_use_is_refused_naming_it"],
+    ),
+    "settings keep a whole float as a float": (
+        "vojax/_settings.py",
+        [("                value = int(value)\n", "")],
+        ["tests/test_settings.py::test_a_list_is_kept_as_a_tuple_and_a_whole_float_as_an_int"],
+    ),
     "optimal protocol searches with the parameters constant whatever parameter_knots says": (
         "vojax/_protocol.py",
         [("jac = _jacobian(mem, u2, b, jnp.asarray(pj), hats_j, x0, drift_hats)",

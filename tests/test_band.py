@@ -395,5 +395,5 @@ def test_the_level_weights_setting_is_checked():
     assert vojax.TrackerSettings().level_weights == "chi2"
     with pytest.raises(ValueError, match="`level_weights` must be 'evidence' or 'chi2', got 'aic'"):
         vojax.TrackerSettings(level_weights="aic")
-    with pytest.raises(ValueError, match="TrackerSettings.level_pin must hold finite numbers"):
+    with pytest.raises(ValueError, match="TrackerSettings.level_pin must be a finite number > 0"):
         vojax.TrackerSettings(level_pin="evidence")

@@ -8,7 +8,12 @@ Levenberg–Marquardt damping, the small BFGS's line search) live with the solve
 
 import dataclasses
 import math
+import typing
 
+# the fewest and the most points a record is fitted at (`max_points`): the tracker's cost
+# grows with its points (a few minutes at the most on a 2-core CPU)
+MIN_POINTS = 100
+TRACKER_MAX_POINTS = 50_000
 # the settings that may be empty tuples (no alternatives of that kind, no level profile)
 MAY_BE_EMPTY = frozenset({"alt_order_drift", "alt_param_drift", "level_ratios", "moving_offsets"})
 
@@ -17,7 +22,12 @@ MAY_BE_EMPTY = frozenset({"alt_order_drift", "alt_param_drift", "level_ratios", 
 class TrackerSettings:
     """The tracker's settings; pass another to `vojax.Tracker` (or `identify(settings=…)`)
     to change one, e.g. ``TrackerSettings(max_iter=200)``. Frozen: a setting never changes
-    under a running fit."""
+    under a running fit.
+
+    **Raises:** `ValueError` naming the setting for a value the tracker cannot use: each
+    numeric setting has limits (`RANGES`; positive where unnamed), counts are whole numbers
+    (``200.0`` is taken as 200), several values come as a tuple (a list is taken as one), and
+    ``noise_min < noise_max``."""
 
     # ---- the prior of the first state (normalised units)
     prior_beta_var: float = 4.0  # β = logit of the order's place in its range: ±2 covers 12–88 %
@@ -127,30 +137,80 @@ class TrackerSettings:
     def __post_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if f.name == "schedule":
-                if value not in (None, "sequential", "associative", "chunked"):
-                    raise ValueError(
-                        "`schedule` must be None, 'sequential', 'associative' or 'chunked', "
-                        f"got {value!r}."
-                    )
+            if f.name in CHOICES:
+                choices = CHOICES[f.name]
+                if not any(type(value) is type(c) and value == c for c in choices):
+                    words = ", ".join(repr(c) for c in choices[:-1]) + f" or {choices[-1]!r}"
+                    raise ValueError(f"`{f.name}` must be {words}, got {value!r}.")
                 continue
-            if f.name == "held_order_step" and not (isinstance(value, (int, float))
-                                                    and 1 < value < math.inf):
-                raise ValueError(
-                    f"`held_order_step` must be a finite factor above 1, got {value!r}.")
-            if f.name == "second_climb":
-                if not isinstance(value, bool):
-                    raise ValueError(f"`second_climb` must be True or False, got {value!r}.")
-                continue
-            if f.name == "level_weights":
-                if value not in ("evidence", "chi2"):
-                    raise ValueError(
-                        f"`level_weights` must be 'evidence' or 'chi2', got {value!r}.")
-                continue
-            values = value if isinstance(value, tuple) else (value,)
-            if (not values and f.name not in MAY_BE_EMPTY) or not all(
+            several = typing.get_origin(f.type) is tuple
+            if several and isinstance(value, list):
+                value = tuple(value)  # a list where a tuple belongs: kept as a tuple
+            values = value if several and isinstance(value, tuple) else (value,)
+            lo, hi, whole = RANGES.get(f.name, POSITIVE)
+            what = f"{'whole' if whole else 'finite'} number"
+            words = (f"hold {what}s {_interval(lo, hi)}" if several
+                     else f"be a {what} {_interval(lo, hi)}")
+            if (several and not isinstance(value, tuple)) or (
+                    not values and f.name not in MAY_BE_EMPTY) or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                and v >= 0 for v in values
-            ):
-                raise ValueError(f"TrackerSettings.{f.name} must hold finite numbers ≥ 0, "
-                                 f"got {value!r}.")
+                and (float(v).is_integer() if whole else True)
+                and _inside(v, lo, hi) for v in values
+            ) or (f.name in PAIRS and not (len(values) == 2 and values[0] < values[1])):
+                shape = (", two of them, the first the smaller" if f.name in PAIRS
+                         else " (a tuple)" if several else "")
+                raise ValueError(f"TrackerSettings.{f.name} must {words}{shape}, got "
+                                 f"{getattr(self, f.name)!r}.")
+            if whole:
+                value = int(value)
+            object.__setattr__(self, f.name, value)
+        if not self.noise_min < self.noise_max:
+            raise ValueError("TrackerSettings.noise_min must be below noise_max, got "
+                             f"{self.noise_min!r} and {self.noise_max!r}.")
+
+
+# the settings that name a choice, and their choices
+CHOICES = {"schedule": (None, "sequential", "associative", "chunked"),
+           "second_climb": (True, False), "level_weights": ("evidence", "chi2")}
+# the settings that hold a range (low, high)
+PAIRS = frozenset({"order_drift_range", "parameter_drift_range"})
+# each numeric setting's limits ``(low, high, whole)``: a bound ``(x,)`` is open (x itself
+# refused), a bare number closed; unnamed ones are `POSITIVE`. A limit keeps a value out
+# that the tracker cannot use: a fraction of the order's range outside it, a step that
+# climbs nowhere (the level profile would loop for ever at ``level_step`` 1), a count of
+# iterations or knots that leaves nothing to fit.
+POSITIVE = ((0.0,), math.inf, False)
+AT_LEAST_0 = (0.0, math.inf, False)
+FRACTION = ((0.0,), (1.0,), False)
+RANGES = {
+    "noise_floor": AT_LEAST_0, "edge": AT_LEAST_0, "coloured_evidence": AT_LEAST_0,
+    "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "start_orders": FRACTION,
+    "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),
+    "bound_tol": (0.0, (0.5,), False), "bound_fraction": (0.0, 1.0, False),
+    "held_order_step": ((1.0,), math.inf, False), "level_step": ((1.0,), math.inf, False),
+    "level_max": (1.0, math.inf, False),
+    "max_iter": (1, math.inf, True), "grid_max_iter": (1, math.inf, True),
+    "refine_steps": (1, math.inf, True), "climb_rounds": (1, math.inf, True),
+    "constant_grid": (3, math.inf, True), "golden_steps": (1, math.inf, True),
+    "coloured_rounds": (1, math.inf, True), "fatal_edge_rounds": (1, math.inf, True),
+    "held_order_climb": (0, math.inf, True), "trade_knots": (2, math.inf, True),
+    "trade_orders": (2, math.inf, True), "level_splits": (0, math.inf, True),
+    "max_points": (MIN_POINTS, TRACKER_MAX_POINTS, True), "batched_block": (1, math.inf, True),
+    "run_threads": (1, math.inf, True),
+}
+
+
+def _inside(v, lo, hi) -> bool:
+    """`v` within the limits (a one-tuple: open)."""
+    above = v > lo[0] if isinstance(lo, tuple) else v >= lo
+    below = v < hi[0] if isinstance(hi, tuple) else v <= hi
+    return above and below
+
+
+def _interval(lo, hi) -> str:
+    """The limits in words: "> 0", "in (0, 1)", "from 1 to 50000"."""
+    lo_open, hi_open = isinstance(lo, tuple), isinstance(hi, tuple)
+    lo, hi = (lo[0] if lo_open else lo), (hi[0] if hi_open else hi)
+    if hi == math.inf:
+        return f"{'>' if lo_open else '≥'} {lo:g}"
+    return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"

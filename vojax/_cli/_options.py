@@ -5,8 +5,7 @@ import argparse
 import sys
 
 from .._data._contact import BASELINES, CONTACT_METHODS
-from .._settings import TrackerSettings
-from .._tracker._estimator import MIN_POINTS, TRACKER_MAX_POINTS
+from .._settings import MIN_POINTS, TRACKER_MAX_POINTS, TrackerSettings
 from ._args import check_fit_window
 from ._types import (
     CLIError,

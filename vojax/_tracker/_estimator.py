@@ -11,7 +11,7 @@ from .. import _validate as check
 from .._diagnostics import IdentifiabilityWarning, diagnose
 from .._identification import Conditional, Identification
 from .._integral import make_memory
-from .._settings import TrackerSettings
+from .._settings import MIN_POINTS, TRACKER_MAX_POINTS, TrackerSettings
 from .._stats import prediction_error_correlation
 from .._steps import Step
 from .._xla import to_device
@@ -23,10 +23,6 @@ from ._smoother import resolve_schedule
 from ._threads import two_at_once
 
 KALMAN_BOUNDS = (0.01, 0.99)  # the tracker's logistic map
-# the most points `max_points` may ask for: the tracker's cost grows with its points (a few
-# minutes at this many on a 2-core CPU)
-TRACKER_MAX_POINTS = 50_000
-MIN_POINTS = 100  # the fewest points `max_points` may ask for
 # the most inputs the tracker takes: 400 samples on 2 cores took 17 s with 1 input, 36 s
 # with 4 and about 2 minutes with 8 or 16 (other work beside it); 50 did not finish in 20 min
 MAX_INPUTS = 16
