@@ -724,3 +724,13 @@ def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_
                cwd=tmp_path)
     assert bad.returncode != 0 and "expected 0 < LO < HI < 1" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("n, words", [(1, "only 1 sample;"), (2, "only 2 samples;")])
+def test_a_record_too_short_to_fit_says_how_many_samples_it_has(tmp_path, n, words):
+    """A file of one or two rows is refused with its count, in the singular for one."""
+    from vojax._data._records import load_records
+
+    _springpot_csv(tmp_path / "short.csv", n=n)
+    with pytest.raises(ValueError, match=f"{words} at least 3 are needed"):
+        load_records(tmp_path / "short.csv", time="time_s", inputs=["stress"], output="strain")

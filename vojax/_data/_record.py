@@ -67,7 +67,8 @@ def _clock(path, name, t, columns: dict, lines, strict: bool, resample=None):
             i = int(np.argmax(bad))
             raise DataError(f"{label}, line {lines[i]}, column {key!r}: value is NaN or infinite.")
     if t.size < 3:
-        raise DataError(f"{label}: only {t.size} samples; at least 3 are needed.")
+        many = "1 sample" if t.size == 1 else f"{t.size} samples"
+        raise DataError(f"{label}: only {many}; at least 3 are needed.")
     far = np.abs(t) > TIME_LIMIT
     if np.any(far):
         i = int(np.argmax(far))
