@@ -1229,6 +1229,17 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "a chirp's frequency does not rise (a sine)": (
+        "vojax/_settling.py",
+        [("        return 2 * np.pi * f0 * length * np.expm1(rate * tau / length) / rate",
+          "        return 2 * np.pi * f0 * tau")],
+        ["tests/test_protocol.py::test_a_chirp_is_the_integral_of_its_rising_frequency"],
+    ),
+    "the settling test never tries its chirp": (
+        "vojax/_settling.py",
+        [("            tries.append((min(cycles) / length, top, None))", "            pass")],
+        ["tests/test_protocol.py::test_with_a_chirp_the_settling_test_picks_the_narrowest_of_sines_and_chirps"],
+    ),
     "settings take a level step of 1 (the level profile loops for ever)": (
         "vojax/_settings.py",
         [(""" "level_step": ((1.0,), math.inf, False),""", """ "level_step": POSITIVE,""")],

@@ -13,25 +13,38 @@ from ._design import Undetermined, fisher_information
 class SettlingTest:
     """An oscillation to superpose on a load so that the order is determined while the
     parameters drift slowly (`settling_test`): ``u + amplitude·sin(2π·frequency·(t − start))`` from
-    `start` on, with `cycles` cycles to the end of the test; `band`: the order's predicted
+    `start` on, with `cycles` cycles to the end of the test, or a chirp whose frequency rises
+    from `frequency` to `frequency_end` at the end (`phase`); `band`: the order's predicted
     ±2σ half-width with it, `band_without`: without it (∞ where the test alone does not
     determine the order), both with the parameters free to drift on hat functions (the
     Cramér–Rao bound: no estimator does better; the tracker's band also covers faster
     drift); `design`: its `fisher_information`."""
 
     def __init__(self, amplitude, frequency, start, cycles, band, band_without, design,
-                 fraction=None):
+                 fraction=None, frequency_end=None, end=None):
         self.amplitude, self.frequency, self.start, self.cycles = (
             amplitude, frequency, start, cycles)
         self.band, self.band_without, self.design = band, band_without, design
         self.fraction = fraction  # the amplitude over the input's RMS
+        # a chirp: the frequency rises exponentially from `frequency` at `start` to this at
+        # `end` (the test's last time); None: a sine
+        self.frequency_end, self.end = frequency_end, end
 
     def inputs(self, u, times):
         """The planned inputs (N,) or (N, n) with the oscillation superposed on each input."""
         u = np.asarray(u, float)
-        wave = np.where(times >= self.start,
-                        np.sin(2 * np.pi * self.frequency * (times - self.start)), 0.0)
+        wave = np.where(times >= self.start, np.sin(self.phase(times - self.start)), 0.0)
         return u + self.amplitude * (wave if u.ndim == 1 else wave[:, None])
+
+    def phase(self, tau):
+        """The oscillation's phase at the times `tau` after its start: ``2π f τ`` for a sine;
+        for a chirp from f₀ to f₁ over the time L to the end, whose frequency at τ is
+        ``f₀ (f₁/f₀)^(τ/L)``, its integral ``2π f₀ L ((f₁/f₀)^(τ/L) − 1) / ln(f₁/f₀)``."""
+        f0 = self.frequency
+        if self.frequency_end is None:
+            return 2 * np.pi * f0 * tau
+        length, rate = self.end - self.start, math.log(self.frequency_end / f0)
+        return 2 * np.pi * f0 * length * np.expm1(rate * tau / length) / rate
 
     def sentence(self, unit="") -> str:
         """The test in words, e.g. "an oscillation of 10 % of the load's RMS at 0.5 Hz from
@@ -42,14 +55,17 @@ class SettlingTest:
         per = {"s": " Hz", "": " per unit of time"}.get(unit, f" per {unit}")
         size = (f"{100 * self.fraction:.0f} % of the load's RMS ({self.amplitude:.3g})"
                 if self.fraction else f"{self.amplitude:.3g}")
-        return (f"an oscillation of {size} at {self.frequency:.3g}{per} from t = "
+        at = (f"at {self.frequency:.3g}{per}" if self.frequency_end is None else
+              f"sweeping from {self.frequency:.3g} to {self.frequency_end:.3g}{per} (a chirp)")
+        return (f"an oscillation of {size} {at} from t = "
                 f"{self.start:.3g}{' ' + unit if unit else ''} would give about ±{self.band:.2g} "
                 "with the parameters drifting slowly (the best any estimator can do, under the "
                 "model, at the noise measured; the tracker's band, which also covers faster "
                 "drift, can be several times wider)")
 
     def __repr__(self):
-        return (f"SettlingTest(amplitude={self.amplitude:.3g}, frequency={self.frequency:.3g}, "
+        end = "" if self.frequency_end is None else f"–{self.frequency_end:.3g}"
+        return (f"SettlingTest(amplitude={self.amplitude:.3g}, frequency={self.frequency:.3g}{end}, "
                 f"start={self.start:.3g}, band=±{self.band:.3g}, "
                 f"band_without=±{self.band_without:.3g})")
 
@@ -57,7 +73,7 @@ class SettlingTest:
 def settling_test(
     u, order, p, dt=None, *, t=None, noise_std, amplitude=0.1, cycles=(5, 10, 20, 40),
     starts=(0.0, 0.5), parameter_knots=8, order_drift=None, x0=True, memory="direct",
-    order_range=(0.01, 0.99), pad_to=None,
+    order_range=(0.01, 0.99), pad_to=None, chirp=False,
 ) -> SettlingTest:
     """The oscillation to superpose on the load `u` (planned, or the one a record had) that
     best determines the order while the parameters are free to drift (on `parameter_knots`
@@ -65,10 +81,12 @@ def settling_test(
     `cycles` from each start (a fraction of the test's span in `starts`), at least 8 samples
     a cycle, the one whose predicted order band (`fisher_information` with
     `parameter_knots`, and `order_drift` where given: the tracker's band at that drift) is
-    narrowest. `order`, `p`, `noise_std`: the hypothesised order (a number or a trajectory),
-    parameters and noise, e.g. from `identify` on a first test. `pad_to`: as
-    `fisher_information`'s (the same result; records padded alike share a program). Returns a
-    `SettlingTest`."""
+    narrowest. With `chirp`, each start also tries an exponential chirp from the fewest of
+    `cycles` to the most (over the time to the end; the top at most one cycle in 8 samples),
+    which needs no guess of the frequency that settles the order. `order`, `p`, `noise_std`:
+    the hypothesised order (a number or a trajectory), parameters and noise, e.g. from
+    `identify` on a first test. `pad_to`: as `fisher_information`'s (the same result; records
+    padded alike share a program). Returns a `SettlingTest`."""
     u2 = np.asarray(check.samples(u, "u"), float)
     u2 = u2.reshape(u2.shape[0], -1)
     num = u2.shape[0]
@@ -97,19 +115,27 @@ def settling_test(
             return None
 
     without = band(u2)
-    best = None
+    check.flag(chirp, "chirp")
+    best, end = None, float(times[-1])
     for frac in starts:
         start = float(times[0] + frac * span)
-        for count in cycles:
-            frequency = count / max(float(times[-1]) - start, 1e-300)
+        length = max(end - start, 1e-300)
+        tries = [(count / length, None, count) for count in cycles]
+        top = min(max(cycles) / length, 1 / (8 * step))  # at most one cycle in 8 samples
+        if chirp and top > min(cycles) / length * (1 + 1e-9):
+            tries.append((min(cycles) / length, top, None))
+        for frequency, frequency_end, count in tries:
             if frequency * step > 1 / 8:  # fewer than 8 samples a cycle
                 continue
-            test = SettlingTest(amplitude * scale, frequency, start, count, np.inf, np.inf, None)
+            test = SettlingTest(amplitude * scale, frequency, start, count, np.inf, np.inf, None,
+                                amplitude, frequency_end, end)
+            if count is None:  # a chirp's cycles to the end
+                test.cycles = float(test.phase(end - start) / (2 * np.pi))
             design = band(test.inputs(u2, times))
             if design is not None and (best is None or design.order_band < best.band):
-                best = SettlingTest(test.amplitude, frequency, start, count, design.order_band,
-                                    np.inf if without is None else without.order_band, design,
-                                    amplitude)
+                test.band, test.design = design.order_band, design
+                test.band_without = np.inf if without is None else without.order_band
+                best = test
     if best is None:
         raise ValueError("no oscillation of these cycles fits the sampling (8 samples a cycle "
                          "at least) or determines the order; sample faster or longer.")
