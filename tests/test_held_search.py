@@ -129,5 +129,6 @@ def test_the_search_steps_past_runs_that_do_not_converge_and_reports_none_conver
 @pytest.mark.parametrize("step", [1.0, 0.5, float("nan"), float("inf")])
 def test_a_step_that_cannot_climb_is_refused(step):
     """A factor of 1 or below would climb nowhere (or backwards): refused in one sentence."""
-    with pytest.raises(ValueError, match="TrackerSettings.held_order_step must be a finite number > 1"):
+    with pytest.raises(ValueError,
+                       match="TrackerSettings.held_order_step must be a finite number > 1"):
         vojax.TrackerSettings(held_order_step=step)

@@ -42,7 +42,8 @@ from vojax import TrackerSettings
     (dict(band_scale=float("nan")), "band_scale must be a finite number > 0, got nan"),
     (dict(identified_halfwidth=0.0), "identified_halfwidth must be a finite number > 0"),
     (dict(level_pin="evidence"), "level_pin must be a finite number > 0, got 'evidence'"),
-    (dict(held_ratio=True), "held_ratio must be a finite number > 0, got True"),
+    (dict(held_ratio=True), "held_ratio must be a finite number ≥ 0, got True"),
+    (dict(misfit_ratio=-1.0), "misfit_ratio must be a finite number ≥ 0, got -1.0"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),

@@ -1,7 +1,6 @@
 """The loading protocol that determines the order best: a search over a protocol's
 parameters for the smallest predicted band (`fisher_information`'s bound)."""
 
-
 import jax.numpy as jnp
 import numpy as np
 

@@ -184,7 +184,9 @@ AT_LEAST_0 = (0.0, math.inf, False)
 FRACTION = ((0.0,), (1.0,), False)
 RANGES = {
     "noise_floor": AT_LEAST_0, "edge": AT_LEAST_0, "coloured_evidence": AT_LEAST_0,
-    "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "start_orders": FRACTION,
+    "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
+    "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "trade_chi2": AT_LEAST_0,
+    "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),
     "bound_tol": (0.0, (0.5,), False), "bound_fraction": (0.0, 1.0, False),
     "held_order_step": ((1.0,), math.inf, False), "level_step": ((1.0,), math.inf, False),
@@ -208,7 +210,7 @@ def _inside(v, lo, hi) -> bool:
 
 
 def _interval(lo, hi) -> str:
-    """The limits in words: "> 0", "in (0, 1)", "from 1 to 50000"."""
+    """The limits in words: "> 0", "≥ 1", "in (0, 1)", "in [100, 50000]"."""
     lo_open, hi_open = isinstance(lo, tuple), isinstance(hi, tuple)
     lo, hi = (lo[0] if lo_open else lo), (hi[0] if hi_open else hi)
     if hi == math.inf:

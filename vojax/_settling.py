@@ -65,8 +65,8 @@ class SettlingTest:
 
     def __repr__(self):
         end = "" if self.frequency_end is None else f"–{self.frequency_end:.3g}"
-        return (f"SettlingTest(amplitude={self.amplitude:.3g}, frequency={self.frequency:.3g}{end}, "
-                f"start={self.start:.3g}, band=±{self.band:.3g}, "
+        return (f"SettlingTest(amplitude={self.amplitude:.3g}, "
+                f"frequency={self.frequency:.3g}{end}, start={self.start:.3g}, band=±{self.band:.3g}, "
                 f"band_without=±{self.band_without:.3g})")
 
 
