@@ -1229,6 +1229,11 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "optimal protocol returns the first start's end, not the best": (
+        "vojax/_protocol.py",
+        [("    pick = int(np.argmin(np.where(np.isnan(values), np.inf, values)))", "    pick = 0")],
+        ["tests/test_protocol.py::test_several_starts_give_the_best_of_their_single_searches"],
+    ),
     "a chirp's frequency does not rise (a sine)": (
         "vojax/_settling.py",
         [("        return 2 * np.pi * f0 * length * np.expm1(rate * tau / length) / rate",

@@ -129,3 +129,20 @@ def test_with_a_chirp_the_settling_test_picks_the_narrowest_of_sines_and_chirps(
     assert sine.band == pytest.approx(min(sines.values()), rel=1e-10) and sine.band > chosen.band
     with pytest.raises(TypeError, match="`chirp` must be True or False"):
         vojax.settling_test(u, 0.45, [2.0], dt, chirp="yes", **common)
+
+
+def test_several_starts_give_the_best_of_their_single_searches():
+    """Starts of 1, 4.5 and 12 cycles (S, 1): the cycles returned are those of the single
+    search whose criterion (recomputed with `fisher_information`) is the lowest, here not the
+    first start's; shapes that do not match the limits are refused."""
+    common = dict(noise_std=SD, num_samples=N, parameter_knots=8)
+    singles = [float(vojax.optimal_protocol(_oscillation, [s], [0.3], [30.0], ORDER, P, DT,
+                                            **common)[0][0]) for s in (1.0, 4.5, 12.0)]
+    criteria = [_criterion(c, 8) for c in singles]
+    best, _ = vojax.optimal_protocol(_oscillation, [[1.0], [4.5], [12.0]], [0.3], [30.0], ORDER,
+                                     P, DT, **common)
+    assert int(np.argmin(criteria)) != 0
+    assert float(best[0]) == pytest.approx(singles[int(np.argmin(criteria))], rel=1e-9)
+    for start in ([], [[1.0, 2.0]], [[[1.0]]]):
+        with pytest.raises(ValueError, match=r"`start` the shape \(k,\) or \(S, k\)"):
+            vojax.optimal_protocol(_oscillation, start, [0.3], [30.0], ORDER, P, DT, **common)

@@ -31,14 +31,16 @@ def optimal_protocol(
 
     `protocol(params, t)` gives the inputs (N,) or (N, n) at the times ``t = k·dt``
     (k < `num_samples`) for the parameters `params` (k,), written with `jax.numpy` (it is
-    differentiated); `start`, `lower`, `upper` (k,): the first guess and the limits (the
-    search runs on a logistic map of the box, so the limits hold exactly). The criterion is
+    differentiated); `start` (k,), or several starts (S, k), and `lower`, `upper` (k,): the
+    first guesses and the limits (the search runs on a logistic map of the box, so the
+    limits hold exactly). The criterion is
     ``"order"`` (A-optimal for the order: the mean predicted variance of α(t) over the second
     half of the test) or ``"D"`` (D-optimal: the information's log-determinant, every
     quantity). With `parameter_knots` the parameters are free to drift as in
     `fisher_information` (a gain on the memory term on this many hat functions): the
     protocol that determines the order whatever the parameters do. Minimised by BFGS
-    (optimistix) from `start`; a criterion with several minima needs several starts.
+    (optimistix) from each start; the best of their ends is returned (a criterion with
+    several minima needs several starts).
 
     **Returns:** ``(params, Design)``: the best parameters found and `fisher_information` of
     the protocol they give (with the same `knots` and `parameter_knots`).
@@ -53,9 +55,13 @@ def optimal_protocol(
 
     if criterion not in ("order", "D"):
         raise ValueError(f"`criterion` must be 'order' or 'D', got {criterion!r}.")
-    lo, hi, x = (np.atleast_1d(np.asarray(a, float)) for a in (lower, upper, start))
-    if not (lo.shape == hi.shape == x.shape) or not np.all(lo < hi):
-        raise ValueError("`start`, `lower` and `upper` must have one shape, with lower < upper.")
+    lo, hi = (np.atleast_1d(np.asarray(a, float)) for a in (lower, upper))
+    x = np.atleast_1d(np.asarray(start, float))
+    if (lo.ndim != 1 or lo.size == 0 or hi.shape != lo.shape or not np.all(lo < hi)
+            or x.ndim > 2 or x.shape[-1] != lo.size or x.size == 0):
+        raise ValueError("`lower` and `upper` must have one shape (k,), with lower < upper, and "
+                         "`start` the shape (k,) or (S, k).")
+    x = x.reshape(-1, lo.size)
     if not np.all((lo < x) & (x < hi)):
         raise ValueError("`start` must lie strictly inside (lower, upper).")
     if not (isinstance(num_samples, (int, np.integer)) and not isinstance(num_samples, bool)
@@ -66,7 +72,7 @@ def optimal_protocol(
     check.flag(x0, "x0")
     check.order(order, int(num_samples), bounds=order_range)
     t = float(check.step(dt)) * np.arange(num_samples)
-    n = _inputs_at_start(protocol, x, t)
+    n = _inputs_at_start(protocol, x[0], t)
     pj, _ = _check_design(p, n, int(num_samples), noise_std, knots, None, parameter_knots)
     mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
     hats, _ = _hats(t, int(knots))
@@ -93,10 +99,12 @@ def optimal_protocol(
         var = jnp.einsum("ni,ij,nj->n", hats_j[half:], cov[:k, :k], hats_j[half:])
         return jnp.log(jnp.mean(var))
 
-    z0 = jnp.log((x - lo) / (hi - x))
-    sol = optx.minimise(loss, optx.BFGS(rtol=1e-8, atol=1e-8), z0, max_steps=max_steps,
-                        throw=False)
-    best = np.asarray(params_of(sol.value))
+    solver = optx.BFGS(rtol=1e-8, atol=1e-8)
+    ends = [optx.minimise(loss, solver, jnp.log((guess - lo) / (hi - guess)),
+                          max_steps=max_steps, throw=False).value for guess in x]
+    values = np.array([float(loss(z, None)) for z in ends])  # NaN where a search failed
+    pick = int(np.argmin(np.where(np.isnan(values), np.inf, values)))
+    best = np.asarray(params_of(ends[pick]))
     u = np.asarray(protocol(jnp.asarray(best), jnp.asarray(t)), float)
     design = fisher_information(u, order, pj, dt, noise_std=noise_std, knots=knots, x0=x0,
                                 memory=memory, order_range=order_range,
