@@ -1229,6 +1229,12 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "compare takes a fractional number of knots (as a constant order)": (
+        "vojax/_compare.py",
+        [('        knots = check.count(knots, "knots", 2, max(2, min(stress.size, max_points) // 4))',
+          '        pass')],
+        ["tests/test_compare.py::test_bad_calls_are_refused"],
+    ),
     "optimal protocol returns the first start's end, not the best": (
         "vojax/_protocol.py",
         [("    pick = int(np.argmin(np.where(np.isnan(values), np.inf, values)))", "    pick = 0")],

@@ -85,6 +85,17 @@ def test_bad_calls_are_refused():
         vojax.compare(stress, stress[:-1], dt)
     with pytest.raises(ValueError, match="must both have shape"):
         vojax.compare(np.c_[stress, stress], stress, dt)  # two inputs: not a stress
+    # the variable order's knots: a whole number from 2 (a moving order) to a quarter of the
+    # points; 2.5 was taken as a constant order of 2.5, 0 refused as the refit's `order`
+    strain = np.asarray(vojax.simulate(stress, 0.4, np.array([0.5]), dt))
+    for knots, error, words in [(2.5, TypeError, "`knots` must be a whole number, got 2.5"),
+                                (True, TypeError, "`knots` must be a whole number"),
+                                (1, ValueError, "`knots` must be from 2 to 15, got 1"),
+                                (16, ValueError, "`knots` must be from 2 to 15, got 16")]:
+        with pytest.raises(error, match=words):
+            vojax.compare(stress, strain, dt, models=("variable",), knots=knots)
+    # without the variable order the knots are not used, and not checked
+    assert vojax.compare(stress, strain, dt, models=("springpot",), knots=1).rows
 
 
 def test_a_records_input_column_is_taken_as_the_stress():
@@ -154,8 +165,8 @@ def test_the_comparison_finds_each_law_with_the_noise_below_its_feature():
 def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tmp_path):
     """`vojax compare` on springpot data (q = 0.3, noise 1 %): one row per law fitted, sorted
     by evidence, the springpot first with its order, the weights summing to 1, the verdict
-    printed; `--model`, which the command does not use, is refused before anything is
-    written."""
+    printed; `--model`, which the command does not use, and one knot of a moving order are
+    refused before anything is written."""
     import csv
 
     from .test_data_cli import _cli
@@ -182,6 +193,9 @@ def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tm
     assert float(next(r for r in rows if r["model"] == "springpot")["order"]) == pytest.approx(0.3, abs=0.05)
     refused = _cli(*args[:-1], "again", "--model", "zener", cwd=tmp_path)
     assert refused.returncode == 1 and "--model does not apply to compare" in refused.stderr
+    assert not (tmp_path / "again").exists()
+    one_knot = _cli(*args[:-1], "again", "--knots", "1", cwd=tmp_path)
+    assert one_knot.returncode == 1 and "--knots must be from 2 to 10" in one_knot.stderr
     assert not (tmp_path / "again").exists()
 
 

@@ -160,8 +160,8 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
 
     - `models`: any of ``"springpot"``, ``"kelvin-voigt"``, ``"maxwell"``, ``"zener"`` (the
       constant-order laws of `vojax.Springpot` … `vojax.FractionalZener`, with their sign
-      constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots); one
-      name alone is that model alone;
+      constraints) and ``"variable"`` (a springpot whose order moves on `knots` knots, from
+      2 to a quarter of the points compared); one name alone is that model alone;
     - `holdout`: the fraction at the end of the record (of the window, with one) that a
       second fit of each model does not see and predicts (the whole loading history still
       drives it).
@@ -200,6 +200,8 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     models = (models,) if isinstance(models, str) else models  # one model, by its name
     stress, strain = _checked_arrays(stress, strain, models, holdout, dt, t)
     max_points = check.count(max_points, "max_points", 100, 1_000_000)
+    if "variable" in models:  # a moving order needs two knots; each a few points to fit it
+        knots = check.count(knots, "knots", 2, max(2, min(stress.size, max_points) // 4))
     _check_x0(x0, origin)
     if not isinstance(relative, (bool, np.bool_)):
         raise TypeError(f"`relative` must be True or False, got {relative!r}.")

@@ -167,8 +167,8 @@ def compare_command(args) -> int:
     unknown = [m for m in models if m not in MODELS]
     if unknown or not models:
         raise CLIError(f"--models takes some of {','.join(MODELS)}, got {args.models!r}.")
-    if not 1 <= args.knots <= 10:
-        raise CLIError(f"--knots must be from 1 to 10, got {args.knots}.")
+    if not 2 <= args.knots <= 10:
+        raise CLIError(f"--knots must be from 2 to 10 (a moving order), got {args.knots}.")
     check_fit_window(args)
     _out_apart(args.out, [args.file])
     records = _select(_load(args.file, args), args)

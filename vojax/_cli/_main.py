@@ -170,7 +170,7 @@ def _compare_parser(sub) -> None:
         help="comma-separated laws to fit (default: all five)",
     )
     m.add_argument("--knots", type=int, default=3,
-                   help="knots of the variable order (default 3)")
+                   help="knots of the variable order, 2 to 10 (default 3)")
     _refit_options(m)
     m.add_argument(
         "--x0", type=_finite, default=None, metavar="VALUE",
