@@ -1229,6 +1229,12 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "refit takes no solver steps, a negative tolerance and 2 for a flag": (
+        "vojax/_refit.py",
+        [('    max_steps = check.count(max_steps, "max_steps", 1, 100_000)\n', ""),
+         ('    throw, warn = check.flag(throw, "throw"), check.flag(warn, "warn")\n', "")],
+        ["tests/test_refit_settles.py::test_the_solvers_options_are_checked"],
+    ),
     "compare takes a fractional number of knots (as a constant order)": (
         "vojax/_compare.py",
         [('        knots = check.count(knots, "knots", 2, max(2, min(stress.size, max_points) // 4))',

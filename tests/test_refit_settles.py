@@ -258,3 +258,21 @@ def test_every_myocardium_fit_settles_at_its_profiles_least_squares(name, law, h
     # at the least squares: on a flat profile the two computations' orders differ by up to
     # 6e-6 (the exponential memory against `fractional_integral`), their sums of squares not
     assert rss(orders[0]) <= rss(q) * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    (dict(max_steps=0), ValueError, "`max_steps` must be from 1 to 100,000, got 0"),
+    (dict(max_steps=2.5), TypeError, "`max_steps` must be a whole number, got 2.5"),
+    (dict(rtol=-1.0), ValueError, "`rtol` must be a positive finite number, got -1.0"),
+    (dict(atol=float("nan")), ValueError, "`atol` must be a positive finite number, got nan"),
+    (dict(throw="x"), TypeError, "`throw` must be True or False, got 'x'"),
+    (dict(warn=2), TypeError, "`warn` must be True or False, got 2"),
+])
+def test_the_solvers_options_are_checked(kwargs, error, words):
+    """`refit`'s solver options out of range are refused naming the option; before, no step
+    at all (``max_steps=0``), a negative tolerance, and 2 or 'x' for a flag were taken."""
+    t = 0.05 * np.arange(60)
+    u = np.minimum(t / 1.0, 1.0)
+    y = np.asarray(vojax.simulate(u, 0.4, np.array([0.5]), 0.05))
+    with pytest.raises(error, match=words):
+        vojax.refit(u, y, 0.05, **kwargs)

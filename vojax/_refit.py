@@ -126,6 +126,9 @@ def refit(
     bounds = check.interval(order_bounds, "order_bounds")
     estimate = _check_x0(x0, origin)
     order0 = _start(order0, bounds)
+    max_steps = check.count(max_steps, "max_steps", 1, 100_000)
+    rtol, atol = (float(check.positive(v, name)) for v, name in ((rtol, "rtol"), (atol, "atol")))
+    throw, warn = check.flag(throw, "throw"), check.flag(warn, "warn")
     u2, y, _, x0, _ = check_options(
         u, y, dt, None, order0, bounds, memory, rule, None if estimate else x0, None, t=t
     )
