@@ -1229,6 +1229,11 @@ MUTATIONS = {
         [('hats_j[half:], cov[:k, :k], hats_j[half:])', 'hats_j[:half], cov[:k, :k], hats_j[:half])')],
         ["tests/test_design.py::test_the_optimal_ramp_for_a_moving_order_weighs_the_second_half"],
     ),
+    "the tracker takes a truthy number for smooth": (
+        "vojax/_tracker/_estimator.py",
+        [('        object.__setattr__(self, "smooth", check.flag(self.smooth, "smooth"))\n', "")],
+        ["tests/test_validation.py::test_a_bad_argument_is_named_not_left_to_numpy"],
+    ),
     "refit takes no solver steps, a negative tolerance and 2 for a flag": (
         "vojax/_refit.py",
         [('    max_steps = check.count(max_steps, "max_steps", 1, 100_000)\n', ""),

@@ -240,6 +240,14 @@ Y20 = np.linspace(0.0, 1.0, 20)
      ValueError, r"`q` \(the order\) must lie"),
     (lambda: vojax.KelvinVoigt().creep_compliance("abc", q=0.4, eta=1.0, k=1.0), TypeError,
      "`t` must"),
+    # flags: a truthy string or number was taken as True (smooth="no" smoothed)
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, smooth="no"), TypeError,
+     "`smooth` must be True or False, got 'no'"),
+    (lambda: vojax.Tracker(smooth=1), TypeError, "`smooth` must be True or False, got 1"),
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, warn=2), TypeError,
+     "`warn` must be True or False, got 2"),
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, method="gradient", warn="no"), TypeError,
+     "`warn` must be True or False, got 'no'"),
 ])
 def test_a_bad_argument_is_named_not_left_to_numpy(call, error, words):
     with pytest.raises(error, match=words):

@@ -143,6 +143,7 @@ def identify(
     """
     u, y, dt, t = check.record_arguments(u, y, dt, t)
     check.choice(method, ("kalman", "gradient"), "method")
+    smooth = check.flag(smooth, "smooth")
     spare_mappings()  # a long process never reaches the cap on memory mappings
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS

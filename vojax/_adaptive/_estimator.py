@@ -80,6 +80,7 @@ class LawEstimator:
         return self._fit(u, y, dt, t, warn, stacklevel=3)
 
     def _fit(self, u, y, dt, t, warn, stacklevel):
+        warn = check.flag(warn, "warn")
         # validate once, before any (possibly long) tuning; the law and the tuner share it
         u2, y, bounds, x0, r0 = check.check_options(
             u, y, dt, self.lam, self.alpha0, self.alpha_bounds, self.memory, self.rule,

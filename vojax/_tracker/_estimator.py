@@ -96,6 +96,7 @@ class Tracker:
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", parameters_statement(self.parameters))
+        object.__setattr__(self, "smooth", check.flag(self.smooth, "smooth"))
         check_noise(self.noise, self.parameters)
         if self.x0 is not None:
             object.__setattr__(self, "x0", check.known_offset(self.x0))
@@ -122,6 +123,7 @@ class Tracker:
         return self._fit(u, y, dt, t, mask, warn, stacklevel=3, window=window)
 
     def _fit(self, u, y, dt, t, mask, warn, stacklevel, window=None):
+        warn = check.flag(warn, "warn")
         u2, y, bounds, _, _ = check.check_options(
             u, y, dt, None, sum(self.alpha_bounds) / 2, self.alpha_bounds, self.memory,
             self.rule, None, None, t=t,
