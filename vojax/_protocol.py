@@ -33,10 +33,9 @@ def optimal_protocol(
     (k < `num_samples`) for the parameters `params` (k,), written with `jax.numpy` (it is
     differentiated); `start` (k,), or several starts (S, k), and `lower`, `upper` (k,): the
     first guesses and the limits (the search runs on a logistic map of the box, so the
-    limits hold exactly). The criterion is
-    ``"order"`` (A-optimal for the order: the mean predicted variance of α(t) over the second
-    half of the test) or ``"D"`` (D-optimal: the information's log-determinant, every
-    quantity). With `parameter_knots` the parameters are free to drift as in
+    limits hold exactly). The criterion is ``"order"`` (A-optimal for the order: the mean
+    predicted variance of α(t) over the second half of the test) or ``"D"`` (D-optimal: the
+    information's log-determinant, every quantity). With `parameter_knots` the parameters are free to drift as in
     `fisher_information` (a gain on the memory term on this many hat functions): the
     protocol that determines the order whatever the parameters do. Minimised by BFGS
     (optimistix) from each start; the best of their ends is returned (a criterion with
