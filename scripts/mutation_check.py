@@ -1297,7 +1297,8 @@ MUTATIONS = {
     ),
     "optimal protocol takes a protocol whose inputs are not finite": (
         "vojax/_protocol.py",
-        [("    if not np.all(np.isfinite(u)):", "    if False:")],
+        [("        u = check.samples(np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float), name)",
+          "        u = np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float)")],
         ["tests/test_protocol.py::test_a_protocol_it_cannot_use_is_refused_with_a_reason"],
     ),
     "optimal protocol's Design forgets its knots": (

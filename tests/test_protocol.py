@@ -50,10 +50,10 @@ def test_the_best_oscillation_under_drifting_parameters_is_a_minimum_of_its_own_
 
 
 @pytest.mark.parametrize("protocol, kwargs, words", [
-    (lambda q, t: jnp.ones(t.size - 1), {}, r"must give shape \(40,\) or \(40, n\), got \(39,\)"),
-    (lambda q, t: jnp.ones((t.size, 2, 2)), {}, r"must give shape \(40,\)"),
-    (lambda q, t: t / q[0] - jnp.inf, {}, "not finite"),
-    (lambda q, t: jnp.log(t - 1.0), {}, "not finite"),  # NaN before t = 1
+    (lambda q, t: jnp.ones(t.size - 1), {}, r"must give 40 samples \(one per time\), got \(39,\)"),
+    (lambda q, t: jnp.ones((t.size, 2, 2)), {}, r"must have shape \(N,\) or \(N, n\), got shape \(40, 2, 2\)"),
+    (lambda q, t: t / q[0] - jnp.inf, {}, r"contains NaN or inf \(first at index \(0,\)\)"),
+    (lambda q, t: jnp.log(t - 1.0), {}, "contains NaN or inf"),  # NaN before t = 1
     (lambda q, t: jnp.stack([t, t], 1), {}, r"`p` must be 2 finite number\(s\), one per input"),
     (lambda q, t: jnp.minimum(t / q[0], 1.0), dict(parameter_knots=1),
      "`parameter_knots` must be an integer from 2 to 20"),

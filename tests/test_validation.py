@@ -244,6 +244,8 @@ Y20 = np.linspace(0.0, 1.0, 20)
     (lambda: vojax.identify(np.ones(20), Y20, 0.1, smooth="no"), TypeError,
      "`smooth` must be True or False, got 'no'"),
     (lambda: vojax.Tracker(smooth=1), TypeError, "`smooth` must be True or False, got 1"),
+    (lambda: vojax.identify(np.ones(20), Y20, 0.1, method="gradient", smooth="no"), TypeError,
+     "`smooth` must be True or False, got 'no'"),
     (lambda: vojax.identify(np.ones(20), Y20, 0.1, warn=2), TypeError,
      "`warn` must be True or False, got 2"),
     (lambda: vojax.identify(np.ones(20), Y20, 0.1, method="gradient", warn="no"), TypeError,

@@ -143,7 +143,6 @@ def identify(
     """
     u, y, dt, t = check.record_arguments(u, y, dt, t)
     check.choice(method, ("kalman", "gradient"), "method")
-    smooth = check.flag(smooth, "smooth")
     spare_mappings()  # a long process never reaches the cap on memory mappings
     if alpha_bounds is None:
         alpha_bounds = DEFAULT_BOUNDS if method == "gradient" else KALMAN_BOUNDS
@@ -184,7 +183,7 @@ def _check_law_arguments(tracker_only, mask, smooth):
             )
     if mask is not None:
         raise ValueError("`mask` is for method='kalman'; the paper's law fits every sample.")
-    if not smooth:
+    if not check.flag(smooth, "smooth"):  # the tracker checks its own
         raise ValueError(
             "`smooth=False` sets the tracker (method='kalman'); the paper's law does not use it."
         )

@@ -101,8 +101,10 @@ def optimal_protocol(
     solver = optx.BFGS(rtol=1e-8, atol=1e-8)
     ends = [optx.minimise(loss, solver, jnp.log((guess - lo) / (hi - guess)),
                           max_steps=max_steps, throw=False).value for guess in x]
-    values = np.array([float(loss(z, None)) for z in ends])  # NaN where a search failed
-    pick = int(np.argmin(np.where(np.isnan(values), np.inf, values)))
+    pick = 0
+    if len(ends) > 1:  # the best end by the criterion (NaN where a search failed)
+        values = np.array([float(loss(z, None)) for z in ends])
+        pick = int(np.argmin(np.where(np.isnan(values), np.inf, values)))
     best = np.asarray(params_of(ends[pick]))
     u = np.asarray(protocol(jnp.asarray(best), jnp.asarray(t)), float)
     design = fisher_information(u, order, pj, dt, noise_std=noise_std, knots=knots, x0=x0,
@@ -112,15 +114,13 @@ def optimal_protocol(
 
 
 def _inputs_at_start(protocol, start, t):
-    """The number of inputs `protocol` gives at `start`, whose output is checked: finite, of
-    shape (N,) or (N, n) for the N times `t`."""
+    """The number of inputs `protocol` gives at `start`, whose output is checked as `u` is
+    (`check.samples`: finite, of shape (N,) or (N, n)) and for the N times `t`."""
+    name = "protocol(start, t)"
     try:
-        u = np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float)
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"`protocol(start, t)` failed: {err}") from err
-    if u.ndim not in (1, 2) or u.shape[0] != t.size or (u.ndim == 2 and u.shape[1] < 1):
-        raise ValueError(f"`protocol(start, t)` must give shape ({t.size},) or ({t.size}, n), "
-                         f"got {u.shape}.")
-    if not np.all(np.isfinite(u)):
-        raise ValueError("`protocol(start, t)` gives inputs that are not finite (NaN or inf).")
+        u = check.samples(np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float), name)
+    except TypeError as err:  # the call itself, or its output not numbers
+        raise ValueError(f"`{name}` failed: {err}") from err
+    if u.shape[0] != t.size:
+        raise ValueError(f"`{name}` must give {t.size} samples (one per time), got {u.shape}.")
     return 1 if u.ndim == 1 else u.shape[1]
