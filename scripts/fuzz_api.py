@@ -127,6 +127,34 @@ def _calls():
          dict(amplitude=SCALARS, cycles=[None, (), (0,), (-1,), ("a",), (1e9,), 5],
               starts=[None, (), (1.5,), (-0.1,), (math.nan,), 0.2],
               parameter_knots=COUNTS, noise_std=SCALARS, pad_to=COUNTS))
+    vary("settling_test[chirp]", vojax.settling_test,
+         dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01, cycles=(2, 8), starts=(0.0,),
+              chirp=True),
+         dict(chirp=[None, "yes", 1, 0.0, math.nan],
+              cycles=[None, (), (4,), (8, 2), (0, 4), (2, math.inf), (2, 8, 16), ("a", 4)],
+              amplitude=SCALARS, starts=[None, (), (1.5,), (math.nan,)]))
+
+    def sine(params, t):  # a load with an oscillation of `params` = (amplitude, cycles)
+        import jax.numpy as jnp
+        return 1.0 + params[0] * jnp.sin(2 * jnp.pi * params[1] * t / (N * DT))
+
+    protocol = dict(protocol=sine, start=np.array([0.1, 3.0]), lower=np.array([0.0, 0.5]),
+                    upper=np.array([0.3, 10.0]), order=0.4, p=[1.0], dt=DT, noise_std=0.01,
+                    num_samples=N, max_steps=5)
+    vary("optimal_protocol", vojax.optimal_protocol, protocol,
+         dict(protocol=[None, 3, "x", lambda params, t: t[:2], lambda params, t: t * np.nan,
+                        lambda params, t: np.ones((N, 2))],
+              start=_arrays(np.array([0.1, 3.0])) + [np.array([[0.1, 3.0], [0.2]], object),
+                                                       np.array([[0.1, 3.0], [0.4, 3.0]])],
+              lower=_arrays(np.array([0.0, 0.5])), upper=_arrays(np.array([0.3, 10.0])),
+              order=SCALARS, p=SCALARS, dt=SCALARS, noise_std=SCALARS, knots=COUNTS,
+              num_samples=COUNTS, criterion=TEXTS + ["D", "A"], x0=SCALARS[:6],
+              parameter_knots=COUNTS, max_steps=COUNTS, order_range=PAIRS))
+    vary("TrackerSettings", lambda **kw: vojax.TrackerSettings(**kw), {},
+         {name: SCALARS + TEXTS[:3] for name in (
+             "max_iter", "noise_min", "order_drift_range", "level_ratios", "level_step",
+             "level_weights", "band_scale", "identified_halfwidth", "run_threads",
+             "schedule", "trade_knots", "held_order_drift")})
     vary("tune_gains", vojax.tune_gains, dict(u=U, y=Y, dt=DT),
          dict(y=_arrays(Y), alpha0=SCALARS, alpha_bounds=PAIRS, lam=SCALARS,
               burn_in=SCALARS, lag=SCALARS, num_gamma=COUNTS))
@@ -146,6 +174,24 @@ def _calls():
               stress=_arrays(U), dt=SCALARS, t=_arrays(T), origin=SCALARS + TEXTS))
     vary("KelvinVoigt.creep_compliance", kv.creep_compliance, dict(law_params, t=T[1:]),
          dict(t=_arrays(T[1:]), q=SCALARS, eta=SCALARS))
+    for model, values in ((vojax.Springpot(), dict(eta=2.0)),
+                          (vojax.FractionalMaxwell(), dict(eta=2.0, E=5.0)),
+                          (vojax.FractionalZener(), dict(eta=2.0, E0=1.0, E1=5.0))):
+        label = type(model).__name__
+        hostile = dict(q=SCALARS, **{k: SCALARS for k in values})
+        vary(f"{label}.strain_response", model.strain_response,
+             dict(values, stress=U, dt=DT, q=0.4), dict(hostile, stress=_arrays(U), dt=SCALARS))
+        for method, axis in (("complex_modulus", "omega"), ("relaxation_modulus", "t"),
+                             ("creep_compliance", "t")):
+            vary(f"{label}.{method}", getattr(model, method), dict(values, q=0.4, **{axis: T[1:]}),
+                 dict(hostile, **{axis: _arrays(T[1:])}))
+    vary("refit_lbfgsb", vojax.refit_lbfgsb, dict(u=U, y=Y, dt=DT, max_steps=30),
+         dict(u=_arrays(U), y=_arrays(Y), dt=SCALARS, order=TEXTS + COUNTS, order_bounds=PAIRS,
+              order0=SCALARS, x0=SCALARS, memory=TEXTS, max_steps=COUNTS, tol=SCALARS))
+    vary("stress_strain", vojax.stress_strain, dict(force=U, displacement=T, area=2.0, length=3.0),
+         dict(force=_arrays(U), displacement=_arrays(T), area=SCALARS, length=SCALARS))
+    vary("study_signals", vojax.study_signals, dict(duration=5.0),
+         dict(dt=SCALARS, duration=SCALARS))
     vary("mittag_leffler", vojax.mittag_leffler, dict(alpha=0.4, x=T, beta=1.0),
          dict(alpha=SCALARS, x=_arrays(T), beta=SCALARS + [2.0, 1.4, 2.4, 1.5]))
     vary("mittag_leffler_jax", vojax.mittag_leffler_jax, dict(alpha=0.4, x=T, beta=1),

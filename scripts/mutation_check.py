@@ -1301,6 +1301,28 @@ MUTATIONS = {
           "        u = np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float)")],
         ["tests/test_protocol.py::test_a_protocol_it_cannot_use_is_refused_with_a_reason"],
     ),
+    "optimal protocol traces an integer noise level (2**63 overflows)": (
+        "vojax/_protocol.py",
+        [("    noise_std = float(noise_std)  # an integer as large as 2**63 overflows a traced int\n",
+          "")],
+        ["tests/test_protocol.py::test_an_integer_noise_level_plans_as_its_float"],
+    ),
+    "optimal protocol reads text limits with NumPy's message": (
+        "vojax/_protocol.py",
+        [("    lo, hi, x = (np.atleast_1d(check.reals(a, name))",
+          "    lo, hi, x = (np.atleast_1d(np.asarray(a, float))")],
+        ["tests/test_protocol.py::test_limits_and_starts_that_are_not_numbers_are_refused_by_name"],
+    ),
+    "the study's signals take a step of 0": (
+        "vojax/_study.py",
+        [("    if not (0 < dt < math.inf and 0 < duration < math.inf):", "    if False:")],
+        ["tests/test_validation.py::test_the_studys_signals_refuse_a_grid_they_cannot_draw"],
+    ),
+    "refit_lbfgsb returns a NaN answer": (
+        "vojax/_refit.py",
+        [("    if not np.all(np.isfinite(np.asarray(theta))):", "    if False:")],
+        ["tests/test_refit.py::test_the_second_opinion_checks_its_solver_settings_and_its_answer"],
+    ),
     "optimal protocol's Design forgets its knots": (
         "vojax/_protocol.py",
         [("noise_std=noise_std, knots=knots, x0=x0,", "noise_std=noise_std, knots=1, x0=x0,")],

@@ -62,6 +62,9 @@ def test_the_best_oscillation_under_drifting_parameters_is_a_minimum_of_its_own_
     (lambda q, t: jnp.minimum(t / q[0], 1.0), dict(num_samples=True), "`num_samples` must be"),
     (lambda q, t: jnp.minimum(t / q[0], 1.0), dict(noise_std=True), "`noise_std` must be"),
     (lambda q, t: jnp.minimum(t / q[0], 1.0), dict(knots=0), "`knots` must be an integer"),
+    # a count that would fill the memory with its times, before they are made
+    (lambda q, t: jnp.minimum(t / q[0], 1.0), dict(num_samples=10**9),
+     "`num_samples` must be an integer from 4 to 1,000,000, got 1000000000"),
 ])
 def test_a_protocol_it_cannot_use_is_refused_with_a_reason(protocol, kwargs, words):
     """Inputs of the wrong shape, not finite at the start, or not one per parameter, and bad
@@ -69,6 +72,32 @@ def test_a_protocol_it_cannot_use_is_refused_with_a_reason(protocol, kwargs, wor
     call = dict(noise_std=0.01, num_samples=40) | kwargs
     with pytest.raises(ValueError, match=words):
         vojax.optimal_protocol(protocol, [1.0], [0.5], [2.0], 0.4, [1.0], 0.05, **call)
+
+
+@pytest.mark.parametrize("where", ["start", "lower", "upper"])
+@pytest.mark.parametrize("bad, words", [("abc", "must be a number or an array of numbers"),
+                                        ([[1.0, 2.0], [3.0]], "must be a number or a rectangular array"),
+                                        (np.array(["a"]), "must hold real numbers")])
+def test_limits_and_starts_that_are_not_numbers_are_refused_by_name(where, bad, words):
+    """Text, ragged lists and arrays of text as `start`, `lower` or `upper`: a `TypeError`
+    naming the argument (NumPy's own message names none)."""
+    call = dict(start=[1.0], lower=[0.5], upper=[2.0]) | {where: bad}
+    with pytest.raises(TypeError, match=f"`{where}` {words}"):
+        vojax.optimal_protocol(lambda q, t: jnp.minimum(t / q[0], 1.0), **call, order=0.4,
+                               p=[1.0], dt=0.05, noise_std=0.01, num_samples=40, max_steps=3)
+
+
+def test_an_integer_noise_level_plans_as_its_float():
+    """`noise_std` given as a Python integer (2**63 overflows a traced 64-bit integer) plans
+    the same protocol as the same level given as a float."""
+    call = dict(order=0.4, p=[1.0], dt=0.05, num_samples=40, max_steps=20)
+    protocol = lambda q, t: jnp.minimum(t / q[0], 1.0)  # noqa: E731
+    big, design = vojax.optimal_protocol(protocol, [1.0], [0.5], [2.0], noise_std=2**63, **call)
+    same, twin = vojax.optimal_protocol(protocol, [1.0], [0.5], [2.0],
+                                        noise_std=float(2**63), **call)
+    np.testing.assert_array_equal(big, same)
+    np.testing.assert_allclose(design.order_stderr, twin.order_stderr, rtol=1e-12)
+    assert np.all(np.isfinite(design.order_stderr)) and np.all(design.order_stderr > 1e17)
 
 
 def _ramp_hold(n=240, dt=0.05):

@@ -432,6 +432,30 @@ def test_the_second_opinion_also_starts_inside_a_bound():
     assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1
 
 
+def test_the_second_opinion_checks_its_solver_settings_and_its_answer():
+    """`refit_lbfgsb`'s `tol` and `max_steps` are checked (a text `tol` failed inside the
+    solver with "'>' not supported between instances of 'DynamicJaxprTracer' and 'str'"),
+    and an answer outside float64's range (a step of 1e-300 s) is refused, not returned as
+    NaN."""
+    pytest.importorskip("jaxopt")
+    from vojax._refit import refit_lbfgsb
+
+    y = _data(0.62, seed=0)[:200]
+    for tol in (None, "1e-9", -1.0, float("nan")):
+        with pytest.raises((TypeError, ValueError), match="`tol` must be"):
+            refit_lbfgsb(U[:200], y, DT, x0=0.0, tol=tol)
+    for steps in (0, 2.5, True):
+        with pytest.raises((TypeError, ValueError), match="`max_steps` must be"):
+            refit_lbfgsb(U[:200], y, DT, x0=0.0, max_steps=steps)
+    t = 0.1 * np.arange(40)  # a short record: at a step of 1e-300 s its columns are ~1e-120
+    u = np.minimum(t, 1.0) + 0.1
+    short = np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+    with pytest.raises(ValueError, match="refit_lbfgsb reached no finite answer on these data"):
+        refit_lbfgsb(u, short, 1e-300, x0=0.0, max_steps=30)
+    order, p = refit_lbfgsb(u, short, 0.1, x0=0.0, max_steps=30)  # the same record, in seconds
+    assert np.all(np.isfinite(np.asarray(order))) and np.all(np.isfinite(np.asarray(p)))
+
+
 @pytest.mark.parametrize("second_opinion", [False, True])
 def test_a_start_outside_the_range_is_named_in_the_refits_own_words(second_opinion):
     """The message names `order0` and `order_bounds`, the arguments the caller gave (not the

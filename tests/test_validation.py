@@ -158,6 +158,25 @@ def test_signals_whose_squares_leave_float64_are_refused_by_every_estimator():
     assert np.all(np.isfinite(np.asarray(res.alpha)))
 
 
+@pytest.mark.parametrize("dt, duration, error, words", [
+    (0.0, 10.0, ValueError, "`dt` and `duration` must be positive finite numbers, got 0.0"),
+    (float("inf"), 10.0, ValueError, "must be positive finite numbers, got inf"),
+    (0.1, float("inf"), ValueError, "must be positive finite numbers, got 0.1 and inf"),
+    (-0.1, 10.0, ValueError, "must be positive finite numbers"),
+    (1e-300, 10.0, ValueError, r"`duration` / `dt` must be at most 2,000,000 steps, got 1e\+301"),
+    (True, 10.0, TypeError, "`dt` must be a number, got True"),
+    (0.1, "10", TypeError, "`duration` must be a number"),
+])
+def test_the_studys_signals_refuse_a_grid_they_cannot_draw(dt, duration, error, words):
+    """`study_signals` on a step of 0 (ZeroDivisionError before), an infinite step or
+    duration (a NaN clock, or OverflowError) or 10^301 steps: one sentence naming them."""
+    with pytest.raises(error, match=words):
+        vojax.study_signals(dt, duration)
+    t, u, alpha, p = vojax.study_signals(0.5, 2.0)  # the grid k·dt up to the duration
+    np.testing.assert_array_equal(t, [0.0, 0.5, 1.0, 1.5, 2.0])
+    assert u.shape == (5, 2) and alpha.shape == (5,) and p.shape == (5, 2)
+
+
 def test_the_study_and_the_gain_search_refuse_what_they_cannot_run():
     """`simulate_study` with a step of 0 (ZeroDivisionError before), 2**63 (OverflowError) or
     a NaN noise (a NaN record returned), and `tune_gains` asked for a 10^9-point grid (a
@@ -192,7 +211,7 @@ def test_the_tracker_refuses_more_inputs_than_it_can_carry():
 
 @pytest.mark.slow
 def test_the_api_fuzz_corpus_is_clean():
-    """`scripts/fuzz_api.py`: about 2,280 hostile arguments through the public functions,
+    """`scripts/fuzz_api.py`: about 3,970 hostile arguments through the public functions,
     every outcome clean: vojax's own one-line error (never NumPy's or Python's, which name
     no argument) or a finite answer, within the time limit."""
     script = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_api.py"
@@ -202,7 +221,7 @@ def test_the_api_fuzz_corpus_is_clean():
     assert proc.returncode == 0, text[-4000:] + proc.stderr[-2000:]
     total, clean = (int(w) for w in text.split(" cases, ")[0].split()[-1:]
                     + text.split(" cases, ")[1].split()[:1])
-    assert total >= 2000 and clean == total
+    assert total >= 3900 and clean == total
 
 
 T20 = 0.1 * np.arange(20)

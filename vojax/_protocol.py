@@ -7,6 +7,10 @@ import numpy as np
 from . import _validate as check
 from ._design import _check_design, _hats, _jacobian, fisher_information
 
+# the longest test planned: its times and Jacobian columns are held in memory (about 80 MB
+# at this length); a longer one is planned on a coarser grid
+MAX_SAMPLES = 1_000_000
+
 
 def optimal_protocol(
     protocol,
@@ -54,8 +58,8 @@ def optimal_protocol(
 
     if criterion not in ("order", "D"):
         raise ValueError(f"`criterion` must be 'order' or 'D', got {criterion!r}.")
-    lo, hi = (np.atleast_1d(np.asarray(a, float)) for a in (lower, upper))
-    x = np.atleast_1d(np.asarray(start, float))
+    lo, hi, x = (np.atleast_1d(check.reals(a, name))
+                 for a, name in ((lower, "lower"), (upper, "upper"), (start, "start")))
     if (lo.ndim != 1 or lo.size == 0 or hi.shape != lo.shape or not np.all(lo < hi)
             or x.ndim > 2 or x.shape[-1] != lo.size or x.size == 0):
         raise ValueError("`lower` and `upper` must have one shape (k,), with lower < upper, and "
@@ -64,8 +68,9 @@ def optimal_protocol(
     if not np.all((lo < x) & (x < hi)):
         raise ValueError("`start` must lie strictly inside (lower, upper).")
     if not (isinstance(num_samples, (int, np.integer)) and not isinstance(num_samples, bool)
-            and num_samples >= 4):
-        raise ValueError(f"`num_samples` must be an integer ≥ 4, got {num_samples!r}.")
+            and 4 <= num_samples <= MAX_SAMPLES):
+        raise ValueError(f"`num_samples` must be an integer from 4 to {MAX_SAMPLES:,}, got "
+                         f"{num_samples!r}.")
     order_range = check.interval(order_range, "order_range")
     max_steps = check.count(max_steps, "max_steps", 1, 100_000)
     check.flag(x0, "x0")
@@ -73,6 +78,7 @@ def optimal_protocol(
     t = float(check.step(dt)) * np.arange(num_samples)
     n = _inputs_at_start(protocol, x[0], t)
     pj, _ = _check_design(p, n, int(num_samples), noise_std, knots, None, parameter_knots)
+    noise_std = float(noise_std)  # an integer as large as 2**63 overflows a traced int
     mem = make_memory(memory, float(dt), num_samples, order_range=order_range)
     hats, _ = _hats(t, int(knots))
     drift_hats = (None if parameter_knots is None  # the constant part is p itself

@@ -291,6 +291,9 @@ def refit_lbfgsb(
     `order_bounds` (no logit). Needs the optional extra ``vojax[jaxopt]``.
 
     **Returns:** ``(order (N,), p (n,))``.
+
+    **Raises:** `ValueError` for an argument out of range, or where the solver reaches no
+    finite answer.
     """
     try:
         import warnings
@@ -302,6 +305,8 @@ def refit_lbfgsb(
         raise ImportError("refit_lbfgsb needs jaxopt: pip install 'vojax[jaxopt]'.") from None
     bounds = check.interval(order_bounds, "order_bounds")
     order0 = _start(order0, bounds)
+    max_steps = check.count(max_steps, "max_steps", 1, 100_000)
+    tol = float(check.positive(tol, "tol"))
     u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)
     num, width = u2.shape
     if order == "constant":
@@ -329,5 +334,8 @@ def refit_lbfgsb(
     theta0 = jnp.concatenate([jnp.full(num_knots, float(order0)), jnp.linalg.lstsq(phi0, big_y)[0]])
     solver = jaxopt.LBFGSB(fun=objective, maxiter=max_steps, tol=tol)
     theta = solver.run(theta0, bounds=(lower, upper)).params
+    if not np.all(np.isfinite(np.asarray(theta))):
+        raise ValueError("refit_lbfgsb reached no finite answer on these data (L-BFGS-B "
+                         "stepped out of float64's range): use vojax.refit, or other units.")
     z = (theta[:num_knots] - lo) / (hi - lo)
     return _order_curve(jnp.log(z / (1 - z)), num, bounds), theta[num_knots:]

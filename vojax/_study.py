@@ -1,16 +1,28 @@
 """The paper's simulation study (34), as data: inputs, true order and parameters."""
 
+import math
+
 import numpy as np
 
 from ._simulate import simulate
+from ._values import real
 
 STUDY_DT = 0.05
 STUDY_DURATION = 300.0
 STUDY_NOISE_STD = 0.5  # ν ~ N(0, 0.25): variance 0.25
+MAX_STUDY_SAMPLES = 2_000_000  # the longest study drawn (its signals held in memory)
 
 
 def study_signals(dt: float = STUDY_DT, duration: float = STUDY_DURATION):
-    """``t``, ``u`` (N, 2), ``α*`` (N,) and ``p*`` (N, 2) of eq. (34) on ``t_k = k·dt``."""
+    """``t``, ``u`` (N, 2), ``α*`` (N,) and ``p*`` (N, 2) of eq. (34) on ``t_k = k·dt``
+    up to `duration` (at most `MAX_STUDY_SAMPLES` steps)."""
+    dt, duration = (real(v, name) for v, name in ((dt, "dt"), (duration, "duration")))
+    if not (0 < dt < math.inf and 0 < duration < math.inf):
+        raise ValueError(f"`dt` and `duration` must be positive finite numbers, got {dt!r} and "
+                         f"{duration!r}.")
+    if duration / dt > MAX_STUDY_SAMPLES:
+        raise ValueError(f"`duration` / `dt` must be at most {MAX_STUDY_SAMPLES:,} steps, got "
+                         f"{duration / dt:.3g}.")
     t = np.arange(int(round(duration / dt)) + 1) * dt
     u = np.stack([np.sin(0.5 * t), np.cos(0.2 * t)], axis=1)
     alpha = 0.15 * np.exp(-0.02 * t) * (np.cos(0.2 * t) + 2) + 0.4
@@ -26,8 +38,6 @@ def simulate_study(
 
     **Returns:** a dict with ``t``, ``u``, ``alpha``, ``p``, ``x`` (noise-free) and ``y``.
     """
-    import math
-
     if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (
             STUDY_DURATION / 2e6 <= dt <= 10.0):
         raise ValueError(f"`dt` must be a step from {STUDY_DURATION / 2e6:g} to 10 s (at most "
