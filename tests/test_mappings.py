@@ -131,6 +131,36 @@ def test_after_a_drop_the_tracker_runs_its_shares_one_after_another_again(monkey
     assert threads_used()
 
 
+@pytest.mark.skipif((__import__("os").cpu_count() or 1) < 2, reason="needs two cores")
+def test_a_thread_that_is_done_takes_the_next_run():
+    """Warm, `in_threads` gives each run to the first free thread: while one thread is held
+    by a long first run, the other runs every other one (equal shares gave runs 0–2 to the
+    held thread); the outputs come back in the runs' order."""
+    problem = types.SimpleNamespace(settings=types.SimpleNamespace(run_threads=2),
+                                    schedule="sequential")
+    fn, release = object(), threading.Event()  # a key of its own
+
+    def call(lo, hi):
+        if lo == 0:  # the long run: held until every other run is done
+            release.wait(timeout=30)
+        done.append(lo)
+        if len(done) == 5:
+            release.set()
+        return lo, threading.get_ident()
+
+    for _ in range(2):  # cold (in this thread), then warm (side by side)
+        done = []
+        release.clear()
+        if not _:  # cold: the first run must not wait for the others
+            release.set()
+        out = _threads.in_threads(problem, fn, 6, call, ("shape",))
+    assert [share for share, _ in out] == [(k, k + 1) for k in range(6)]
+    assert [lo for _, (lo, _) in out] == list(range(6))
+    assert done[-1] == 0  # the long run finished last: the others did not wait behind it
+    held = out[0][1][1]
+    assert {ident for _, (_, ident) in out[1:]} - {held}  # another thread ran the rest
+
+
 def test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed():
     """`two_at_once`: cold, one after the other in this thread; warm, the second in a thread
     of its own; the outputs in order; one thread where `run_threads` is 1, a parallel-in-time

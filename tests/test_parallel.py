@@ -164,18 +164,22 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
 
 def test_tracker_runs_one_thread_with_a_parallel_schedule_on_a_cpu(monkeypatch):
     """XLA:CPU deadlocked running the prefix sums' programs from two threads at once: with a
-    parallel schedule on a CPU the tracker's runs go one after another, in one share."""
+    parallel schedule on a CPU the tracker's runs go one after another, in one share; with
+    the sequential one each run is a share of its own (a free thread takes the next), and
+    batched runs go in equal shares, one per core."""
     import types
 
     from vojax._tracker import _threads
 
     monkeypatch.setattr(_threads.os, "cpu_count", lambda: 4)
     shares = {}
-    for how in ("sequential", "chunked"):
+    for how, batched in (("sequential", False), ("chunked", False), ("sequential", True)):
         problem = types.SimpleNamespace(settings=vojax.TrackerSettings(), schedule=how)
         for _ in range(2):  # the second time warm: the shares run side by side
             out = _threads.in_threads(problem, _problem, 8, lambda lo, hi: hi - lo,
-                                      ("test", how))
-        shares[how] = [share for share, _ in out]
-    assert len(shares["sequential"]) == 4
-    assert shares["chunked"] == [(0, 8)]
+                                      ("test", how, batched), batched)
+        assert [size for _, size in out] == [hi - lo for (lo, hi), _ in out]
+        shares[how, batched] = [share for share, _ in out]
+    assert shares["sequential", False] == [(k, k + 1) for k in range(8)]
+    assert shares["chunked", False] == [(0, 8)]
+    assert shares["sequential", True] == [(0, 2), (2, 4), (4, 6), (6, 8)]

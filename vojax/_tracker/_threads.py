@@ -1,5 +1,6 @@
-"""A pass's independent smoothings side by side: equal shares in threads (one compiled program
-for every share), each share's runs batched where that is faster."""
+"""A pass's independent smoothings side by side in threads: one run at a time (a thread that is
+done takes the next), or equal shares where each share's runs are batched into one program
+(where that is faster)."""
 
 import concurrent.futures
 import contextlib
@@ -17,25 +18,28 @@ _warm: set = set()  # (drops, function, shapes) already run: their shares may ru
 _warm_lock = threading.Lock()
 
 
-def in_threads(problem, fn, count, call, key):
-    """``call(lo, hi)`` for equal shares ``[lo, hi)`` of the `count` runs, in threads (at most
+def in_threads(problem, fn, count, call, key, batched=False):
+    """``call(lo, hi)`` for shares ``[lo, hi)`` of the `count` runs, in threads (at most
     `settings.run_threads`, one per core) once `fn` has run for these shapes (`key`); the
     first time one share after another, so that two threads never compile the same
-    program (again after `spare_mappings` has dropped the compiled programs). Returns the
-    shares' outputs in order, with their ``(lo, hi)``."""
+    program (again after `spare_mappings` has dropped the compiled programs). A share is
+    one run, and a thread that is done takes the next: runs differ in their iterations (7
+    to the budget), which no fixed split balances. Where `batched` (the share's runs are one
+    vmapped program) the shares are equal, one per thread; with one thread, one share.
+    Returns the shares' outputs in order, with their ``(lo, hi)``."""
     workers = max(1, min(count, os.cpu_count() or 1,
                          thread_limit(problem.settings, problem.schedule)))
-    size = -(-count // workers)
+    size = 1 if workers > 1 and not batched else -(-count // workers)
     shares = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
     key = (programs_dropped(), id(fn), size, *key)
 
     def side_by_side():
         scoped = callers_scope(call)
-        with concurrent.futures.ThreadPoolExecutor(len(shares)) as pool:
+        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
             return list(pool.map(lambda share: scoped(*share), shares))
 
     return list(zip(shares, once_warm(key, lambda: [call(lo, hi) for lo, hi in shares],
-                                      side_by_side if len(shares) > 1 else None)))
+                                      side_by_side if workers > 1 else None)))
 
 
 def once_warm(key, in_turn, side_by_side=None):
@@ -120,7 +124,7 @@ def _run_shares(problem, fn, rows, firsts, budget):
                  batched, problem.schedule)
         return jax.block_until_ready(out)
 
-    return in_threads(problem, fn, len(rows), call, (problem.u.shape, budget, batched))
+    return in_threads(problem, fn, len(rows), call, (problem.u.shape, budget, batched), batched)
 
 
 def _joined(parts, k):
