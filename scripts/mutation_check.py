@@ -1301,6 +1301,12 @@ MUTATIONS = {
           "        u = np.asarray(protocol(jnp.asarray(start), jnp.asarray(t)), float)")],
         ["tests/test_protocol.py::test_a_protocol_it_cannot_use_is_refused_with_a_reason"],
     ),
+    "the threads split a pass's runs into equal shares (one idles behind the long runs)": (
+        "vojax/_tracker/_threads.py",
+        [("    size = 1 if workers > 1 and not batched else -(-count // workers)",
+          "    size = -(-count // workers)")],
+        ["tests/test_mappings.py::test_a_thread_that_is_done_takes_the_next_run"],
+    ),
     "optimal protocol traces an integer noise level (2**63 overflows)": (
         "vojax/_protocol.py",
         [("    noise_std = float(noise_std)  # an integer as large as 2**63 overflows a traced int\n",

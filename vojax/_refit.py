@@ -305,9 +305,9 @@ def refit_lbfgsb(
         raise ImportError("refit_lbfgsb needs jaxopt: pip install 'vojax[jaxopt]'.") from None
     bounds = check.interval(order_bounds, "order_bounds")
     order0 = _start(order0, bounds)
-    max_steps = check.count(max_steps, "max_steps", 1, 100_000)
-    tol = float(check.positive(tol, "tol"))
     u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)
+    max_steps, tol = (check.count(max_steps, "max_steps", 1, 100_000),
+                      float(check.positive(tol, "tol")))
     num, width = u2.shape
     if order == "constant":
         num_knots = 1
