@@ -231,6 +231,13 @@ def _calls():
               segments=[None, 3, [0], ["a"], "0"], tip=[None, "sphere", ("sphere",),
                                                         ("cube", 1.0)],
               contact=TEXTS + ["fit", "frechet_direct_path"], spring_constant=SCALARS))
+    vary("write_results", vojax.write_results,
+         dict(folder=tmp / "written", columns={"a": U}, summary={"x": 1.0}),
+         dict(folder=[None, 3, "", b"x", True, good],
+              columns=[None, {}, [U], {1: U}, {"a": U, "b": U[:-1]}]
+              + [{"a": bad} for bad in _arrays(U)],
+              summary=[None, 3, [("x", 1.0)], {"k": object()}, {1: 2, "b": 3}, {"k": math.nan}],
+              record=[None, 3, "x", object()], figure_format=TEXTS))
     jpk = Path(__file__).resolve().parents[1] / "tests" / "data" / "afm" / "brain_creep.jpk-force"
     vary("load_records(AFM)", vojax.io.load_records,
          dict(path=jpk, time="time_s", inputs=["force_rise_N"], output="indentation_m"),

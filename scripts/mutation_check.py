@@ -1307,6 +1307,11 @@ MUTATIONS = {
           "    size = -(-count // workers)")],
         ["tests/test_mappings.py::test_a_thread_that_is_done_takes_the_next_run"],
     ),
+    "write_results writes before it checks (a bad summary loses the old one)": (
+        "vojax/io.py",
+        [("    _check_results(folder, columns, summary, record)\n", "")],
+        ["tests/test_checks_io.py::test_bad_results_are_refused_before_anything_is_written"],
+    ),
     "optimal protocol traces an integer noise level (2**63 overflows)": (
         "vojax/_protocol.py",
         [("    noise_std = float(noise_std)  # an integer as large as 2**63 overflows a traced int\n",

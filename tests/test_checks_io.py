@@ -147,6 +147,41 @@ def test_io_loads_identifies_and_writes_the_shipped_example(tmp_path):
         vojax.io.identify_record(record, method="kalmann")
 
 
+@pytest.mark.parametrize("call, error, words", [
+    (dict(folder=None), TypeError, "`folder` must be a path, got None"),
+    (dict(columns=None), TypeError, "`columns` must be a mapping of column names to samples"),
+    (dict(columns={}), ValueError, "`columns` is empty"),
+    (dict(columns={"a": [1.0, 2.0], "b": [1.0]}), ValueError,
+     r"`columns` must all have one length, got lengths \[1, 2\]"),
+    (dict(columns={"a": "abc"}), TypeError, r"`columns\['a'\]` must be a number or an array"),
+    (dict(columns={"a": [[1.0, 2.0]]}), ValueError, r"must be one column of samples \(N,\)"),
+    (dict(columns={1: [1.0]}), TypeError, "`columns`' names must be non-empty text, got 1"),
+    (dict(summary=None), TypeError, "`summary` must be a mapping"),
+    (dict(summary={"k": object()}), TypeError, "`summary` must hold what JSON can"),
+    (dict(summary={1: 2, "b": 3}), TypeError, "`summary` must hold what JSON can"),
+    (dict(record="x"), TypeError, "`record` must be a vojax.io.Record or None, got str"),
+    (dict(folder="FILE"), ValueError, "is a file, not a folder"),
+])
+def test_bad_results_are_refused_before_anything_is_written(tmp_path, call, error, words):
+    """`write_results` checks what it is given before it writes: the folder's earlier
+    outputs stay as they were (a summary JSON cannot hold removed the old ``summary.json``
+    and left a new table under no summary)."""
+    folder = tmp_path / "out"
+    good = dict(folder=folder, columns={"a": [1.0, float("nan")]}, summary={"x": 1.5})
+    vojax.write_results(**good)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert sorted(before) == ["identification.csv", "summary.json"]
+    args = good | call
+    if args["folder"] == "FILE":  # the path of a file, not a folder
+        args["folder"] = tmp_path / "table.csv"
+        args["folder"].write_text("a\n1\n")
+    with pytest.raises(error, match=words):
+        vojax.write_results(args.pop("folder"), args.pop("columns"), args.pop("summary"),
+                            **args)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert json.loads(before["summary.json"]) == {"x": 1.5}
+
+
 def test_identify_takes_one_record_of_a_long_file(tmp_path, capsys):
     rows = ["time,stress,strain,specimen"]
     for name in ("a", "b"):

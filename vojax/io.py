@@ -111,7 +111,12 @@ def write_results(folder, columns, summary, record: Record | None = None, *, fig
     """Writes ``identification.csv``, ``summary.json`` (with a provenance block: versions, the
     input file's SHA-256, the settings) and, when `record` is given,
     ``identification.<figure_format>`` (png, svg or pdf) into `folder`, each atomically.
-    Returns the folder as a `Path`."""
+    Returns the folder as a `Path`.
+
+    **Raises:** `TypeError` or `ValueError`, before anything is written, for a `folder` that
+    is not a path, `columns` that are not named columns (N,) of numbers of one length, a
+    `summary` that is not a mapping JSON can hold, or a `record` that is not a `Record`."""
+    _check_results(folder, columns, summary, record)
     folder = Path(folder)
     summary = dict(summary)
     if record is not None:
@@ -119,6 +124,47 @@ def write_results(folder, columns, summary, record: Record | None = None, *, fig
         summary["provenance"] = make_provenance(record, {**settings, "figure_format": figure_format})
     write_outputs(folder, columns, summary, None if record is None else record.inputs, figure_format)
     return folder
+
+
+def _check_results(folder, columns, summary, record):
+    """`write_results`'s arguments checked, so that a bad one writes nothing (an older
+    ``summary.json`` there would go first)."""
+    import json
+    import os
+    from collections.abc import Mapping
+
+    from ._io import strict_json
+    from ._values import reals
+
+    if isinstance(folder, bool) or not isinstance(folder, (str, os.PathLike)) or not str(folder):
+        raise TypeError(f"`folder` must be a path, got {folder!r}.")
+    if Path(folder).exists() and not Path(folder).is_dir():
+        raise ValueError(f"`folder` {str(folder)!r} is a file, not a folder.")
+    if not isinstance(columns, Mapping):
+        raise TypeError("`columns` must be a mapping of column names to samples, got "
+                        f"{type(columns).__name__}.")
+    if not columns:
+        raise ValueError("`columns` is empty: give at least one column of samples.")
+    lengths = set()
+    for name, values in columns.items():
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"`columns`' names must be non-empty text, got {name!r}.")
+        shape = reals(values, f"columns[{name!r}]").shape
+        if len(shape) != 1 or not shape[0]:
+            raise ValueError(f"`columns[{name!r}]` must be one column of samples (N,), got shape "
+                             f"{shape}.")
+        lengths.add(shape[0])
+    if len(lengths) > 1:
+        raise ValueError(f"`columns` must all have one length, got lengths {sorted(lengths)}.")
+    if not isinstance(summary, Mapping):
+        raise TypeError(f"`summary` must be a mapping (a dict), got {type(summary).__name__}.")
+    try:
+        json.dumps(strict_json(dict(summary)), allow_nan=False, sort_keys=True)
+    except (TypeError, ValueError):
+        raise TypeError("`summary` must hold what JSON can: text keys, and numbers, text, "
+                        "True/False, None, and lists and mappings of these.") from None
+    if record is not None and not isinstance(record, Record):
+        raise TypeError(f"`record` must be a vojax.io.Record or None, got {type(record).__name__}.")
 
 
 def run_batch(
