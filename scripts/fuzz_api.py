@@ -36,6 +36,8 @@ from _bench import leaks, publish
 jax.config.update("jax_enable_x64", True)
 import vojax  # noqa: E402
 import vojax.io  # noqa: E402
+import vojax.reference  # noqa: E402
+import vojax.testing  # noqa: E402
 
 N, DT = 40, 0.1
 T = DT * np.arange(N)
@@ -185,6 +187,24 @@ def _calls():
                              ("creep_compliance", "t")):
             vary(f"{label}.{method}", getattr(model, method), dict(values, q=0.4, **{axis: T[1:]}),
                  dict(hostile, **{axis: _arrays(T[1:])}))
+    checks = dict(u=U, order=0.4, dt=DT, raise_on_failure=False)
+    vary("testing.check_gradients", vojax.testing.check_gradients, checks,
+         dict(u=_arrays(U), order=SCALARS, dt=SCALARS, rtol=SCALARS, fd_rtol=SCALARS,
+              step=SCALARS, max_samples=COUNTS, rule=TEXTS, memory=TEXTS,
+              raise_on_failure=SCALARS[:6], closed_form=[3, "x"]))
+    vary("testing.check_parameter_sensitivity", vojax.testing.check_parameter_sensitivity,
+         dict(checks, y=Y), dict(y=_arrays(Y), lam=SCALARS, r0=SCALARS, step=SCALARS,
+                                 max_samples=COUNTS))
+    for name in ("fractional_integral", "order_sensitivity"):
+        vary(f"reference.{name}", getattr(vojax.reference, name), dict(u=U, order=0.4, dt=DT),
+             dict(u=_arrays(U), order=SCALARS, dt=SCALARS, tol=SCALARS, order_range=PAIRS,
+                  rule=TEXTS, memory=TEXTS))
+    phi = U[:, None]
+    vary("reference.lsff", vojax.reference.lsff, dict(phi=phi, y=Y, dt=DT, lam=0.9),
+         dict(phi=_arrays(phi), y=_arrays(Y), dt=SCALARS, lam=SCALARS, r0=SCALARS))
+    vary("reference.lsff_sensitivity", vojax.reference.lsff_sensitivity,
+         dict(phi=phi, dphi=0.1 * phi, y=Y, dt=DT, lam=0.9),
+         dict(dphi=_arrays(phi), y=_arrays(Y), lam=SCALARS, printed=SCALARS[:6]))
     vary("refit_lbfgsb", vojax.refit_lbfgsb, dict(u=U, y=Y, dt=DT, max_steps=30),
          dict(u=_arrays(U), y=_arrays(Y), dt=SCALARS, order=TEXTS + COUNTS, order_bounds=PAIRS,
               order0=SCALARS, x0=SCALARS, memory=TEXTS, max_steps=COUNTS, tol=SCALARS))

@@ -1312,6 +1312,26 @@ MUTATIONS = {
         [("    _check_results(folder, columns, summary, record)\n", "")],
         ["tests/test_checks_io.py::test_bad_results_are_refused_before_anything_is_written"],
     ),
+    "the reference reads its arguments with NumPy's messages": (
+        "vojax/reference.py",
+        [("        _prepare(u, order, dt, None, rule, memory, tol, order_range)\n", "        pass\n")],
+        ["tests/test_validation.py::test_the_cross_checks_name_a_bad_argument"],
+    ),
+    "the reference's checks need JAX's float64 setting": (
+        "vojax/reference.py",
+        [("    with x64_scope(True):\n        _prepare(", "    if True:\n        _prepare(")],
+        ["tests/test_validation.py::test_the_closed_forms_hold_down_to_their_least_order_and_need_no_float64_setting"],
+    ),
+    "the closed form (14) is evaluated at any order (it cancels below 1e-6)": (
+        "vojax/reference.py",
+        [("    if np.min(np.asarray(order, float)) < MIN_CLOSED_ORDER:", "    if False:")],
+        ["tests/test_validation.py::test_the_cross_checks_name_a_bad_argument"],
+    ),
+    "the gradient checks take 2 for raise_on_failure": (
+        "vojax/testing.py",
+        [('    check.flag(raise_on_failure, "raise_on_failure")\n', "")],
+        ["tests/test_validation.py::test_the_cross_checks_name_a_bad_argument"],
+    ),
     "optimal protocol traces an integer noise level (2**63 overflows)": (
         "vojax/_protocol.py",
         [("    noise_std = float(noise_std)  # an integer as large as 2**63 overflows a traced int\n",

@@ -211,7 +211,7 @@ def test_the_tracker_refuses_more_inputs_than_it_can_carry():
 
 @pytest.mark.slow
 def test_the_api_fuzz_corpus_is_clean():
-    """`scripts/fuzz_api.py`: about 4,020 hostile arguments through the public functions,
+    """`scripts/fuzz_api.py`: about 4,590 hostile arguments through the public functions,
     every outcome clean: vojax's own one-line error (never NumPy's or Python's, which name
     no argument) or a finite answer, within the time limit."""
     script = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_api.py"
@@ -221,7 +221,7 @@ def test_the_api_fuzz_corpus_is_clean():
     assert proc.returncode == 0, text[-4000:] + proc.stderr[-2000:]
     total, clean = (int(w) for w in text.split(" cases, ")[0].split()[-1:]
                     + text.split(" cases, ")[1].split()[:1])
-    assert total >= 4000 and clean == total
+    assert total >= 4500 and clean == total
 
 
 T20 = 0.1 * np.arange(20)
@@ -282,3 +282,71 @@ def test_the_named_refusals_keep_what_was_accepted():
         == ["springpot"]
     sim = vojax.simulate(np.ones(20), 0.4, 1.0, 0.1, x0=np.float64(0.5))
     assert float(sim[0]) == pytest.approx(0.5)
+
+
+def _short_record():
+    t = 0.1 * np.arange(40)
+    u = np.minimum(t, 1.0) + 0.1
+    return u, np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+
+
+@pytest.mark.parametrize("call, error, words", [
+    (lambda u, y: vojax.reference.fractional_integral("abc", 0.4, 0.1), TypeError, "`u` must"),
+    (lambda u, y: vojax.reference.fractional_integral(u, "x", 0.1), TypeError, "`order`"),
+    (lambda u, y: vojax.reference.order_sensitivity(u, 0.4, None), (TypeError, ValueError), "`dt`"),
+    (lambda u, y: vojax.reference.order_sensitivity(u, 1e-20, 0.1), ValueError,
+     r"`order` must be at least 1e-06 for the closed form \(14\)"),
+    (lambda u, y: vojax.reference.lsff(u[:, None], y[:-1], 0.1, 0.9), ValueError,
+     r"`y` must have shape \(40,\), one value per row of `phi`"),
+    (lambda u, y: vojax.reference.lsff(u[:, None], y, 0.1, float("nan")), ValueError, "`lam`"),
+    (lambda u, y: vojax.reference.lsff(np.column_stack([u, u * u]), y, 0.1, 0.9,
+                                       r0=[[1.0, 2.0], [2.0, 1.0]]), ValueError,
+     "`r0` must be symmetric positive definite"),
+    (lambda u, y: vojax.reference.lsff_sensitivity(u[:, None], None, y, 0.1, 0.9), TypeError,
+     "`dphi` .* must be given"),
+    (lambda u, y: vojax.reference.lsff_sensitivity(u[:, None], u[:-1, None], y, 0.1, 0.9),
+     ValueError, r"`dphi` must have the shape of `phi`, \(40, 1\)"),
+    (lambda u, y: vojax.testing.check_gradients(u, 0.4, None), (TypeError, ValueError), "`dt`"),
+    (lambda u, y: vojax.testing.check_gradients(u, "x", 0.1), TypeError, "`order`"),
+    (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, rtol="x"), TypeError, "`rtol`"),
+    (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, max_samples=None), TypeError,
+     "`max_samples` must be a whole number"),
+    (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, raise_on_failure=2), TypeError,
+     "`raise_on_failure` must be True or False"),
+    (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, closed_form=3), TypeError,
+     "`closed_form` must be a function or None"),
+    (lambda u, y: vojax.testing.check_parameter_sensitivity(u, y, 0.4, 0.1, lam="x"),
+     TypeError, "`lam`"),
+    # an integer step of 2**63 overflowed a traced int; as a float it leaves (0, 1)
+    (lambda u, y: vojax.testing.check_parameter_sensitivity(u, y, 0.4, 0.1, step=2**63),
+     ValueError, "`order` must lie in"),
+])
+def test_the_cross_checks_name_a_bad_argument(call, error, words):
+    """`vojax.reference` and `vojax.testing` (the closed forms and the CI's cross-checks)
+    check their arguments as the library's functions do: before, text, None or a complex
+    number met NumPy's own "could not convert string to float", a missing `dphi` an
+    IndexError, and an order of 1e-20 gave ∓4096 for (14)'s closed form (its two terms
+    cancel)."""
+    u, y = _short_record()
+    with pytest.raises(error, match=words):
+        call(u, y)
+
+
+def test_the_closed_forms_hold_down_to_their_least_order_and_need_no_float64_setting():
+    """At the least order the closed form (14) takes (1e-6) it agrees with autodiff; and the
+    NumPy reference gives the same numbers with JAX's float64 off (its checks run in a
+    float64 scope of their own)."""
+    from vojax._xla import x64_scope
+
+    u, y = _short_record()
+    closed = vojax.reference.order_sensitivity(u, 1e-6, 0.1)
+    auto = np.asarray(vojax.order_sensitivity(u, 1e-6, 0.1))
+    np.testing.assert_allclose(closed, auto, rtol=1e-7, atol=1e-9 * np.max(np.abs(auto)))
+    on = vojax.reference.fractional_integral(u, 0.4, 0.1)
+    p_on = vojax.reference.lsff(on[:, None], y, 0.1, 0.9)
+    with x64_scope(False):
+        off = vojax.reference.fractional_integral(u, 0.4, 0.1)
+        p_off = vojax.reference.lsff(on[:, None], y, 0.1, 0.9)
+    assert off.dtype == np.float64
+    np.testing.assert_array_equal(off, on)
+    np.testing.assert_array_equal(p_off, p_on)

@@ -14,8 +14,12 @@ closed-form ``c_j'(b)`` of docs/method.md §4. `lsff_sensitivity` is the correct
 import numpy as np
 
 from ._kernels._special import digamma, lgamma
+from ._values import flag as check_flag
+from ._xla import x64_scope
 
 __all__ = ["fractional_integral", "order_sensitivity", "lsff", "lsff_sensitivity"]
+
+MIN_CLOSED_ORDER = 1e-6  # the least order (14)'s closed form is evaluated at (see below)
 
 
 def _pow(m, e):
@@ -145,6 +149,13 @@ def _exponential(u, order, dt, rule, tol, order_range):
 
 
 def _both(u, order, dt, rule, memory, tol, order_range):
+    from ._integral import _prepare
+
+    # the checks of `vojax.fractional_integral` (one sentence for each bad argument), in
+    # float64 whatever JAX's setting (this module is NumPy); the computation below stays the
+    # independent NumPy one
+    with x64_scope(True):
+        _prepare(u, order, dt, None, rule, memory, tol, order_range)
     if memory == "direct":
         return _direct(u, order, float(dt), rule)
     return _exponential(u, order, float(dt), rule, tol, tuple(order_range))
@@ -160,8 +171,44 @@ def fractional_integral(
 def order_sensitivity(
     u, order, dt, *, rule="trapezoid", memory="direct", tol=1e-10, order_range=(0.01, 0.99)
 ):
-    """Closed form (14) of ``∂Φ/∂b`` on the same quadrature as `vojax.order_sensitivity`."""
-    return _both(u, order, dt, rule, memory, tol, order_range)[1]
+    """Closed form (14) of ``∂Φ/∂b`` on the same quadrature as `vojax.order_sensitivity`, for
+    orders from `MIN_CLOSED_ORDER` (below it the form's two terms, each of size about 1/b,
+    cancel: at b = 1e-20 nothing of the answer is left)."""
+    _, dphi = _both(u, order, dt, rule, memory, tol, order_range)  # `order` checked there
+    if np.min(np.asarray(order, float)) < MIN_CLOSED_ORDER:
+        raise ValueError(f"`order` must be at least {MIN_CLOSED_ORDER:g} for the closed form "
+                         "(14), whose two terms cancel below it: use vojax.order_sensitivity.")
+    return dphi
+
+
+def _checked_lsff(phi, dphi, y, dt, lam, r0):
+    """The LSFF's arguments as NumPy arrays and floats, each checked as `vojax.identify`
+    checks its own: `phi` (N, n) and `dphi` (its shape; None: not given) finite, `y` (N,),
+    the step `dt` and the forgetting rate `lam` positive, `r0` None or (n, n) symmetric
+    positive definite."""
+    from . import _validate as check
+
+    with x64_scope(True):  # the library's checks need float64; this module is NumPy
+        phi = np.asarray(check.columns(check.magnitude(check.samples(phi, "phi"), "phi")))
+        dt, lam = float(check.step(dt)), float(check.positive(lam, "lam"))
+        if dphi is not None:
+            dphi = np.asarray(check.columns(check.samples(dphi, "dphi")))
+        y = np.asarray(check.magnitude(check.samples(y, "y"), "y"))
+    if dphi is not None and dphi.shape != phi.shape:
+        raise ValueError(f"`dphi` must have the shape of `phi`, {phi.shape}, got {dphi.shape}.")
+    if y.shape != (phi.shape[0],):
+        raise ValueError(f"`y` must have shape ({phi.shape[0]},), one value per row of `phi`, "
+                         f"got {y.shape}.")
+    n = phi.shape[1]
+    if r0 is None:
+        return phi, dphi, y, dt, lam, np.eye(n)
+    r0 = np.asarray(check.reals(r0, "r0"))
+    if r0.shape != (n, n):
+        raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
+    if not np.all(np.isfinite(r0)) or not np.allclose(r0, r0.T) or np.any(
+            np.linalg.eigvalsh(r0) <= 0):
+        raise ValueError("`r0` must be symmetric positive definite.")
+    return phi, dphi, y, dt, lam, r0
 
 
 def lsff(phi, y, dt, lam, r0=None):
@@ -170,10 +217,7 @@ def lsff(phi, y, dt, lam, r0=None):
     ``R_k = Σ_{j≤k} h f^{k−j} φ_j φ_jᵀ + f^k R_0`` and ``Q_k = Σ_{j≤k} h f^{k−j} y_j φ_j`` with
     ``f = e^{−λh}``, built as explicit sums (not by recursion). Returns ``p`` (N, n).
     """
-    phi = np.asarray(phi, float)
-    y = np.asarray(y, float)
-    n = phi.shape[1]
-    r0 = np.eye(n) if r0 is None else np.asarray(r0, float)
+    phi, _, y, dt, lam, r0 = _checked_lsff(phi, None, y, dt, lam, r0)
     f = np.exp(-lam * dt)
     out = np.zeros_like(phi)
     for k in range(phi.shape[0]):
@@ -192,9 +236,11 @@ def lsff_sensitivity(phi, dphi, y, dt, lam, r0=None, *, printed=False):
     previous sample, the only way the printed form can be evaluated), for the demonstration
     that it disagrees with autodiff. Returns ``∂p/∂β`` (N, n).
     """
-    phi, dphi, y = (np.asarray(a, float) for a in (phi, dphi, y))
+    if dphi is None:
+        raise TypeError("`dphi` (∂φ/∂β, shaped like `phi`) must be given, got None.")
+    phi, dphi, y, dt, lam, r0 = _checked_lsff(phi, dphi, y, dt, lam, r0)
     n = phi.shape[1]
-    r0 = np.eye(n) if r0 is None else np.asarray(r0, float)
+    printed = check_flag(printed, "printed")
     f = np.exp(-lam * dt)
     out = np.zeros_like(phi)
     dp_prev = np.zeros(n)

@@ -44,6 +44,7 @@ from jax import lax
 from . import reference
 from ._adaptive import LSFF
 from ._integral import fractional_integral, order_sensitivity
+from . import _validate as check
 from ._validate import check_finite, samples
 
 __all__ = [
@@ -112,6 +113,19 @@ def _compare(quantity, compared, a, b, tolerance) -> Comparison:
     return Comparison(quantity, compared, diff, scale, rel, float(tolerance))
 
 
+def _options(rtol, fd_rtol, step, max_samples, raise_on_failure, closed_form):
+    """The check's own settings: the tolerances and the step positive numbers, `max_samples`
+    a whole number from 3, `raise_on_failure` True or False, `closed_form` None or a
+    function. Returns ``(rtol, fd_rtol, step)`` as floats."""
+    out = tuple(float(check.positive(v, name))
+                for v, name in ((rtol, "rtol"), (fd_rtol, "fd_rtol"), (step, "step")))
+    check.count(max_samples, "max_samples", 3, 10**9)
+    check.flag(raise_on_failure, "raise_on_failure")
+    if closed_form is not None and not callable(closed_form):
+        raise TypeError(f"`closed_form` must be a function or None, got {closed_form!r}.")
+    return out
+
+
 def _inputs(u, order, dt, max_samples):
     u = samples(u, "u")
     check_finite(u, "u")
@@ -123,13 +137,14 @@ def _inputs(u, order, dt, max_samples):
             f"`u` has {num} samples; the closed forms are O(N²) sums, so the check takes at "
             f"most max_samples={max_samples}: pass a part of the record (e.g. u[:{max_samples}])."
         )
-    order = np.broadcast_to(np.asarray(order, dtype=float), (num,))
+    order = check.reals(order, "order")
+    if order.ndim > 1 or order.size not in (1, num):
+        raise ValueError(f"`order` must be a number or ({num},), one per sample, got shape "
+                         f"{order.shape}.")
+    order = np.broadcast_to(order, (num,))
     if not np.all(np.isfinite(order)) or np.any(order <= 0) or np.any(order >= 1):
         raise ValueError("`order` must lie in (0, 1) at every sample.")
-    dt = float(dt)
-    if not (np.isfinite(dt) and dt > 0):
-        raise ValueError(f"`dt` must be a positive number, got {dt}.")
-    return u, order, dt
+    return u, order, float(check.step(dt))
 
 
 def _finish(report: GradientCheck, raise_on_failure: bool) -> GradientCheck:
@@ -171,6 +186,8 @@ def check_gradients(
     **Returns:** a `GradientCheck`. **Raises:** `GradientCheckError` beyond tolerance,
     `ValueError` for bad input.
     """
+    rtol, fd_rtol, step = _options(rtol, fd_rtol, step, max_samples, raise_on_failure,
+                                   closed_form)
     u, order, dt = _inputs(u, order, dt, max_samples)
     kw = dict(rule=rule, memory=memory)
     closed_form = closed_form or reference.order_sensitivity
@@ -231,17 +248,17 @@ def check_parameter_sensitivity(
     **Returns:** a `GradientCheck`. **Raises:** `GradientCheckError` beyond tolerance,
     `ValueError` for bad input.
     """
+    rtol, fd_rtol, step = _options(rtol, fd_rtol, step, max_samples, raise_on_failure,
+                                   closed_form)
     u, order, dt = _inputs(u, order, dt, max_samples)
     u2 = u[:, None] if u.ndim == 1 else u
     y = samples(y, "y")
     check_finite(y, "y")
     if y.ndim != 1 or y.shape[0] != u2.shape[0]:
         raise ValueError(f"`y` must have shape ({u2.shape[0]},) like `u`'s samples, got {y.shape}.")
-    lam = float(lam)
-    if not (np.isfinite(lam) and lam > 0):
-        raise ValueError(f"`lam` must be a positive number, got {lam}.")
+    lam = float(check.positive(lam, "lam"))
     n = u2.shape[1]
-    r0 = np.eye(n) if r0 is None else np.asarray(r0, float)
+    r0 = np.eye(n) if r0 is None else check.reals(r0, "r0")
     if r0.shape != (n, n) or not np.all(np.isfinite(r0)):
         raise ValueError(f"`r0` must be a finite ({n}, {n}) matrix.")
     kw = dict(rule=rule, memory=memory)
