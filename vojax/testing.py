@@ -41,10 +41,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from . import _validate as check
 from . import reference
 from ._adaptive import LSFF
 from ._integral import fractional_integral, order_sensitivity
-from . import _validate as check
 from ._validate import check_finite, samples
 
 __all__ = [
