@@ -9,6 +9,8 @@ to the same product-integration quadrature as the kernels: the log-weighted inte
 interpolation basis function are taken exactly (they are the b-derivatives of the exact weights,
 written out by hand). For the exponential memory the readout is differentiated with the
 closed-form ``c_j'(b)`` of docs/method.md §4. `lsff_sensitivity` is the corrected closed form (26).
+Each function checks its arguments as the library's own do (a `TypeError` or `ValueError` that
+names the argument), whatever JAX's float64 setting.
 """
 
 import numpy as np

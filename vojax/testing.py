@@ -184,7 +184,7 @@ def check_gradients(
     - `raise_on_failure`: raise `GradientCheckError` (default) or return the report.
 
     **Returns:** a `GradientCheck`. **Raises:** `GradientCheckError` beyond tolerance,
-    `ValueError` for bad input.
+    `TypeError` or `ValueError` for bad input (named).
     """
     rtol, fd_rtol, step = _options(rtol, fd_rtol, step, max_samples, raise_on_failure,
                                    closed_form)
@@ -246,7 +246,7 @@ def check_parameter_sensitivity(
     `vojax.reference.lsff_sensitivity`.
 
     **Returns:** a `GradientCheck`. **Raises:** `GradientCheckError` beyond tolerance,
-    `ValueError` for bad input.
+    `TypeError` or `ValueError` for bad input (named).
     """
     rtol, fd_rtol, step = _options(rtol, fd_rtol, step, max_samples, raise_on_failure,
                                    closed_form)
