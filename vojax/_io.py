@@ -44,8 +44,14 @@ def strict_json(data):
     return data
 
 
+def json_text(data) -> str:
+    """``data`` as strict JSON text (non-finite numbers become ``null``), keys sorted; a
+    `TypeError` or `ValueError` where JSON cannot hold it."""
+    return json.dumps(strict_json(data), indent=2, sort_keys=True, allow_nan=False)
+
+
 def write_json(path, data) -> None:
-    """Writes ``data`` as strict JSON (non-finite numbers become ``null``), atomically."""
-    text = json.dumps(strict_json(data), indent=2, sort_keys=True, allow_nan=False)
+    """Writes ``data`` as strict JSON (`json_text`), atomically."""
+    text = json_text(data)
     with atomic_path(path) as tmp, open(tmp, "w") as f:
         f.write(text + "\n")

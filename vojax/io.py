@@ -129,11 +129,10 @@ def write_results(folder, columns, summary, record: Record | None = None, *, fig
 def _check_results(folder, columns, summary, record):
     """`write_results`'s arguments checked, so that a bad one writes nothing (an older
     ``summary.json`` there would go first)."""
-    import json
     import os
     from collections.abc import Mapping
 
-    from ._io import strict_json
+    from ._io import json_text
     from ._values import reals
 
     if isinstance(folder, bool) or not isinstance(folder, (str, os.PathLike)) or not str(folder):
@@ -159,7 +158,7 @@ def _check_results(folder, columns, summary, record):
     if not isinstance(summary, Mapping):
         raise TypeError(f"`summary` must be a mapping (a dict), got {type(summary).__name__}.")
     try:
-        json.dumps(strict_json(dict(summary)), allow_nan=False, sort_keys=True)
+        json_text(dict(summary))  # as `write_json` will write it
     except (TypeError, ValueError):
         raise TypeError("`summary` must hold what JSON can: text keys, and numbers, text, "
                         "True/False, None, and lists and mappings of these.") from None
