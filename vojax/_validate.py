@@ -236,16 +236,30 @@ def check_options(u, y, dt, lam, alpha0, alpha_bounds, memory, rule, x0, r0, *, 
         if r0 != "auto":
             raise ValueError(f"`r0` must be 'auto', None or an (n, n) matrix, got {r0!r}.")
     elif r0 is not None:
-        r0 = jnp.asarray(reals(r0, "r0"), jnp.result_type(float))
-        n = u2.shape[1]
-        if r0.shape != (n, n):
-            raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
-        if not isinstance(r0, jax.core.Tracer) and (
-            not np.all(np.isfinite(np.asarray(r0)))
-            or np.any(np.linalg.eigvalsh(np.asarray(r0)) <= 0)
-        ):
-            raise ValueError("`r0` must be symmetric positive definite.")
+        r0 = jnp.asarray(spd_matrix(r0, "r0", u2.shape[1]), jnp.result_type(float))
     return u2, y, bounds, x0, r0
+
+
+def spd_matrix(value, name: str, n: int):
+    """An ``(n, n)`` symmetric positive definite matrix (a traced one: its shape only),
+    as a NumPy array. Symmetric to rounding: ``|M − Mᵀ| ≤ 1e-10 max|M|`` (an eigenvalue
+    routine for symmetric matrices reads one triangle and would pass the other unseen)."""
+    if isinstance(value, jax.core.Tracer):
+        if value.shape != (n, n):
+            raise ValueError(f"`{name}` must have shape ({n}, {n}), got {value.shape}.")
+        return value
+    m = np.asarray(reals(value, name), np.float64)
+    if m.shape != (n, n):
+        raise ValueError(f"`{name}` must have shape ({n}, {n}), got {m.shape}.")
+    if not np.all(np.isfinite(m)):
+        raise ValueError(f"`{name}` must be finite, got a NaN or an infinity.")
+    if np.max(np.abs(m - m.T)) > 1e-10 * np.max(np.abs(m)):
+        raise ValueError(f"`{name}` must be symmetric, got one whose entries differ from its "
+                         f"transpose's by up to {np.max(np.abs(m - m.T)):.3g}.")
+    if np.any(np.linalg.eigvalsh(m) <= 0):
+        raise ValueError(f"`{name}` must be symmetric positive definite, got a least "
+                         f"eigenvalue of {np.min(np.linalg.eigvalsh(m)):.3g}.")
+    return m
 
 
 def window_mask(window, times):

@@ -204,13 +204,7 @@ def _checked_lsff(phi, dphi, y, dt, lam, r0):
     n = phi.shape[1]
     if r0 is None:
         return phi, dphi, y, dt, lam, np.eye(n)
-    r0 = np.asarray(check.reals(r0, "r0"))
-    if r0.shape != (n, n):
-        raise ValueError(f"`r0` must have shape ({n}, {n}), got {r0.shape}.")
-    if not np.all(np.isfinite(r0)) or not np.allclose(r0, r0.T) or np.any(
-            np.linalg.eigvalsh(r0) <= 0):
-        raise ValueError("`r0` must be symmetric positive definite.")
-    return phi, dphi, y, dt, lam, r0
+    return phi, dphi, y, dt, lam, check.spd_matrix(r0, "r0", n)
 
 
 def lsff(phi, y, dt, lam, r0=None):

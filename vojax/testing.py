@@ -240,8 +240,8 @@ def check_parameter_sensitivity(
     differences.
 
     **Arguments:** `u` (N, n) inputs, `y` (N,) the output the law sees (``y − x0``), `order`,
-    `dt`, `lam` (λ > 0), `r0` (``R_0``, default the identity), `rule`, `memory`, tolerances
-    as in `check_gradients`; `closed_form` a function
+    `dt`, `lam` (λ > 0), `r0` (``R_0``, symmetric positive definite; default the
+    identity), `rule`, `memory`, tolerances as in `check_gradients`; `closed_form` a function
     ``(phi, dphi, y, dt, lam, r0) → ∂p/∂β`` to check instead of
     `vojax.reference.lsff_sensitivity`.
 
@@ -258,9 +258,7 @@ def check_parameter_sensitivity(
         raise ValueError(f"`y` must have shape ({u2.shape[0]},) like `u`'s samples, got {y.shape}.")
     lam = float(check.positive(lam, "lam"))
     n = u2.shape[1]
-    r0 = np.eye(n) if r0 is None else check.reals(r0, "r0")
-    if r0.shape != (n, n) or not np.all(np.isfinite(r0)):
-        raise ValueError(f"`r0` must be a finite ({n}, {n}) matrix.")
+    r0 = np.eye(n) if r0 is None else check.spd_matrix(r0, "r0", n)
     kw = dict(rule=rule, memory=memory)
     base = jnp.asarray(order)
     r0j = jnp.asarray(r0)
