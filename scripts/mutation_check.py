@@ -1332,6 +1332,31 @@ MUTATIONS = {
         [('    check.flag(raise_on_failure, "raise_on_failure")\n', "")],
         ["tests/test_validation.py::test_the_cross_checks_name_a_bad_argument"],
     ),
+    "a stated drift bound ignored by the second clock (the union as with free parameters)": (
+        "vojax/_tracker/_clock.py",
+        [("    excluded = bound is not None and clock_drift(o_alpha, scale) > bound\n",
+          "    excluded = False\n")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer",
+         "tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
+    ),
+    "free parameters treated as a statement of none by the second clock": (
+        "vojax/_tracker/_clock.py",
+        [("    excluded = bound is not None and clock_drift(o_alpha, scale) > bound\n",
+          "    excluded = clock_drift(o_alpha, scale) > (bound or 0.0)\n")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer"],
+    ),
+    "an excluded clock covered whatever the union's width": (
+        "vojax/_tracker/_clock.py",
+        [("    if excluded and np.median(hi[half:] - lo[half:]) / 2 > answer:",
+          "    if excluded and False:")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer"],
+    ),
+    "the clock's drift measured without the span's unit": (
+        "vojax/_tracker/_clock.py",
+        [("    g = np.exp(np.log(scale) * (np.asarray(alpha) - np.mean(alpha)))",
+          "    g = np.exp(np.asarray(alpha) - np.mean(alpha))")],
+        ["tests/test_clock.py::test_the_drift_on_the_spans_clock_of_parameters_constant_in_the_data_unit"],
+    ),
     "r0's symmetry left to an eigenvalue routine that reads one triangle": (
         "vojax/_validate.py",
         [("    if np.max(np.abs(m - m.T)) > 1e-10 * np.max(np.abs(m)):", "    if False:")],

@@ -11,7 +11,7 @@ import pytest
 import vojax
 from vojax._diagnostics import diagnose
 from vojax._tracker._band import outside
-from vojax._tracker._clock import second_clock, weigh_clock
+from vojax._tracker._clock import clock_drift, second_clock, weigh_clock
 
 N = 100
 HALF = np.arange(N) >= N // 2
@@ -163,3 +163,72 @@ def test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other(monk
         d, d0 = res.diagnostics, first.diagnostics
         assert (d.verdict, d.reasons) == (d0.verdict, d0.reasons)
         assert np.array_equal(d.breakdown_drift, d0.breakdown_drift, equal_nan=True)
+
+
+def test_the_drift_on_the_spans_clock_of_parameters_constant_in_the_data_unit():
+    """``p_span(t) ∝ scale^α(t)``: an order that steps from 0.3 to 0.5 over a span of e²
+    data units drifts the parameter by e^(±0.2) about its mean, 2·tanh(0.2) relative; the
+    same over a span of e^−2; none where the order is constant or the span is one unit."""
+    alpha = np.r_[np.full(50, 0.3), np.full(50, 0.5)]
+    assert clock_drift(alpha, np.e**2) == pytest.approx(2 * np.tanh(0.2), rel=1e-12)
+    assert clock_drift(alpha, np.e**-2) == pytest.approx(2 * np.tanh(0.2), rel=1e-12)
+    assert clock_drift(alpha, 1.0) == 0.0
+    assert clock_drift(np.full(10, 0.4), 1e6) == pytest.approx(0.0, abs=1e-15)
+
+
+def test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer():
+    """With the parameters stated (constant, or a drift bound), the data unit's account is
+    one whose parameters drift on the span's clock by `clock_drift`: beyond the bound the
+    statement excludes it, and the band covers it only where the union stays an answer."""
+    span = np.linspace(0.3, 0.4, N)
+    res, fit = _fit(span, 0.05)
+    other, other_fit = _fit(span + 0.2, 0.08)  # the union: ±0.165 about its middle
+    drift = clock_drift(span + 0.2, 100.0)  # 100^(±0.05) about the mean: about 0.46
+    assert 0.45 < drift < 0.47
+    for bound in (None, 1.01 * drift):  # free, or a bound it keeps: the union, as ever
+        new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=bound, scale=100.0,
+                                          answer=0.1)
+        np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+        np.testing.assert_array_equal(np.asarray(new_fit["lower"]), res.alpha_lower)
+        assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
+    # beyond the bound, and the union (±0.165) wider than an answer (±0.1): unchanged
+    new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=0.99 * drift,
+                                      scale=100.0, answer=0.1)
+    assert new is res and new_fit is fit and clock is None
+    # … where the union is still an answer (±0.2), it is covered
+    new, _, clock = weigh_clock(res, fit, other, other_fit, bound=0.99 * drift, scale=100.0,
+                                answer=0.2)
+    np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+    # inside the band but outside the conditional band: the conditional answer is kept
+    res, fit = _fit(np.full(N, 0.4), 0.2)
+    fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
+    other, other_fit = _fit(np.linspace(0.45, 0.55, N), 0.05)
+    assert weigh_clock(res, fit, other, other_fit, scale=100.0)[2] == pytest.approx(
+        float(np.median(np.linspace(0.45, 0.55, N)[HALF])))
+    assert weigh_clock(res, fit, other, other_fit, bound=0.1, scale=100.0)[2] is None
+
+
+def test_parameters_stated_constant_are_constant_on_the_spans_clock():
+    """`parameters="constant"` states the parameters constant over the record's span (the
+    canonical clock): on a record whose order moves, the data unit's account (its order
+    0.2–0.4 from the span's, the union wider than an answer) is excluded, and the answer is
+    the span's stated alone, to the last bit; a drift bound that admits the data unit's
+    account (here 500 %) covers it (`clock`)."""
+    n, span = 240, 200.0
+    t = np.linspace(0.0, span, n)
+    dt = t[1] - t[0]
+    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.1 * np.sin(2 * np.pi * 12 * t / span)
+    x = np.asarray(vojax.simulate(u, np.linspace(0.3, 0.55, n), np.array([2.0]), dt))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    constant = vojax.identify(u, y, dt, warn=False, parameters="constant")
+    spans = vojax.identify(u, y, dt, warn=False, parameters="constant", time_scale=span)
+    seconds = vojax.identify(u, y, dt, warn=False, parameters="constant", time_scale=1.0)
+    half = slice(n // 2, None)
+    gap = abs(np.median(np.asarray(seconds.alpha)[half]) - np.median(np.asarray(spans.alpha)[half]))
+    assert gap > max(0.2, spans.diagnostics.band_halfwidth)  # outside; a union beyond ±0.1
+    for name in ("alpha", "alpha_lower", "alpha_upper", "alpha_std", "p"):
+        np.testing.assert_array_equal(np.asarray(getattr(constant, name)),
+                                      np.asarray(getattr(spans, name)))
+    assert "clock" not in constant.diagnostics.reasons
+    loose = vojax.identify(u, y, dt, warn=False, parameters=5.0)
+    assert "clock" in loose.diagnostics.reasons

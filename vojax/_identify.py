@@ -134,7 +134,12 @@ def identify(
     - `time_scale`: ``method="kalman"`` only: the unit of time in which `parameters`
       states the parameters constant or drift-bounded (None: the record's span). The order
       then does not depend on the unit the times are given in: with a variable order, a
-      parameter constant in seconds drifts in milliseconds (``p·1000^(−α(t))``).
+      parameter constant in seconds drifts in milliseconds (``p·1000^(−α(t))``). Unless it
+      is given, the tracker also fits with the parameters constant in the data's unit
+      (``time_scale=1``); where that order lies outside the band, the band covers it
+      (reason ``clock``) with the parameters free, and with a statement only where that
+      account's drift on the span's clock is within the stated bound, or where covering
+      it still leaves an answer (±0.1).
     - `settings`: the tracker's tuned numbers (a `vojax.TrackerSettings`; its defaults where
       None); ``method="kalman"`` only.
 

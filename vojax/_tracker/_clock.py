@@ -9,7 +9,9 @@ of time (``time_scale=1``). Where that order lies outside the span's band on mos
 second half, one record cannot tell the two accounts apart (their evidence does not pick the
 true one), and the band covers both; where it lies inside, the band is the span's, unchanged,
 but a conditional answer (a bound on the drift on the span's clock) is withdrawn where that
-order lies outside the conditional band.
+order lies outside the conditional band. A statement (`parameters="constant"` or a drift
+bound) is one on the span's clock: where the data unit's account drifts beyond it there
+(`clock_drift`), it is excluded, and covered only where the union is still an answer.
 """
 
 import dataclasses
@@ -29,13 +31,27 @@ def second_clock(span) -> bool:
     return bool(abs(np.log(span)) > SAME_CLOCK)
 
 
-def weigh_clock(res, fit, other, other_fit):
+def clock_drift(alpha, scale) -> float:
+    """The relative drift (max − min over the mean) on the span's clock of parameters
+    constant in the data's unit of time, where the order is `alpha` (the fitted points) and
+    the span is `scale` data units: ``p_span(t) ∝ scale^α(t)``."""
+    g = np.exp(np.log(scale) * (np.asarray(alpha) - np.mean(alpha)))
+    return float((np.max(g) - np.min(g)) / np.mean(g))
+
+
+def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
     the stated band (`outside`, on the fitted points) the band is widened to cover both;
     where it lies outside the stated or the conditional band, that order's median over the
     second half is returned (the conditional answer bounds a drift on the span's clock only),
-    else None, and `res` and `fit` unchanged."""
+    else None, and `res` and `fit` unchanged.
+
+    `bound`: the relative drift of the parameters the call states (None: free). Where that
+    fit's parameters, constant in the data's unit, drift beyond it on the span's clock
+    (`clock_drift`, over the record's span of `scale` data units), the statement excludes
+    that account: the band covers it only where the union's half-width (median over the
+    second half) stays within `answer`, and the conditional answer is kept."""
     span = fit["span"]
     half = second_half(fit.get("mask"), span)
     points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
@@ -44,12 +60,16 @@ def weigh_clock(res, fit, other, other_fit):
         return res, fit, None
     o_alpha = o_points[0]
     clock = float(np.median(o_alpha[half:]))
+    # a drift on the span's clock beyond the stated bound: an account the statement excludes
+    excluded = bound is not None and clock_drift(o_alpha, scale) > bound
     if not outside(o_alpha, (*points, 0.0), half):
         cond = fit.get("conditional")
         beyond = cond is not None and outside(
             o_alpha, (None, *(np.asarray(a)[:span] for a in cond[1:3]), None), half)
-        return res, fit, clock if beyond else None
+        return res, fit, clock if beyond and not excluded else None
     _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))
+    if excluded and np.median(hi[half:] - lo[half:]) / 2 > answer:
+        return res, fit, None  # covered only where covering it leaves an answer
     fit = dict(fit, lower=np.concatenate([lo, np.asarray(fit["lower"])[span:]]),
                upper=np.concatenate([hi, np.asarray(fit["upper"])[span:]]))
     fields = ("alpha", "alpha_lower", "alpha_upper", "alpha_std")

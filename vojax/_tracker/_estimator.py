@@ -164,7 +164,10 @@ class Tracker:
             on(1.0, weigh=False) if both else None)
         clock = None
         if other is not None:
-            res, fit, clock = weigh_clock(res, fit, *other)
+            stated = {"free": None, "constant": self.settings.drift_floor}.get(
+                self.parameters, self.parameters)
+            res, fit, clock = weigh_clock(res, fit, *other, bound=stated, scale=scale,
+                                          answer=self.settings.identified_halfwidth)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
