@@ -1339,6 +1339,13 @@ MUTATIONS = {
         ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer",
          "tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
     ),
+    "a drift bound excludes the data unit's account as a constant statement does": (
+        "vojax/_tracker/_estimator.py",
+        [('            stated = self.settings.drift_floor if self.parameters == "constant" else None',
+          '            stated = {"free": None, "constant": self.settings.drift_floor}.get(\n'
+          '                self.parameters, self.parameters)')],
+        ["tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
+    ),
     "free parameters treated as a statement of none by the second clock": (
         "vojax/_tracker/_clock.py",
         [("    excluded = bound is not None and clock_drift(o_alpha, scale) > bound\n",

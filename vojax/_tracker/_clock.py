@@ -9,9 +9,9 @@ of time (``time_scale=1``). Where that order lies outside the span's band on mos
 second half, one record cannot tell the two accounts apart (their evidence does not pick the
 true one), and the band covers both; where it lies inside, the band is the span's, unchanged,
 but a conditional answer (a bound on the drift on the span's clock) is withdrawn where that
-order lies outside the conditional band. A statement (`parameters="constant"` or a drift
-bound) is one on the span's clock: where the data unit's account drifts beyond it there
-(`clock_drift`), it is excluded, and covered only where the union is still an answer.
+order lies outside the conditional band. `parameters="constant"` is a statement on the
+span's clock: where the data unit's account drifts there (`clock_drift`), it is excluded,
+and covered only where the union is still an answer.
 """
 
 import dataclasses
