@@ -125,6 +125,18 @@ def test_where_the_clocks_agree_the_default_is_the_spans_fit_to_the_last_bit():
     assert "clock" not in default.diagnostics.reasons
 
 
+def _clocks_disagree():
+    """A record whose clocks disagree: the order moves 0.3 → 0.55 over 200 s, the parameter
+    constant in seconds; 240 samples, 1 % noise. Returns ``(n, span, dt, u, y)``."""
+    n, span = 240, 200.0
+    t = np.linspace(0.0, span, n)
+    dt = t[1] - t[0]
+    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.1 * np.sin(2 * np.pi * 12 * t / span)
+    x = np.asarray(vojax.simulate(u, np.linspace(0.3, 0.55, n), np.array([2.0]), dt))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    return n, span, dt, u, y
+
+
 def test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other(monkeypatch):
     """The span's fit and the data's-unit quick look run in two threads once warm: the same
     answer, to the last bit, as one after the other, on a record whose clocks disagree (the
@@ -133,12 +145,7 @@ def test_the_two_clocks_side_by_side_give_the_answer_of_one_after_the_other(monk
 
     from vojax._tracker import _estimator, _threads
 
-    n, span = 240, 200.0
-    t = np.linspace(0.0, span, n)
-    dt = t[1] - t[0]
-    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.1 * np.sin(2 * np.pi * 12 * t / span)
-    x = np.asarray(vojax.simulate(u, np.linspace(0.3, 0.55, n), np.array([2.0]), dt))
-    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    n, span, dt, u, y = _clocks_disagree()
     threads = []
     original = _estimator.Tracker._fit_on
 
@@ -213,12 +220,7 @@ def test_parameters_stated_constant_are_constant_on_the_spans_clock():
     canonical clock): on a record whose order moves, the data unit's account (its order
     0.2–0.4 from the span's, the union wider than an answer) is excluded, and the answer is
     the span's stated alone, to the last bit; a drift bound keeps covering it (`clock`)."""
-    n, span = 240, 200.0
-    t = np.linspace(0.0, span, n)
-    dt = t[1] - t[0]
-    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.1 * np.sin(2 * np.pi * 12 * t / span)
-    x = np.asarray(vojax.simulate(u, np.linspace(0.3, 0.55, n), np.array([2.0]), dt))
-    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    n, span, dt, u, y = _clocks_disagree()
     constant = vojax.identify(u, y, dt, warn=False, parameters="constant")
     spans = vojax.identify(u, y, dt, warn=False, parameters="constant", time_scale=span)
     seconds = vojax.identify(u, y, dt, warn=False, parameters="constant", time_scale=1.0)
