@@ -166,7 +166,7 @@ class Tracker:
         if other is not None:
             # stated constant: a parameter drifting on the span's clock is excluded (a drift
             # bound keeps the union: on `stated-drift` draw 16, a true bound of 30 %, the
-            # span's band alone misses the truth, docs/calibration.md)
+            # span's band alone misses the truth, docs/tracker.md)
             stated = self.settings.drift_floor if self.parameters == "constant" else None
             res, fit, clock = weigh_clock(res, fit, *other, bound=stated, scale=scale,
                                           answer=self.settings.identified_halfwidth)
