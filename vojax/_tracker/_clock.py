@@ -20,6 +20,7 @@ import numpy as np
 
 from .._xla import to_device
 from ._band import outside, second_half, union
+from ._explanations import relative_drift
 
 # the second clock is skipped where the span is within this relative distance of one unit
 # of the data's time: the two clocks then differ by less than a factor 1.05^Δα
@@ -36,7 +37,7 @@ def clock_drift(alpha, scale) -> float:
     constant in the data's unit of time, where the order is `alpha` (the fitted points) and
     the span is `scale` data units: ``p_span(t) ∝ scale^α(t)``."""
     g = np.exp(np.log(scale) * (np.asarray(alpha) - np.mean(alpha)))
-    return float((np.max(g) - np.min(g)) / np.mean(g))
+    return float(relative_drift(g, g.shape[0]))
 
 
 def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf):
