@@ -164,13 +164,16 @@ def test_the_held_smoothing_reaches_its_evidence_peak_where_the_tuned_drift_is_a
 
 def test_a_true_stated_drift_bound_is_not_confidently_wrong_on_stated_drift_draw_16(suite):
     """Stated-drift draw 16 (an adhesive shear relaxation, the order moving smoothly about
-    0.29, the gain drifting 21.5 %, the user stating at most 30 %, which is true). The
-    tuning's climb from the first pass's best run (order drift 1.0) ends with the order's
-    drift at its floor and the parameters drifting 52 % (evidence 1599); the answer under
-    the statement was then the held smoothing's, 0.47 +- 0.08, with the truth outside at 86 %
-    of the second half. Climbed again from order drift 0.1 the evidence is 1631 with the
-    order moving; the answer is not identified-and-wrong (the suite's line: the truth
-    outside the band at more than half of the second half)."""
+    0.29, the gain drifting 21.5 %, the user stating at most 30 %, which is true). Two modes
+    of the tuning's evidence are known: the order's drift at its floor with the parameters
+    drifting 52 % (evidence 1599; the answer under the statement is then the held
+    smoothing's, 0.47 +- 0.08, with the truth outside at 86 % of the second half), and the
+    order moving (order drift about 0.1, evidence 1630-1631). Which mode the first climb
+    ends in depends on the rounding of the installed versions (each has been seen with the
+    newest versions of a different month); the second climb, from another order
+    drift where the first ends at the floor, must reach the moving order's mode either way,
+    never lower the evidence, and the answer must not be identified-and-wrong (the suite's
+    line: the truth outside the band at more than half of the second half)."""
     module, signals = suite
     case = module.draw_case("stated-drift", 16, signals)
     assert case["true_drift"] < case["stated"]
@@ -183,9 +186,9 @@ def test_a_true_stated_drift_bound_is_not_confidently_wrong_on_stated_drift_draw
                                   settings=settings).tuning
 
     once = tuned(vojax.TrackerSettings(second_climb=False))
-    assert "order_drift (lower edge)" in once.at_edge
     twice = tuned(vojax.TrackerSettings())
-    assert twice.order_drift > 1e-3 and twice.log_likelihood > once.log_likelihood + 20.0
+    assert twice.log_likelihood >= once.log_likelihood - 1e-6
+    assert twice.order_drift > 1e-3 and twice.log_likelihood > 1620.0, twice
     row = module.score(case, module.run_method("tracker-stated", case))
     assert not (row["identified"] and row["wrong"]), row
 
