@@ -1397,6 +1397,11 @@ MUTATIONS = {
         [("    if not np.all(np.isfinite(np.asarray(theta))):", "    if False:")],
         ["tests/test_refit.py::test_the_second_opinion_checks_its_solver_settings_and_its_answer"],
     ),
+    "refit_lbfgsb is silent where it stopped unconverged": (
+        "vojax/_refit.py",
+        [("    if warn and not error <= tol:", "    if warn and error > 1e300:")],
+        ["tests/test_refit.py::test_the_second_opinion_says_when_it_stopped_before_converging"],
+    ),
     "optimal protocol's Design forgets its knots": (
         "vojax/_protocol.py",
         [("noise_std=noise_std, knots=knots, x0=x0,", "noise_std=noise_std, knots=1, x0=x0,")],

@@ -463,6 +463,46 @@ def test_the_second_opinion_checks_its_solver_settings_and_its_answer():
     assert np.all(np.isfinite(np.asarray(order))) and np.all(np.isfinite(np.asarray(p)))
 
 
+def _lbfgsb_warnings(*args, **kwargs):
+    """`refit_lbfgsb`'s answer and the `RefitWarning` messages it gave."""
+    import warnings
+
+    from vojax._refit import refit_lbfgsb
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", vojax.RefitWarning)
+        answer = refit_lbfgsb(*args, **kwargs)
+    return answer, [str(w.message) for w in caught if w.category is vojax.RefitWarning]
+
+
+def test_the_second_opinion_says_when_it_stopped_before_converging():
+    """L-BFGS-B stopped by `max_steps` returns where it stopped: with 3 steps on a 40-sample
+    record the projected gradient's norm is ~0.3 (converged, 8 steps, it is 2e-13), and on a
+    step of 1e-300 s (columns of ~1e-120) the order stays at its start 0.5 with p ~1e149 after
+    all 30 steps. Both are said (`RefitWarning`, the norm and `tol` named), or refused as no
+    finite answer; the converged fit says nothing, and `warn=False` silences it."""
+    pytest.importorskip("jaxopt")
+    t = 0.1 * np.arange(40)
+    u = np.minimum(t, 1.0) + 0.1
+    short = np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+    (order, p), said = _lbfgsb_warnings(u, short, 0.1, x0=0.0)
+    assert said == [] and abs(float(order[0]) - 0.4) < 1e-3 and abs(float(p[0]) - 1.0) < 1e-3
+    (order, _), said = _lbfgsb_warnings(u, short, 0.1, x0=0.0, max_steps=3)
+    assert len(said) == 1 and "did not converge (it took all 3 of `max_steps`" in said[0]
+    assert "above `tol` 1e-12" in said[0]
+    assert _lbfgsb_warnings(u, short, 0.1, x0=0.0, max_steps=3, warn=False)[1] == []
+    try:
+        _, said = _lbfgsb_warnings(u, short, 1e-300, x0=0.0, max_steps=30)
+    except ValueError as e:
+        assert "refit_lbfgsb reached no finite answer on these data" in str(e)
+    else:
+        assert len(said) == 1 and "did not converge" in said[0]
+    from vojax._refit import refit_lbfgsb
+
+    with pytest.raises((TypeError, ValueError), match="`warn` must be"):
+        refit_lbfgsb(u, short, 0.1, x0=0.0, warn="yes")
+
+
 @pytest.mark.parametrize("second_opinion", [False, True])
 def test_a_start_outside_the_range_is_named_in_the_refits_own_words(second_opinion):
     """The message names `order0` and `order_bounds`, the arguments the caller gave (not the

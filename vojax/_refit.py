@@ -285,12 +285,15 @@ def refit_lbfgsb(
     rule: str = "trapezoid",
     max_steps: int = 500,
     tol: float = 1e-12,
+    warn: bool = True,
 ):
     """Second opinion on `refit`: the same model and objective, ``½‖y − x0 − pᵀφ‖²``, by
     jaxopt's box-constrained L-BFGS-B, with the knot orders themselves bounded by
     `order_bounds` (no logit). Needs the optional extra ``vojax[jaxopt]``.
 
-    **Returns:** ``(order (N,), p (n,))``.
+    **Returns:** ``(order (N,), p (n,))``. With `warn`, a `RefitWarning` says when the
+    solver stopped before its projected gradient's norm fell below `tol` (after `max_steps`
+    steps or a failed line search): the answer is then where it stopped, not a minimum.
 
     **Raises:** `ValueError` for an argument out of range, or where the solver reaches no
     finite answer.
@@ -308,6 +311,7 @@ def refit_lbfgsb(
     u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)
     max_steps, tol = (check.count(max_steps, "max_steps", 1, 100_000),
                       float(check.positive(tol, "tol")))
+    warn = check.flag(warn, "warn")
     num, width = u2.shape
     if order == "constant":
         num_knots = 1
@@ -333,9 +337,19 @@ def refit_lbfgsb(
     phi0 = scan_memory(mem, u2, jnp.full((num,), float(order0)), False)
     theta0 = jnp.concatenate([jnp.full(num_knots, float(order0)), jnp.linalg.lstsq(phi0, big_y)[0]])
     solver = jaxopt.LBFGSB(fun=objective, maxiter=max_steps, tol=tol)
-    theta = solver.run(theta0, bounds=(lower, upper)).params
+    theta, state = solver.run(theta0, bounds=(lower, upper))
     if not np.all(np.isfinite(np.asarray(theta))):
         raise ValueError("refit_lbfgsb reached no finite answer on these data (L-BFGS-B "
                          "stepped out of float64's range): use vojax.refit, or other units.")
+    error = float(state.error)
+    if warn and not error <= tol:
+        import warnings
+
+        why = ("its line search failed" if bool(getattr(state, "failed_linesearch", False))
+               else f"it took all {max_steps} of `max_steps`")
+        warnings.warn(f"vojax.refit_lbfgsb: the fit did not converge ({why} with the projected "
+                      f"gradient's norm at {error:.3g}, above `tol` {tol:.3g}): the answer is "
+                      "where it stopped (more `max_steps`, data in other units, or vojax.refit).",
+                      RefitWarning, stacklevel=2)
     z = (theta[:num_knots] - lo) / (hi - lo)
     return _order_curve(jnp.log(z / (1 - z)), num, bounds), theta[num_knots:]
