@@ -1397,6 +1397,17 @@ MUTATIONS = {
         [("    if not np.all(np.isfinite(np.asarray(theta))):", "    if False:")],
         ["tests/test_refit.py::test_the_second_opinion_checks_its_solver_settings_and_its_answer"],
     ),
+    "the order a constant statement excluded is not reported": (
+        "vojax/_tracker/_estimator.py",
+        [("            clock_at = clock_order(fit, *other)", "            clock_at = float('nan')")],
+        ["tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
+    ),
+    "the excluded order is named even inside the band": (
+        "vojax/_identification.py",
+        [("        return d.clock_order if apart > d.band_halfwidth else None",
+          "        return d.clock_order")],
+        ["tests/test_clock.py::test_an_identified_answer_names_the_order_its_statement_excluded"],
+    ),
     "refit_lbfgsb is silent where it stopped unconverged": (
         "vojax/_refit.py",
         [("    if warn and not error <= tol:", "    if warn and error > 1e300:")],

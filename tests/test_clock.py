@@ -233,3 +233,36 @@ def test_parameters_stated_constant_are_constant_on_the_spans_clock():
     assert "clock" not in constant.diagnostics.reasons
     bounded = vojax.identify(u, y, dt, warn=False, parameters=0.05)
     assert "clock" in bounded.diagnostics.reasons
+    # the excluded account is reported: its order is the data's unit's stated alone (the
+    # same tuned smoothing), and only where the tracker fitted it (no `time_scale`)
+    other = constant.diagnostics.clock_order
+    assert other == pytest.approx(float(np.median(np.asarray(seconds.alpha)[half])), abs=1e-9)
+    assert np.isnan(spans.diagnostics.clock_order) and np.isnan(seconds.diagnostics.clock_order)
+    key = "order, parameters constant in the data's unit"
+    assert constant.summary()[key]["value"] == other and key not in spans.summary()
+
+
+def test_an_identified_answer_names_the_order_its_statement_excluded():
+    """Identified under ``parameters="constant"`` with the data unit's order outside the
+    band: the verdict line gives that order beside the answer; inside the band, or not
+    fitted, nothing is added."""
+    n, span, dt, u, y = _clocks_disagree()
+    res = vojax.identify(u, y, dt, warn=False, parameters="constant")
+    alpha = np.asarray(res.alpha)
+    middle = float(np.median(alpha[n // 2:]))
+
+    def line(clock_order, width=0.05):
+        d = dataclasses.replace(res.diagnostics, verdict="identified", identified=True,
+                                band_halfwidth=width, clock_order=clock_order)
+        return dataclasses.replace(res, diagnostics=d).verdict_line()
+
+    def bare(width=0.05):
+        return (f"identified: α {alpha[n // 2]:.2f} → {alpha[-1]:.2f} ± {width:.2g} with the "
+                "parameters constant, as stated")
+
+    assert line(middle + 0.2) == (f"{bare()} (over the record's span; constant in the data's "
+                                  f"unit of time instead, α {middle + 0.2:.2f})")
+    assert line(middle - 0.06).endswith(f"α {middle - 0.06:.2f})")
+    for quiet in (middle + 0.04, middle - 0.04, float("nan")):
+        assert line(quiet) == bare()
+    assert line(middle + 0.2, width=0.3) == bare(0.3)

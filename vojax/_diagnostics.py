@@ -186,6 +186,12 @@ class Diagnostics:
     - `noise_correlation`: where the tracker modelled the measurement noise as coloured (an
       AR(1) part besides white noise, chosen by evidence), that part's correlation between
       consecutive samples (block means for a long record); NaN where the noise is white.
+    - `clock_order`: the tracker's order (median over the second half) with the parameters
+      constant in the data's unit of time instead of over the record's span, where the
+      tracker fitted that too (without `time_scale`, and a span more than 5 % from one
+      unit), else NaN. Where it lies outside the band the free parameters' band covers it
+      (the reason ``clock``); under ``parameters="constant"``, a statement on the span's
+      clock, it is excluded and reported here and in `Identification.verdict_line`.
     """
 
     band_halfwidth: float
@@ -205,6 +211,7 @@ class Diagnostics:
     reference_drift: float = float("nan")
     finding: str = ""
     next_steps: tuple[str, ...] = ()
+    clock_order: float = float("nan")
 
     def say(self, interface: str = "python") -> str:
         """The message in the words of `interface`: ``"python"`` (`message`) or ``"cli"``
@@ -221,7 +228,7 @@ def diagnose(
     correlation=float("nan"), unstable_from=None, trade=None, samples=None,
     drift_covered=False, block=1, block_error=None, noise_correlation=None, settings=None,
     conditional=None, breakdown_drift=float("nan"), reference_drift=float("nan"), given=(),
-    clock=None,
+    clock=None, clock_order=float("nan"),
 ) -> Diagnostics:
     """The `Diagnostics` of an order trajectory and its band. `held_shift`: how far the order
     moves (median over the second half) when the tracker's drifting parameters are held.
@@ -242,7 +249,8 @@ def diagnose(
     message does not suggest again. `clock`: the order's median over the second half with the
     parameters constant in the data's unit of time, where it lies outside the band the
     span's clock gives (the band was widened to cover it) or outside its conditional band,
-    else None (see `vojax._tracker._clock`)."""
+    else None (see `vojax._tracker._clock`); `clock_order`: that median wherever it was
+    fitted (`Diagnostics.clock_order`)."""
     s = TrackerSettings() if settings is None else settings
     alpha, lower, upper = (np.asarray(a) for a in (alpha, lower, upper))
     lo, hi = bounds
@@ -315,5 +323,5 @@ def diagnose(
         width, at_bound, bool(converged), tuple(at_edge), identified,
         say(finding, steps), correlation, int(block), _nan_or(block_error),
         _nan_or(noise_correlation), tuple(r.value for r in reasons), verdict, cond_width,
-        float(breakdown_drift), float(reference_drift), finding, steps,
+        float(breakdown_drift), float(reference_drift), finding, steps, float(clock_order),
     )

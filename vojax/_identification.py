@@ -117,7 +117,22 @@ class Identification(eqx.Module):
         if np.isfinite(d.breakdown_drift) or np.isfinite(d.conditional_halfwidth):
             out["conditional band half-width"] = row(d.conditional_halfwidth)
             out["breakdown drift"] = row(d.breakdown_drift)
+        other = self._clock_apart()
+        if other is not None:
+            out["order, parameters constant in the data's unit"] = row(
+                other, None, "outside the band: the parameters' unit of time decides the order")
         return out
+
+    def _clock_apart(self):
+        """`diagnostics.clock_order` where it lies farther than the band's half-width from
+        the order's median over the second half (an account the band does not cover), else
+        None."""
+        d = self.diagnostics
+        alpha = self._fitted(self.alpha)
+        if not np.isfinite(d.clock_order):
+            return None
+        apart = abs(d.clock_order - float(np.median(alpha[alpha.shape[0] // 2:])))
+        return d.clock_order if apart > d.band_halfwidth else None
 
     def verdict_line(self) -> str:
         """The verdict and the answer in one line: the order over the second half (its first
@@ -136,7 +151,10 @@ class Identification(eqx.Module):
                 self.parameters, "") if isinstance(self.parameters, str) else (
                 f" with the parameters drifting less than {100 * self.parameters:.0f} %, as "
                 "stated")
-            return head + held
+            other = self._clock_apart()
+            return head + held + ("" if other is None else (
+                f" (over the record's span; constant in the data's unit of time instead, "
+                f"α {other:.2f})"))
         if d.verdict == "conditional":
             return (f"{head} if the parameters drift less than {100 * d.breakdown_drift:.0f} % "
                     "over the test; beyond that a drifting parameter explains the data as well")

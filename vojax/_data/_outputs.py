@@ -50,7 +50,7 @@ def _without_errors(data):
             if "stderr" not in k
             and k not in ("innovation_correlation", "block_error", "noise_correlation",
                           "breakdown_drift", "conditional_halfwidth", "reference_drift",
-                          "settling_test", "residual_correlation")
+                          "clock_order", "settling_test", "residual_correlation")
         }
     return data
 

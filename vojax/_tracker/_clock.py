@@ -40,6 +40,23 @@ def clock_drift(alpha, scale) -> float:
     return float(relative_drift(g, g.shape[0]))
 
 
+def _other_points(fit, other, other_fit):
+    """The first sample of the second half and the data's-unit fit's ``(alpha, lower,
+    upper)`` on the fitted points, or None for them where that fit failed."""
+    span = fit["span"]
+    o_points = tuple(np.asarray(other_fit[k])[:span] for k in ("alpha", "lower", "upper"))
+    ok = other.converged and all(np.all(np.isfinite(a)) for a in o_points)
+    return second_half(fit.get("mask"), span), o_points if ok else None
+
+
+def clock_order(fit, other, other_fit) -> float:
+    """The order with the parameters constant in the data's unit of time (`other`,
+    `other_fit`): its median over the second half of the span's fitted points (`fit`), NaN
+    where that fit failed. Reported whether or not the band covers it."""
+    half, o_points = _other_points(fit, other, other_fit)
+    return float("nan") if o_points is None else float(np.median(o_points[0][half:]))
+
+
 def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
@@ -54,11 +71,10 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     that account: the band covers it only where the union's half-width (median over the
     second half) stays within `answer`, and the conditional answer is kept."""
     span = fit["span"]
-    half = second_half(fit.get("mask"), span)
-    points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
-    o_points = tuple(np.asarray(other_fit[k])[:span] for k in ("alpha", "lower", "upper"))
-    if not (other.converged and all(np.all(np.isfinite(a)) for a in o_points)):
+    half, o_points = _other_points(fit, other, other_fit)
+    if o_points is None:
         return res, fit, None
+    points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
     o_alpha = o_points[0]
     clock = float(np.median(o_alpha[half:]))
     # a drift on the span's clock beyond the stated bound: an account the statement excludes

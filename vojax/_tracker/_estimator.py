@@ -17,7 +17,7 @@ from .._steps import Step
 from .._xla import to_device
 from ._band import first_fitted
 from ._blocks import block_size, fit_blocks
-from ._clock import second_clock, weigh_clock
+from ._clock import clock_order, second_clock, weigh_clock
 from ._fit import fit_points
 from ._smoother import resolve_schedule
 from ._threads import two_at_once
@@ -162,8 +162,9 @@ class Tracker:
             (u2.shape, size, self.memory, self.rule, t is None, mask is None, self.parameters,
              self.x0 is None, self.smooth, self.noise is None), on(scale),
             on(1.0, weigh=False) if both else None)
-        clock = None
+        clock, clock_at = None, float("nan")
         if other is not None:
+            clock_at = clock_order(fit, *other)
             # stated constant: a parameter drifting on the span's clock is excluded (a drift
             # bound keeps the union: on `stated-drift` draw 16, a true bound of 30 %, the
             # span's band alone misses the truth, docs/tracker.md)
@@ -173,7 +174,7 @@ class Tracker:
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
-        diagnostics = self._diagnose(res, fit, size, bounds, clock)
+        diagnostics = self._diagnose(res, fit, size, bounds, clock, clock_at)
         if warn and diagnostics.message:
             warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning,
                           stacklevel=stacklevel)
@@ -223,11 +224,12 @@ class Tracker:
             return float(np.asarray(t)[length - 1] - np.asarray(t)[0])
         return float(np.asarray(dt)) * (length - 1)
 
-    def _diagnose(self, res, fit, size, bounds, clock=None):
+    def _diagnose(self, res, fit, size, bounds, clock=None, clock_at=float("nan")):
         """The diagnostics of what the tracker fitted (the block means of a long record); cut
         in NumPy: an eager slice of a JAX array compiles anew for every record length.
         `clock`: the order's median over the second half with the parameters constant in the
-        data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None.
+        data's unit of time, where it lies outside the span's band (see `weigh_clock`), else None;
+        `clock_at`: that median wherever that fit ran (see `clock_order`), else NaN.
         The diagnostics cover the fitted range: from the first fitted point to the last."""
         fit_mask, span = fit["mask"], fit["span"]
         first = first_fitted(fit_mask)
@@ -250,7 +252,7 @@ class Tracker:
             noise_correlation=res.tuning.noise_correlation, settings=self.settings,
             conditional=conditional, breakdown_drift=res.breakdown_drift,
             reference_drift=res.reference_drift, given=self._given(),
-            clock=clock,
+            clock=clock, clock_order=clock_at,
         )
 
     def _given(self):
