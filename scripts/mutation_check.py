@@ -1404,7 +1404,7 @@ MUTATIONS = {
     ),
     "the excluded order is named even inside the band": (
         "vojax/_identification.py",
-        [("        return d.clock_order if apart > d.band_halfwidth else None",
+        [("        return d.clock_order if not lo <= d.clock_order <= hi else None",
           "        return d.clock_order")],
         ["tests/test_clock.py::test_an_identified_answer_names_the_order_its_statement_excluded"],
     ),

@@ -244,8 +244,8 @@ def test_parameters_stated_constant_are_constant_on_the_spans_clock():
 
 def test_an_identified_answer_names_the_order_its_statement_excluded():
     """Identified under ``parameters="constant"`` with the data unit's order outside the
-    band: the verdict line gives that order beside the answer; inside the band, or not
-    fitted, nothing is added."""
+    band (its edges' medians over the second half): the verdict line gives that order
+    beside the answer; inside the band, or not fitted, nothing is added."""
     n, span, dt, u, y = _clocks_disagree()
     res = vojax.identify(u, y, dt, warn=False, parameters="constant")
     alpha = np.asarray(res.alpha)
@@ -254,7 +254,8 @@ def test_an_identified_answer_names_the_order_its_statement_excluded():
     def line(clock_order, width=0.05):
         d = dataclasses.replace(res.diagnostics, verdict="identified", identified=True,
                                 band_halfwidth=width, clock_order=clock_order)
-        return dataclasses.replace(res, diagnostics=d).verdict_line()
+        return dataclasses.replace(res, diagnostics=d, alpha_lower=res.alpha - width,
+                                   alpha_upper=res.alpha + width).verdict_line()
 
     def bare(width=0.05):
         return (f"identified: α {alpha[n // 2]:.2f} → {alpha[-1]:.2f} ± {width:.2g} with the "

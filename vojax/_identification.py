@@ -124,15 +124,15 @@ class Identification(eqx.Module):
         return out
 
     def _clock_apart(self):
-        """`diagnostics.clock_order` where it lies farther than the band's half-width from
-        the order's median over the second half (an account the band does not cover), else
-        None."""
+        """`diagnostics.clock_order` where it lies outside the band (its edges' medians over
+        the second half): an account the band does not cover; else None."""
         d = self.diagnostics
-        alpha = self._fitted(self.alpha)
         if not np.isfinite(d.clock_order):
             return None
-        apart = abs(d.clock_order - float(np.median(alpha[alpha.shape[0] // 2:])))
-        return d.clock_order if apart > d.band_halfwidth else None
+        half = self._fitted(self.alpha).shape[0] // 2
+        lo, hi = (float(np.median(self._fitted(a)[half:]))
+                  for a in (self.alpha_lower, self.alpha_upper))
+        return d.clock_order if not lo <= d.clock_order <= hi else None
 
     def verdict_line(self) -> str:
         """The verdict and the answer in one line: the order over the second half (its first
