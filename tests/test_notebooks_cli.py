@@ -45,12 +45,9 @@ def test_paper_simulation_notebook_executes():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
-    reason="the notebook's text and this check predate the refit's inflation for correlated residuals: on the adhesive (lag-1 0.99) the refit's interval [0.24, 0.59] now holds the held tracker's order 0.40, so 'three bands that do not overlap' no longer holds; to be rewritten",
-)
 def test_tissue_notebook_executes():
-    """The walk-through runs on the recordings shipped in vojax/examples (no ../shared)."""
+    """The walk-through runs on the recordings shipped in vojax/examples (no ../shared), and
+    what its text says holds."""
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     nb = nbformat.read(ROOT / "notebooks" / "tissue_identification.ipynb", as_version=4)
@@ -64,11 +61,6 @@ def test_tissue_notebook_executes():
     assert len(nrmses) == 6, text
     for base, tracker, refit in (nrmses[0:3], nrmses[3:6]):
         assert tracker < 0.5 * base and refit < 0.5 * base, text
-    # what the markdown cells say: on the adhesive, three springpots give three orders whose
-    # bands do not overlap (tracker with η drifting < tracker with η held < refit), the
-    # tracker's η drifting by more than 5 % and its diagnostics refusing its band for the
-    # trade-off; on the myocardium, tracker and refit agree on a
-    # constant order, the tracker's drift intensities at the lower edge of their search
     number = r"(-?[\d.]+(?:e[-+]?\d+)?)"
     lines = text.splitlines()
     tracked = [re.search(rf"q from {number} to {number}, median band ±{number}", s) for s in lines
@@ -78,13 +70,26 @@ def test_tissue_notebook_executes():
     # in print order: adhesive, adhesive with η held, myocardium
     (lo1, hi1, w1), (lo2, hi2, w2), (lo3, hi3, w3) = (map(float, m.groups()) for m in tracked)
     (q1, q1_lo, q1_hi), (q2, q2_lo, q2_hi) = (map(float, m.groups()) for m in refits)
-    assert hi1 + w1 < lo2 - w2 and hi2 + w2 < q1_lo, text  # adhesive: drifting < held < refit
     adhesive, myocardium = (s for s in lines if s.startswith("tracker:"))
-    eta = re.search(rf"eta from {number} to {number}", adhesive)
-    assert float(eta[2]) / float(eta[1]) > 1.05, text
-    assert "identified: False" in adhesive and "trades off with the parameters' drift" in adhesive
-    assert q2_lo < lo3 <= hi3 < q2_hi, text  # myocardium: the tracker inside the refit's interval
-    assert "order_drift" in myocardium and "parameter_drift" in myocardium, text
+    held = next(s for s in lines if s.startswith("tracker, eta held"))
+    eta1, eta3 = (re.search(rf"eta from {number} to {number}", s) for s in (adhesive, myocardium))
+    # the adhesive: the tracker, η drifting > 20 %, follows the strain (NRMSE < 1e-3) and
+    # refuses its band for correlated prediction errors; with η held it finds the refit's
+    # order and misfit (one model, two computations: within 0.01 and 1e-3); its two bands do
+    # not overlap, and the refit's interval, widened for its correlated residuals, reaches
+    # from one to the other
+    assert float(eta1[2]) / float(eta1[1]) > 1.2 and nrmses[1] < 1e-3, text
+    assert "identified: False" in adhesive and "prediction errors are correlated" in adhesive
+    assert abs(lo2 - q1) < 0.01 and abs(hi2 - q1) < 0.01, text
+    assert abs(float(held.rsplit("NRMSE", 1)[1]) - nrmses[2]) < 1e-3, text
+    assert hi1 + w1 < lo2 - w2, text
+    assert q1_lo < hi1 + w1 and q1_hi > hi2 + w2, text
+    assert "the residuals are correlated (lag-1" in text
+    # the myocardium: η drifting 17 → 42, a band as wide as the range allows (> ±0.3) for
+    # the trade-off; the refit's misfit several times the tracker's
+    assert float(eta3[2]) / float(eta3[1]) > 1.5 and w3 > 0.3, text
+    assert "a drifting parameter explains the data as well" in myocardium, text
+    assert nrmses[5] > 3 * nrmses[4], text
 
 
 @pytest.mark.slow
