@@ -432,6 +432,14 @@ def test_the_second_opinion_also_starts_inside_a_bound():
     assert np.max(np.abs(np.asarray(p) - np.asarray(lm.p)) / np.asarray(lm.p_stderr)) < 0.1
 
 
+def _short_record():
+    """A 40-sample record at 0.1 s (order 0.4, p 1, a small sine on top): ``(u, y)``. At a
+    step of 1e-300 s its columns are ~1e-120."""
+    t = 0.1 * np.arange(40)
+    u = np.minimum(t, 1.0) + 0.1
+    return u, np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+
+
 def test_the_second_opinion_checks_its_solver_settings_and_its_answer():
     """`refit_lbfgsb`'s `tol` and `max_steps` are checked (a text `tol` failed inside the
     solver with "'>' not supported between instances of 'DynamicJaxprTracer' and 'str'"),
@@ -449,9 +457,7 @@ def test_the_second_opinion_checks_its_solver_settings_and_its_answer():
     for steps in (0, 2.5, True):
         with pytest.raises((TypeError, ValueError), match="`max_steps` must be"):
             refit_lbfgsb(U[:200], y, DT, x0=0.0, max_steps=steps)
-    t = 0.1 * np.arange(40)  # a short record: at a step of 1e-300 s its columns are ~1e-120
-    u = np.minimum(t, 1.0) + 0.1
-    short = np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+    u, short = _short_record()
     for step, x0 in ((0.1, 2**63), (1e-300, 0.0)):
         try:
             answer = refit_lbfgsb(u, short, step, x0=x0, max_steps=30)
@@ -482,9 +488,7 @@ def test_the_second_opinion_says_when_it_stopped_before_converging():
     all 30 steps. Both are said (`RefitWarning`, the norm and `tol` named), or refused as no
     finite answer; the converged fit says nothing, and `warn=False` silences it."""
     pytest.importorskip("jaxopt")
-    t = 0.1 * np.arange(40)
-    u = np.minimum(t, 1.0) + 0.1
-    short = np.asarray(vojax.simulate(u, 0.4, 1.0, 0.1)) + 1e-3 * np.sin(7 * t)
+    u, short = _short_record()
     (order, p), said = _lbfgsb_warnings(u, short, 0.1, x0=0.0)
     assert said == [] and abs(float(order[0]) - 0.4) < 1e-3 and abs(float(p[0]) - 1.0) < 1e-3
     (order, _), said = _lbfgsb_warnings(u, short, 0.1, x0=0.0, max_steps=3)

@@ -342,9 +342,7 @@ def refit_lbfgsb(
         raise ValueError("refit_lbfgsb reached no finite answer on these data (L-BFGS-B "
                          "stepped out of float64's range): use vojax.refit, or other units.")
     error = float(state.error)
-    if warn and not error <= tol:
-        import warnings
-
+    if warn and not error <= tol:  # (`warnings` imported with jaxopt above)
         why = ("its line search failed" if bool(getattr(state, "failed_linesearch", False))
                else f"it took all {max_steps} of `max_steps`")
         warnings.warn(f"vojax.refit_lbfgsb: the fit did not converge ({why} with the projected "
