@@ -1334,8 +1334,8 @@ MUTATIONS = {
     ),
     "a stated drift bound ignored by the second clock (the union as with free parameters)": (
         "vojax/_tracker/_clock.py",
-        [("    excluded = bound is not None and clock_drift(o_alpha, scale) > bound\n",
-          "    excluded = False\n")],
+        [("    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (",
+          "    excluded = False or (")],
         ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer",
          "tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
     ),
@@ -1348,9 +1348,45 @@ MUTATIONS = {
     ),
     "free parameters treated as a statement of none by the second clock": (
         "vojax/_tracker/_clock.py",
-        [("    excluded = bound is not None and clock_drift(o_alpha, scale) > bound\n",
-          "    excluded = clock_drift(o_alpha, scale) > (bound or 0.0)\n")],
+        [("    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (",
+          "    excluded = (clock_drift(o_alpha, scale) > (bound or 0.0)) or (")],
         ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer"],
+    ),
+    "the evidence between the two clocks never excludes the data unit's account": (
+        "vojax/_tracker/_clock.py",
+        [("        evidence_apart(res, fit, other) > evidence)", "        False)")],
+        ["tests/test_clock.py::test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement",
+         "tests/test_clock.py::test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them_apart"],
+    ),
+    "the clocks' evidence excludes an account under a drift bound too": (
+        "vojax/_tracker/_estimator.py",
+        [("            evidence = np.inf if bounded else self.settings.clock_evidence",
+          "            evidence = self.settings.clock_evidence")],
+        ["tests/test_clock.py::test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them_apart"],
+    ),
+    "the clocks' evidence taken whole, not per fitted point": (
+        "vojax/_tracker/_clock.py",
+        [("    return float(gain / max(points, 1))", "    return float(gain)")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks"],
+    ),
+    "the clocks' evidence counts masked points": (
+        "vojax/_tracker/_clock.py",
+        [("    points = span if mask is None else int(np.sum(np.asarray(mask)[:span] > 0))",
+          "    points = span")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks"],
+    ),
+    "the clocks' evidence read the wrong way round": (
+        "vojax/_tracker/_clock.py",
+        [("    gain = res.tuning.log_likelihood - other.tuning.log_likelihood",
+          "    gain = other.tuning.log_likelihood - res.tuning.log_likelihood")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks",
+         "tests/test_clock.py::test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement"],
+    ),
+    "the tracker never hands the clocks' evidence threshold to the weighing": (
+        "vojax/_tracker/_estimator.py",
+        [("            evidence = np.inf if bounded else self.settings.clock_evidence",
+          "            evidence = np.inf")],
+        ["tests/test_clock.py::test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them_apart"],
     ),
     "an excluded clock covered whatever the union's width": (
         "vojax/_tracker/_clock.py",

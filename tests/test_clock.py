@@ -11,7 +11,7 @@ import pytest
 import vojax
 from vojax._diagnostics import diagnose
 from vojax._tracker._band import outside
-from vojax._tracker._clock import clock_drift, second_clock, weigh_clock
+from vojax._tracker._clock import clock_drift, evidence_apart, second_clock, weigh_clock
 
 N = 100
 HALF = np.arange(N) >= N // 2
@@ -26,12 +26,18 @@ class _Res:
     alpha_upper: np.ndarray
     alpha_std: np.ndarray
     converged: bool = True
+    tuning: object = None  # `log_likelihood` only (`_tuned`)
 
 
-def _fit(alpha, half_width, converged=True):
+def _tuned(log_likelihood):
+    """A stand-in for the tuning, with its log-likelihood."""
+    return type("Tuning", (), dict(log_likelihood=float(log_likelihood)))()
+
+
+def _fit(alpha, half_width, converged=True, log_likelihood=0.0):
     alpha = np.asarray(alpha, float)
     lo, hi = alpha - half_width, alpha + half_width
-    res = _Res(alpha, lo, hi, np.full(N, half_width / 2), converged)
+    res = _Res(alpha, lo, hi, np.full(N, half_width / 2), converged, _tuned(log_likelihood))
     return res, dict(alpha=alpha, lower=lo, upper=hi, span=N)
 
 
@@ -213,6 +219,87 @@ def test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps
     assert weigh_clock(res, fit, other, other_fit, scale=100.0)[2] == pytest.approx(
         float(np.median(np.linspace(0.45, 0.55, N)[HALF])))
     assert weigh_clock(res, fit, other, other_fit, bound=0.1, scale=100.0)[2] is None
+
+
+def test_the_evidence_per_fitted_point_between_the_two_clocks():
+    """The log-likelihoods' difference over the fitted points: a masked point does not count."""
+    res, fit = _fit(np.full(N, 0.4), 0.05, log_likelihood=130.0)
+    other, _ = _fit(np.full(N, 0.4), 0.05, log_likelihood=100.0)
+    assert evidence_apart(res, fit, other) == pytest.approx(0.3, rel=1e-12)
+    mask = np.r_[np.ones(N // 4), np.zeros(N - N // 4)]
+    assert evidence_apart(res, dict(fit, mask=mask), other) == pytest.approx(1.2, rel=1e-12)
+    assert evidence_apart(other, fit, res) == pytest.approx(-0.3, rel=1e-12)
+
+
+def test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement():
+    """Where the span's fit explains the data better than the data unit's by more than
+    `evidence` nats per fitted point, that account is excluded as a statement excludes it:
+    the band stays the span's unless the union is still an answer, and a conditional answer
+    it lies outside of is kept. At or below it, and where the data unit's fit is the better,
+    the union as before."""
+    span = np.linspace(0.3, 0.4, N)
+    res, fit = _fit(span, 0.05, log_likelihood=100.0 + 0.3 * N)
+    for ll, excluded in ((100.0, True), (100.0 + 0.1 * N, False), (100.0 + 0.5 * N, False)):
+        other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=ll)  # union ±0.165
+        new, new_fit, clock = weigh_clock(res, fit, other, other_fit, answer=0.1,
+                                          evidence=0.2)
+        if excluded:
+            assert new is res and new_fit is fit and clock is None
+        else:
+            np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+            assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
+        # covered where the union is still an answer (±0.2), whatever the evidence
+        new, _, _ = weigh_clock(res, fit, other, other_fit, answer=0.2, evidence=0.2)
+        np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+    # inside the band but outside the conditional band: an excluded account withdraws nothing
+    res, fit = _fit(np.full(N, 0.4), 0.2, log_likelihood=100.0 + 0.3 * N)
+    fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
+    other, other_fit = _fit(np.linspace(0.45, 0.55, N), 0.05, log_likelihood=100.0)
+    assert weigh_clock(res, fit, other, other_fit, evidence=0.4)[2] == pytest.approx(
+        float(np.median(np.linspace(0.45, 0.55, N)[HALF])))
+    assert weigh_clock(res, fit, other, other_fit, evidence=0.2)[2] is None
+
+
+def _span_clock_record():
+    """A record whose parameter is constant over its span, with an oscillation superposed
+    on the staircase (24 cycles, 30 %): the order moves 0.25 → 0.65 over 200 s; 240 samples,
+    1 % noise. Returns ``(n, span, dt, u, y, alpha)``."""
+    n, span = 240, 200.0
+    t = np.linspace(0.0, span, n)
+    dt = t[1] - t[0]
+    u = 1.0 + 0.5 * np.floor(4 * t / span) + 0.3 * np.sin(2 * np.pi * 24 * t / span)
+    alpha = np.linspace(0.25, 0.65, n)
+    x = np.asarray(vojax.simulate(u, alpha, np.array([2.0]), dt / span))
+    y = x + 0.01 * np.std(x) * np.random.default_rng(5).standard_normal(n)
+    return n, span, dt, u, y, alpha
+
+
+def test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them_apart():
+    """On the span-clock record the data unit's account (its order about 0.16 below the
+    truth over the second half, 0.74 nats per point worse) fits worse by more than `clock_evidence` per point: the
+    default's answer is the span's stated alone, to the last bit, and identified with the
+    truth inside its band; that account's order is still reported (`clock_order`). Where the evidence may not decide
+    (a threshold no record reaches, or under a drift bound), the band covers it and the
+    reason is `clock`."""
+    n, span, dt, u, y, alpha = _span_clock_record()
+    default = vojax.identify(u, y, dt, warn=False)
+    spans = vojax.identify(u, y, dt, warn=False, time_scale=span)
+    for name in ("alpha", "alpha_lower", "alpha_upper", "alpha_std", "p"):
+        np.testing.assert_array_equal(np.asarray(getattr(default, name)),
+                                      np.asarray(getattr(spans, name)))
+    d = default.diagnostics
+    assert d.identified and "clock" not in d.reasons
+    half = slice(n // 2, None)
+    inside = (alpha >= np.asarray(default.alpha_lower)) & (alpha <= np.asarray(default.alpha_upper))
+    assert np.mean(inside[half]) > 0.9
+    assert d.clock_order < np.median(alpha[half]) - 0.05  # that account, reported: off
+    blind = vojax.identify(u, y, dt, warn=False,
+                           settings=vojax.TrackerSettings(clock_evidence=1e6))
+    assert "clock" in blind.diagnostics.reasons and not blind.diagnostics.identified
+    # a drift bound that the data unit's account keeps (its drift on the span's clock is
+    # below 30 %) leaves the evidence out: the union, as before
+    bounded = vojax.identify(u, y, dt, warn=False, parameters=0.3)
+    assert "clock" in bounded.diagnostics.reasons
 
 
 def test_parameters_stated_constant_are_constant_on_the_spans_clock():

@@ -81,7 +81,7 @@ def test_the_tracker_answers_at_the_least_settings_it_takes():
         bound_fraction=0.0, start_orders=(0.5,), rho_starts=(0.5,), grid_order=(1.0,),
         held_order_drift=(1.0,), alt_order_drift=(), alt_param_drift=(), moving_offsets=(),
         level_ratios=(), noise_floor=0.0, edge=0.0, coloured_evidence=0.0, band_floor=0.0,
-        drift_floor=0.0)
+        drift_floor=0.0, clock_evidence=0.0)
     given = dict(noise_std=1e-3, order_drift=1.0, parameter_drift=1e-6)
     for kwargs in ({}, dict(noise=given)):
         r = vojax.identify(u, y, dt, settings=least, warn=False, **kwargs)

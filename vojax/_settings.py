@@ -108,6 +108,11 @@ class TrackerSettings:
     band_scale: float = 1.0  # the factor on each explanation's σ (1: calibrated on the suite)
     band_floor: float = 0.0025  # the order's least σ: its model error (quadrature, the input)
     drift_floor: float = 0.005  # a relative parameter drift below this counts as none
+    # nats per fitted point by which the span's fit must out-fit the fit with the parameters
+    # constant in the data's unit of time for the band to exclude that account (docs/tracker.md:
+    # on the `clock` family, where that account is true, the span's fit led by at most 0.09;
+    # on `informative` draws 2, 6 and 18, where it is false, by 0.22–0.49)
+    clock_evidence: float = 0.2
 
     # ---- the verdict
     identified_halfwidth: float = 0.1  # the widest ±2σ half-width (median) called identified
@@ -185,6 +190,7 @@ FRACTION = ((0.0,), (1.0,), False)
 RANGES = {
     "noise_floor": AT_LEAST_0, "edge": AT_LEAST_0, "coloured_evidence": AT_LEAST_0,
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
+    "clock_evidence": AT_LEAST_0,
     "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "trade_chi2": AT_LEAST_0,
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),

@@ -11,7 +11,11 @@ true one), and the band covers both; where it lies inside, the band is the span'
 but a conditional answer (a bound on the drift on the span's clock) is withdrawn where that
 order lies outside the conditional band. `parameters="constant"` is a statement on the
 span's clock: where the data unit's account drifts there (`clock_drift`), it is excluded,
-and covered only where the union is still an answer.
+and covered only where the union is still an answer. Whatever the statement, an account
+the data exclude is excluded alike: where the span's fit explains them better by more than
+`TrackerSettings.clock_evidence` nats per fitted point (`evidence_apart`; an input with an
+oscillation superposed can tell the clocks apart, a staircase alone cannot, and there the
+evidence stays below it).
 """
 
 import dataclasses
@@ -57,7 +61,18 @@ def clock_order(fit, other, other_fit) -> float:
     return float("nan") if o_points is None else float(np.median(o_points[0][half:]))
 
 
-def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf):
+def evidence_apart(res, fit, other) -> float:
+    """How much better the span's fit (`res`, its fitted points `fit`) explains the data than
+    the one with the parameters constant in the data's unit (`other`): the difference of
+    their tuned log-likelihoods per fitted point (the block means of a long record)."""
+    mask, span = fit.get("mask"), fit["span"]
+    points = span if mask is None else int(np.sum(np.asarray(mask)[:span] > 0))
+    gain = res.tuning.log_likelihood - other.tuning.log_likelihood
+    return float(gain / max(points, 1))
+
+
+def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf,
+                evidence=np.inf):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
     the stated band (`outside`, on the fitted points) the band is widened to cover both;
@@ -69,7 +84,9 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     fit's parameters, constant in the data's unit, drift beyond it on the span's clock
     (`clock_drift`, over the record's span of `scale` data units), the statement excludes
     that account: the band covers it only where the union's half-width (median over the
-    second half) stays within `answer`, and the conditional answer is kept."""
+    second half) stays within `answer`, and the conditional answer is kept. The same holds,
+    whatever the statement, where the span's fit explains the data better by more than
+    `evidence` nats per fitted point (`evidence_apart`): the data exclude that account."""
     span = fit["span"]
     half, o_points = _other_points(fit, other, other_fit)
     if o_points is None:
@@ -78,7 +95,8 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     o_alpha = o_points[0]
     clock = float(np.median(o_alpha[half:]))
     # a drift on the span's clock beyond the stated bound: an account the statement excludes
-    excluded = bound is not None and clock_drift(o_alpha, scale) > bound
+    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (
+        evidence_apart(res, fit, other) > evidence)
     if not outside(o_alpha, (*points, 0.0), half):
         cond = fit.get("conditional")
         beyond = cond is not None and outside(

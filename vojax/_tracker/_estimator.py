@@ -165,12 +165,16 @@ class Tracker:
         clock, clock_at = None, float("nan")
         if other is not None:
             clock_at = clock_order(fit, *other)
-            # stated constant: a parameter drifting on the span's clock is excluded (a drift
-            # bound keeps the union: on `stated-drift` draw 16, a true bound of 30 %, the
-            # span's band alone misses the truth, docs/tracker.md)
+            # the data unit's account is excluded where a constant statement excludes it (its
+            # parameters drift on the span's clock) or where the data do (the evidence), but
+            # not under a drift bound: on `stated-drift` draw 16, a true bound of 30 %, the
+            # union holds the truth the span's band alone misses (docs/tracker.md)
             stated = self.settings.drift_floor if self.parameters == "constant" else None
+            bounded = not isinstance(self.parameters, str)
+            evidence = np.inf if bounded else self.settings.clock_evidence
             res, fit, clock = weigh_clock(res, fit, *other, bound=stated, scale=scale,
-                                          answer=self.settings.identified_halfwidth)
+                                          answer=self.settings.identified_halfwidth,
+                                          evidence=evidence)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
