@@ -189,9 +189,11 @@ class Diagnostics:
     - `clock_order`: the tracker's order (median over the second half) with the parameters
       constant in the data's unit of time instead of over the record's span, where the
       tracker fitted that too (without `time_scale`, and a span more than 5 % from one
-      unit), else NaN. Where it lies outside the band the free parameters' band covers it
-      (the reason ``clock``); under ``parameters="constant"``, a statement on the span's
-      clock, it is excluded and reported here and in `Identification.verdict_line`.
+      unit), else NaN. Where it lies outside the band the band covers it (the reason
+      ``clock``), unless that account is excluded (under ``parameters="constant"``, a
+      statement on the span's clock, or where the data exclude it,
+      `TrackerSettings.clock_evidence`); it is then reported here and in
+      `Identification.verdict_line`.
     """
 
     band_halfwidth: float

@@ -137,9 +137,11 @@ def identify(
       parameter constant in seconds drifts in milliseconds (``p·1000^(−α(t))``). Unless it
       is given, the tracker also fits with the parameters constant in the data's unit
       (``time_scale=1``); where that order lies outside the band, the band covers it
-      (reason ``clock``), except with the parameters stated constant: on the span's clock
-      that account's parameters drift, and it is covered only where covering it still
-      leaves an answer (±0.1).
+      (reason ``clock``), except where that account is excluded: with the parameters
+      stated constant (on the span's clock its parameters drift), or, free or constant,
+      where the span's fit explains the data better by more than
+      ``settings.clock_evidence`` nats per fitted point; then it is covered only where
+      covering it still leaves an answer (±0.1).
     - `settings`: the tracker's tuned numbers (a `vojax.TrackerSettings`; its defaults where
       None); ``method="kalman"`` only.
 
