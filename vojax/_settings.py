@@ -109,9 +109,10 @@ class TrackerSettings:
     band_floor: float = 0.0025  # the order's least σ: its model error (quadrature, the input)
     drift_floor: float = 0.005  # a relative parameter drift below this counts as none
     # nats per fitted point by which the span's fit must out-fit the fit with the parameters
-    # constant in the data's unit of time for the band to exclude that account (docs/tracker.md:
-    # on the `clock` family, where that account is true, the span's fit led by at most 0.09;
-    # on `informative` draws 2, 6 and 18, where it is false, by 0.22–0.49)
+    # constant in the data's unit of time for the band to exclude that account (free or
+    # stated constant; docs/calibration.md: where that account is true, the span's fit led by
+    # at most 0.086 on the `clock` family and 0.136 on a staircase; where it is false and
+    # outside the span's band, by 0.22–0.58 on `informative` draws 2, 5, 6 and 18)
     clock_evidence: float = 0.2
 
     # ---- the verdict
