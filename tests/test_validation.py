@@ -308,6 +308,11 @@ def _short_record():
      ValueError, r"`dphi` must have the shape of `phi`, \(40, 1\)"),
     (lambda u, y: vojax.testing.check_gradients(u, 0.4, None), (TypeError, ValueError), "`dt`"),
     (lambda u, y: vojax.testing.check_gradients(u, "x", 0.1), TypeError, "`order`"),
+    # a one-element order is refused, as `vojax.simulate` refuses it (it took it as a number)
+    (lambda u, y: vojax.testing.check_gradients(u, [0.4], 0.1), ValueError,
+     r"`order` must be a number or \(40,\)"),
+    (lambda u, y: vojax.simulate(u, [0.4], 1.0, 0.1), ValueError,
+     r"`order` must be a scalar or have shape \(40,\)"),
     (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, rtol="x"), TypeError, "`rtol`"),
     (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, max_samples=None), TypeError,
      "`max_samples` must be a whole number"),

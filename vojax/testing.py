@@ -138,7 +138,7 @@ def _inputs(u, order, dt, max_samples):
             f"most max_samples={max_samples}: pass a part of the record (e.g. u[:{max_samples}])."
         )
     order = check.reals(order, "order")
-    if order.ndim > 1 or order.size not in (1, num):
+    if order.shape not in ((), (num,)):  # as `vojax.simulate` and the estimators take it
         raise ValueError(f"`order` must be a number or ({num},), one per sample, got shape "
                          f"{order.shape}.")
     order = np.broadcast_to(order, (num,))
