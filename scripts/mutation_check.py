@@ -316,11 +316,19 @@ MUTATIONS = {
     'first pass never retried with the full budget': (
         'vojax/_tracker/_tuning.py',
         [
-            ('    passes = [*((noise, s.grid_max_iter) for noise in noises), (noises[0], s.max_iter)]',
+            ('    passes = [(noise, budget) for budget in budgets for noise in noises]',
              '    passes = [(noise, s.grid_max_iter) for noise in noises]'),
         ],
         ['tests/test_tracker.py::test_first_pass_keeps_the_best_run_and_falls_back_on_the_full_budget',
          'tests/test_tracker.py::test_tune_tries_each_noise_level_then_the_full_budget'],
+    ),
+    'the full budget tried at the first noise level only': (
+        'vojax/_tracker/_tuning.py',
+        [
+            ('    passes = [(noise, budget) for budget in budgets for noise in noises]',
+             '    passes = [*((noise, s.grid_max_iter) for noise in noises), (noises[0], s.max_iter)]'),
+        ],
+        ['tests/test_tracker.py::test_tune_tries_each_noise_level_then_the_full_budget'],
     ),
     "golden section keeps the wrong side": (
         "vojax/_tracker/_start.py",

@@ -130,7 +130,7 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     can have several modes. One compiled smoothing of every start × order drift of
     `grid_order` (parameter drift `constant_drift`, noise ``noises[0]``), each given
     `grid_max_iter` iterations; if none converges, the same at each further level of `noises`
-    in turn, then at ``noises[0]`` with `max_iter` iterations. From the best run, `climb`;
+    in turn, then each level again with `max_iter` iterations. From the best run, `climb`;
     where that ends `collapsed` (`second_climb`), climb also from the best run at another
     order drift and keep the higher evidence.
     Returns ``(Hyper, Smoothed, Tuning)``. The measurement noise is kept above `noise_floor`:
@@ -140,7 +140,11 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     s = problem.settings
     limits = box(s, noise_floor, hold)
     first = to_device(np.repeat(np.asarray(starts), len(s.grid_order), axis=0))
-    passes = [*((noise, s.grid_max_iter) for noise in noises), (noises[0], s.max_iter)]
+    # the full budget at every level too: a level whose runs converge only past
+    # `grid_max_iter` (the constant fit's misfit, where the data's noise stalls) is not lost
+    budgets = (s.grid_max_iter,) if s.grid_max_iter >= s.max_iter else (s.grid_max_iter,
+                                                                         s.max_iter)
+    passes = [(noise, budget) for budget in budgets for noise in noises]
     for noise, budget in passes:
         rows = [(qo, s.constant_drift, noise) for _ in starts for qo in s.grid_order]
         sm, i, i_alt, scores = run_batch_shares(problem, rows, first, budget)
