@@ -637,10 +637,6 @@ def test_order_traded_against_drifting_parameters_is_refused():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
-    reason="open: padded and unpadded runs differ by 2.4e-7 relative in p at 2 of 300 samples, above the 1e-7 asked",
-)
 def test_padding_with_a_mask_changes_nothing_and_reuses_the_program():
     """A record padded after its end and masked gives the unpadded record's results (to the
     smoother's convergence tolerance, 1e-9 relative in the objective); two records of
