@@ -12,10 +12,10 @@ but a conditional answer (a bound on the drift on the span's clock) is withdrawn
 order lies outside the conditional band. `parameters="constant"` is a statement on the
 span's clock: where the data unit's account drifts there (`clock_drift`), it is excluded,
 and covered only where the union is still an answer. With the parameters free or stated
-constant, an account the data exclude is excluded alike (a drift bound keeps the union): where the span's fit explains them better by more than
-`TrackerSettings.clock_evidence` nats per fitted point (`evidence_apart`; an input with an
-oscillation superposed can tell the clocks apart, a staircase alone cannot, and there the
-evidence stays below it).
+constant, an account the data exclude is excluded alike (a drift bound keeps the union):
+where the span's fit explains them better by more than `TrackerSettings.clock_evidence`
+nats per fitted point (`evidence_apart`; an input with an oscillation superposed can tell
+the clocks apart, a staircase alone cannot, and there the evidence stays below it).
 """
 
 import dataclasses

@@ -142,8 +142,7 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     first = to_device(np.repeat(np.asarray(starts), len(s.grid_order), axis=0))
     # the full budget at every level too: a level whose runs converge only past
     # `grid_max_iter` (the constant fit's misfit, where the data's noise stalls) is not lost
-    budgets = (s.grid_max_iter,) if s.grid_max_iter >= s.max_iter else (s.grid_max_iter,
-                                                                         s.max_iter)
+    budgets = (s.grid_max_iter,) + ((s.max_iter,) if s.max_iter > s.grid_max_iter else ())
     passes = [(noise, budget) for budget in budgets for noise in noises]
     for noise, budget in passes:
         rows = [(qo, s.constant_drift, noise) for _ in starts for qo in s.grid_order]
