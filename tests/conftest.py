@@ -26,3 +26,11 @@ def _spare_mappings():
     check (`vojax._xla.spare_mappings` on entry to `identify` and `refit`), so that check
     never drops the programs in the middle of a test that counts its traces."""
     _xla.spare_mappings(share=0.8 * _xla.MAPPINGS_SHARE, every_s=0)
+
+
+@pytest.fixture(scope="session")
+def ramp():
+    """`helpers.ramp_case()`: a 1,500-sample record of two inputs and an order ramp."""
+    from .helpers import ramp_case
+
+    return ramp_case()

@@ -1,6 +1,9 @@
 import math
 
+import jax.numpy as jnp
 import numpy as np
+
+import vojax
 
 
 def paper_inputs(n: int, dt: float):
@@ -90,3 +93,47 @@ def mittag_leffler_series(alpha, x, offset=1, plus_alpha=False):
             if k > 10 and abs(term) < mpmath.mpf(10) ** (-digits):
                 return float(total)
             k += 1
+
+
+def ramp_case(n=1500, dt=0.1, noise=0.02, seed=0):
+    t = np.arange(n) * dt
+    u = np.stack([np.sin(0.5 * t) + 0.3, np.cos(0.2 * t)], axis=1)
+    alpha = 0.3 + 0.4 * t / t[-1]
+    p = np.array([2.0, -1.5])
+    x = np.asarray(vojax.simulate(u, alpha, p, dt)) + 0.7
+    y = x + noise * np.std(x) * np.random.default_rng(seed).standard_normal(n)
+    return t, u, y, alpha, p, dt
+
+
+def normalised_problem(case, num, columns=None, settings=None):
+    """The tracker's problem for the first `num` samples of a `ramp_case` (its first
+    `columns` inputs, or all), its input and output normalised (the constant fit's rescaling
+    left out) and the constant starts: ``(Problem, starts)``."""
+    from vojax._integral import make_memory
+    from vojax._tracker._problem import data_scales
+    from vojax._tracker._start import starting_trajectories
+
+    t, u, y, *_, dt = case
+    u, y = jnp.asarray(u[:num, :columns]), jnp.asarray(y[:num])
+    memory = make_memory("exponential", dt, num, order_range=(0.01, 0.99))
+    scales = data_scales(u, y, jnp.ones(num))
+    un = u / jnp.asarray(scales.u_scale)
+    yn = (y - scales.y_ref) / scales.y_scale
+    problem = make_problem(memory, un, yn, dt=dt, settings=settings)
+    return problem, np.asarray(starting_trajectories(problem, 0.5))
+
+
+def gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3, width=0.15):
+    """One input, a constant order, and a gain that rises by 30 % mid-record over about
+    ±`width` of it: ``y = p(t)·I^α u + c`` (a tissue stiffening during a test)."""
+    from vojax import reference
+
+    dt = 0.05
+    t = np.arange(n) * dt
+    u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
+    s = t / t[-1]
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / width)) / 2.0
+    x = p * np.asarray(reference.fractional_integral(u[:, None], np.full(n, alpha), dt))[:, 0]
+    sd = noise * np.ptp(x)
+    y = x + 0.2 + sd * np.random.default_rng(seed).standard_normal(n)
+    return t, u, y, dt, sd

@@ -17,7 +17,7 @@ from vojax._tracker._smoother import linearised_log_likelihood
 from vojax._tracker._threads import host_hyper
 from vojax._tracker._tuning import _refine, box
 
-from .test_tracker import _normalised, _ramp_case
+from .helpers import normalised_problem, ramp_case
 
 RTOL, ATOL = 1e-7, 1e-9
 
@@ -143,7 +143,7 @@ def test_refinement_of_the_intensities_is_optimistix_bfgs(hold):
     linearised at its mode, the parameters' drift free or held (a box of zero width): the
     intensities optimistix's BFGS reaches from the same start (both converge within their 60
     evaluations), to 1e-6."""
-    problem, starts = _normalised(_ramp_case(n=200), 200, columns=1)
+    problem, starts = normalised_problem(ramp_case(n=200), 200, columns=1)
     hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (0.05, 1e-5, 1e-2)))
     sm = problem.smooth_from(hyper, starts[0])
     limits = box(problem.settings, 1e-4, hold)

@@ -4,7 +4,6 @@ tracker's band is never confidently wrong where a parameter drifts, with the par
 stated constant it identifies most white-noise and noisy draws with bands that hold, and the
 paper's law never claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
 
-import importlib.util
 import warnings
 from pathlib import Path
 
@@ -12,6 +11,8 @@ import numpy as np
 import pytest
 
 import vojax
+
+from .helpers import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -21,17 +22,9 @@ pytestmark = [
 ]
 
 
-def _script(name):
-    """A module of scripts/, imported from its file (scripts/ is not a package)."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
 def suite():
-    module = _script("bench_calibration")
+    module = load_script("bench_calibration")
     return module, module.real_signals(DATA)
 
 
@@ -104,7 +97,7 @@ def _held_explanation(case, settings):
     explanation (the span clock's fit, where the band is weighed), caught by the spy of
     `scripts/band_explanations.py`."""
     caught = {}
-    undo = _script("band_explanations").spy(caught)
+    undo = load_script("band_explanations").spy(caught)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

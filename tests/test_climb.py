@@ -1,7 +1,7 @@
 """The tracker's climb over its noise intensities, as control flow: the smoothing and the
 BFGS refinement are replaced by stand-ins whose answers are known, so that a rule of
 `climb` (when a climb stops) is checked by itself. What the climbs reach on real records:
-`tests/test_tracker.py` and `tests/test_coloured.py`."""
+`tests/test_first_pass.py`, `tests/test_tracker.py` and `tests/test_coloured.py`."""
 
 import types
 

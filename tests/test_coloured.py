@@ -1,6 +1,7 @@
 """Coloured measurement noise: the AR(1) noise state's model and the whitening behind the
 tracker's χ² tests, against dense linear algebra (the tracker choosing the coloured model by
-evidence: `tests/test_tracker.py`; its Kalman passes and mode: the dense posteriors there)."""
+evidence: `tests/test_first_pass.py`; its Kalman passes and mode: the dense posteriors of
+`tests/test_kalman.py`)."""
 
 import jax.numpy as jnp
 import numpy as np

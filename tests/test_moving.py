@@ -25,15 +25,14 @@ from vojax._tracker._moving import (
 )
 from vojax._tracker._trade import trade_interval
 
-from .helpers import make_problem
-from .test_tracker import _gain_drift_case
+from .helpers import gain_drift_case, make_problem
 
 BOUNDS = (0.01, 0.99)
 
 
 @functools.cache
 def _profile():
-    t, u, y, dt, sd = _gain_drift_case()
+    t, u, y, dt, sd = gain_drift_case()
     memory = make_memory("exponential", dt, t.size, order_range=BOUNDS)
     problem = make_problem(memory, u[:, None], y, times=t, bounds=BOUNDS)
     _, _, profile = trade_interval(problem, sd**2)

@@ -12,7 +12,7 @@ import vojax
 from vojax._tracker import _smoother, kalman_filter, rts_smoother
 from vojax._tracker._parallel import chunked_scan, parallel_filter, parallel_smoother
 
-from .test_tracker import _batch_posterior
+from .test_kalman import _batch_posterior
 
 SCHEDULES = ("associative", "chunked")
 
