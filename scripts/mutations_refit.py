@@ -1,0 +1,368 @@
+"""Planted bugs of `mutation_check.py`: the offline refit, its laws and their comparison."""
+
+# name: (file, [(old, new), ...], tests that should fail)
+MUTATIONS = {
+    "refit covariance uses sigma, not sigma squared": (
+        "vojax/_refit_solve.py",
+        [("    cov = sigma2 * inverse\n    raw, raw_sd", "    cov = jnp.sqrt(sigma2) * inverse\n    raw, raw_sd")],
+        ["tests/test_refit.py", "tests/test_refit_units.py"],
+    ),
+    "Kelvin–Voigt sign flipped in the regression and the parameter map": (
+        "vojax/_models/_viscoelastic.py",
+        [('"k": -p[..., 1] * eta', '"k": p[..., 1] * eta'),
+         ("jnp.array([1.0 / eta, -k / eta])", "jnp.array([1.0 / eta, k / eta])")],
+        ["tests/test_models.py"],
+    ),
+    "the second opinion starts on a bound of the order's range": (
+        "vojax/_refit.py",
+        [("    order0 = _start(order0, bounds)\n    u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)",
+          "    u2, y, _, x0, _ = check_options(u, y, dt, None, order0, bounds, memory, rule, x0, None)")],
+        ["tests/test_refit_units.py::test_the_second_opinion_also_starts_inside_a_bound"],
+    ),
+    "a refit's start left on the bound (no margin)": (
+        "vojax/_refit_inputs.py",
+        [("margin = BOUND_MARGIN * (bounds[1] - bounds[0])\n    return", "margin = 0.0 * (bounds[1] - bounds[0])\n    return")],
+        ["tests/test_refit_units.py::test_a_start_on_a_bound_starts_inside_and_an_order_beyond_the_range_sits_at_its_bound",
+         "tests/test_refit_units.py::test_the_second_opinion_also_starts_inside_a_bound"],
+    ),
+    "refit mask ignored in the residuals": (
+        "vojax/_refit_solve.py",
+        [("        * sw / y_scale,\n        optx.LevenbergMarquardt(", "        / y_scale,\n        optx.LevenbergMarquardt(")],
+        ["tests/test_refit.py", "tests/test_refit_units.py"],
+    ),
+    "refit's tolerance passed as a Python number (a retrace per value)": (
+        'vojax/_refit_active.py',
+        [
+            ('np.asarray(solver["rtol"], dtype),\n            np.asarray(solver["atol"], dtype),',
+             'float(solver["rtol"]),\n            float(solver["atol"]),'),
+        ],
+        ['tests/test_retracing.py::test_refit_traces_once'],
+    ),
+    "refit Jacobian's order column without the chain rule dβ/draw": (
+        "vojax/_refit_solve.py",
+        [("by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * dbeta",
+          "by_order = (dphi_t @ (p_t[:width] * active[:width]))[:, None] * jnp.ones_like(dbeta)")],
+        ["tests/test_refit.py::test_standard_errors_are_the_gauss_newton_covariance",
+         "tests/test_refit.py::test_knot_standard_errors_from_an_autodiff_jacobian"],
+    ),
+    "refit with an origin fits the added sample": (
+        "vojax/_refit_inputs.py",
+        [("np.concatenate([[0.0], w]))", "np.concatenate([[1.0], w]))")],
+        ["tests/test_refit_recordings.py"],
+    ),
+    "sign constraints never hold a coefficient": (
+        "vojax/_refit_solve.py",
+        [("broken = (active[:count] > 0) & (signs * coefficients < 0)",
+          "broken = (active[:count] > 0) & (signs * coefficients < -np.inf)")],
+        ["tests/test_refit_recordings.py::test_sign_constraint_holds_the_broken_coefficient_at_zero"],
+    ),
+    "refit weights not square-rooted in the residuals": (
+        "vojax/_refit.py",
+        [("sw = jnp.asarray(np.sqrt(w), u2.dtype)", "sw = jnp.asarray(w, u2.dtype)")],
+        ["tests/test_refit_recordings.py::test_weights_are_weighted_least_squares"],
+    ),
+    "Zener's E1 from the wrong sum": (
+        "vojax/_models/_viscoelastic.py",
+        [("e1 = total - e0", "e1 = total + e0")],
+        ["tests/test_models.py"],
+    ),
+    "refit covariance by a pseudo-inverse of the normal matrix": (
+        "vojax/_refit_solve.py",
+        [("    cov = scale[:, None] * ((vt.T * inv_s2) @ vt) * scale[None, :]",
+          "    cov = jnp.linalg.pinv(jac.T @ jac + jnp.diag(1.0 - free))")],
+        ["tests/test_refit_recordings.py"],
+    ),
+    "refit keeps coefficients that are rounding": (
+        "vojax/_refit_solve.py",
+        [("ROUNDING = 1e-12\n", "ROUNDING = 0.0\n")],
+        ["tests/test_refit_units.py::test_a_coefficient_fitted_to_rounding_is_exactly_zero",
+         "tests/test_cli_recordings.py::test_an_undetermined_parameter_is_written_not_failed"],
+    ),
+    "refit's active set ranks sign violations by magnitude": (
+        "vojax/_refit_active.py",
+        [("        if not _hold_worst(active, signs, out[\"p\"], se):",
+          "        if not _hold_worst(active, signs, out[\"p\"], 1.0):")],
+        ["tests/test_refit_units.py::test_sign_constraints_do_not_depend_on_the_units_of_the_inputs"],
+    ),
+    "fixed-order refit's active set ranks by magnitude": (
+        "vojax/_refit_solve.py",
+        [("        if not _hold_worst(active, signs, np.asarray(p[:count]), scale):",
+          "        if not _hold_worst(active, signs, np.asarray(p[:count]), 1.0):")],
+        ["tests/test_refit_units.py::test_sign_constraints_do_not_depend_on_the_units_of_the_inputs"],
+    ),
+    "a varying order read as one number": (
+        "vojax/_refit_result.py",
+        [("        if not self.constant:\n            raise ValueError(", "        if False:\n            raise ValueError(")],
+        ["tests/test_results.py::test_a_varying_refit_refuses_a_single_number"],
+    ),
+    "compare's likelihood counts every sample, not the window's": (
+        "vojax/_compare.py",
+        [("    num = int(inside.sum())\n    res = scaled(fit)[inside]\n",
+          "    num = strain.size\n    res = scaled(fit)\n")],
+        ["tests/test_compare_window.py::test_a_window_leaves_the_ringing_out_and_counts_only_its_samples"],
+    ),
+    "compare's held-out end is the record's, not the window's": (
+        "vojax/_compare.py",
+        [("times[idx[int(round((1 - holdout) * (idx.size - 1)))]]",
+          "times[int(round((1 - holdout) * (times.size - 1)))]")],
+        ["tests/test_compare_window.py::test_a_window_leaves_the_ringing_out_and_counts_only_its_samples"],
+    ),
+    "compare's relative likelihood without its Jacobian": (
+        "vojax/_compare.py",
+        [("        loglik -= float(np.sum(np.log(np.abs(strain[inside]))))\n",
+          "        loglik -= 0.0\n")],
+        ["tests/test_compare_window.py::test_relative_residuals_have_the_likelihood_of_proportional_noise"],
+    ),
+    "compare counts a given offset as a free number": (
+        "vojax/_compare.py",
+        [("    offset = 1 if isinstance(x0, str) else 0", "    offset = 1")],
+        ["tests/test_compare_window.py::test_a_given_offset_is_held_and_not_counted"],
+    ),
+    "compare's fit of the first part ignores the relative option": (
+        "vojax/_compare.py",
+        [("    fitting = dict(x0=x0, origin=origin, relative=relative)",
+          "    fitting = dict(x0=x0, origin=origin)")],
+        ["tests/test_compare_window.py::test_relative_residuals_have_the_likelihood_of_proportional_noise"],
+    ),
+    "the comparison's Zener row always takes the Maxwell fit": (
+        "vojax/_compare.py",
+        [("    if rss(nested, inside) < rss(fit, inside):\n", "    if True:\n")],
+        ["tests/test_compare.py::test_the_comparison_finds_each_law_with_the_noise_below_its_feature"],
+    ),
+    "refit's padding left in the coefficients' covariance": (
+        "vojax/_refit_active.py",
+        [('        out["p_cov"] = out["p_cov"][np.ix_(real, real)]\n', "")],
+        ["tests/test_refit_units.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
+    ),
+    "refit's inflation inverted": (
+        'vojax/_refit.py',
+        [
+            ('    return float(rho), float(np.sqrt((1 + r) / (1 - r)))',
+             '    return float(rho), float(np.sqrt((1 - r) / (1 + r)))'),
+        ],
+        ['tests/test_refit.py::test_correlated_residuals_inflate_the_gauss_newton_errors'],
+    ),
+    "refit's order interval not widened with its errors": (
+        'vojax/_refit.py',
+        [
+            ('    out["order_upper"] = lo + (hi - lo) * sig(raw + 2 * raw_sd)',
+             '    pass'),
+        ],
+        ['tests/test_refit.py::test_correlated_residuals_inflate_the_gauss_newton_errors'],
+    ),
+    "compare answers a record with no stress": (
+        "vojax/_compare.py",
+        [("    if not np.any(stress):", "    if False:")],
+        ["tests/test_compare.py::test_a_record_no_law_can_describe_is_refused_not_answered_with_nan"],
+    ),
+    "Bayes factor of a model not compared: a KeyError": (
+        "vojax/_compare.py",
+        [("            if not isinstance(name, str) or name not in ev:",
+          "            if not isinstance(name, str):")],
+        ["tests/test_compare.py::test_every_number_of_a_comparison_is_finite_and_its_questions_name_the_models"],
+    ),
+    "compare fits every sample of a long record": (
+        "vojax/_compare.py",
+        [("    if block > 1:  # block means", "    if False:  # block means")],
+        ["tests/test_compare.py::test_a_long_record_is_compared_on_its_block_means"],
+    ),
+    "held-out error from the fit that saw the end": (
+        "vojax/_compare.py",
+        [("    miss = scaled(early)[tail]", "    miss = scaled(fit)[tail]")],
+        ["tests/test_compare.py::test_the_held_out_error_is_the_prediction_of_a_fit_that_did_not_see_the_end"],
+    ),
+    '"strongly favoured" from a Bayes factor of 3': (
+        "vojax/_compare.py",
+        [('            strength = "strongly " if bf >= STRONG_BF else ""',
+          '            strength = "strongly " if bf >= UNDECIDED_BF else ""')],
+        ["tests/test_compare.py::test_the_verdict_words_follow_the_bayes_factor"],
+    ),
+    "refit takes no solver steps, a negative tolerance and 2 for a flag": (
+        "vojax/_refit.py",
+        [('    max_steps = check.count(max_steps, "max_steps", 1, 100_000)\n', ""),
+         ('    throw, warn = check.flag(throw, "throw"), check.flag(warn, "warn")\n', "")],
+        ["tests/test_refit_settles.py::test_the_solvers_options_are_checked"],
+    ),
+    "compare takes a fractional number of knots (as a constant order)": (
+        "vojax/_compare.py",
+        [('        knots = check.count(knots, "knots", 2, max(2, min(stress.size, max_points) // 4))',
+          '        pass')],
+        ["tests/test_compare.py::test_bad_calls_are_refused"],
+    ),
+    "refit_lbfgsb returns a NaN answer": (
+        "vojax/_refit.py",
+        [("    if not np.all(np.isfinite(np.asarray(theta))):", "    if False:")],
+        ["tests/test_refit_units.py::test_the_second_opinion_checks_its_solver_settings_and_its_answer"],
+    ),
+    "refit_lbfgsb is silent where it stopped unconverged": (
+        "vojax/_refit.py",
+        [("    if warn and not error <= tol:", "    if warn and error > 1e300:")],
+        ["tests/test_refit_units.py::test_the_second_opinion_says_when_it_stopped_before_converging"],
+    ),
+    "Mittag-Leffler integral without the grading at w_c": (
+        "vojax/_models/_closed.py",
+        [("        if c < 0:  # the steep rise of θ near w_c (a step at α = 1)",
+          "        if False:")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Mittag-Leffler sin απ from απ near α = 1": (
+        "vojax/_models/_closed.py",
+        [("        s, c = math.sin((1 - alpha) * math.pi), -math.cos((1 - alpha) * math.pi)",
+          "        s, c = math.sin(alpha * math.pi), math.cos(alpha * math.pi)")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Mittag-Leffler asymptotic series one term short": (
+        "vojax/_models/_closed.py",
+        [("def _asymptotic(alpha, x, beta=1.0, terms=12):",
+          "def _asymptotic(alpha, x, beta=1.0, terms=1):")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "JAX Mittag-Leffler without the panels about w_c": (
+        "vojax/_models/_closed_jax.py",
+        [("    points = jnp.concatenate([jnp.zeros(1), jnp.asarray(graded), rise])",
+          "    points = jnp.concatenate([jnp.zeros(1), jnp.asarray(graded)])")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler 1/Γ's reflection with the sign of n + 1": (
+        "vojax/_models/_closed_jax.py",
+        [("    sign = jnp.where(jnp.mod(n, 2) == 0, 1.0, -1.0)",
+          "    sign = jnp.where(jnp.mod(n, 2) == 1, 1.0, -1.0)")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler w^α at w = 0 without the guard": (
+        "vojax/_models/_closed_jax.py",
+        [("    return jnp.where(positive, jnp.where(positive, w, 1.0) ** alpha, 0.0)",
+          "    return w**alpha")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX route of G*(ω) with the phase πq instead of πq/2": (
+        "vojax/_models/_closed_jax.py",
+        [("    s = jax.lax.complex(w * jnp.cos(jnp.pi * q / 2), w * jnp.sin(jnp.pi * q / 2))",
+          "    s = jax.lax.complex(w * jnp.cos(jnp.pi * q), w * jnp.sin(jnp.pi * q))")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "JAX Mittag-Leffler ramp tail dropped": (
+        "vojax/_models/_closed_jax.py",
+        [("        total += jnp.sum(weight * jnp.arctan2(s, x * _power(v, alpha) + c))",
+          "        total += 0.0")],
+        ["tests/test_mittag_leffler_jax.py"],
+    ),
+    "Zener creep rate E1/η instead of E0E1/((E0+E1)η)": (
+        "vojax/_models/_closed.py",
+        [("    rate = e0 * e1 / (total * p[\"eta\"])", "    rate = e1 / p[\"eta\"]")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "Maxwell complex modulus with E and η swapped in the denominator": (
+        "vojax/_models/_closed.py",
+        [("        return p[\"E\"] * p[\"eta\"] * s / (p[\"eta\"] * s + p[\"E\"])",
+          "        return p[\"E\"] * p[\"eta\"] * s / (p[\"E\"] * s + p[\"eta\"])")],
+        ["tests/test_closed_forms.py"],
+    ),
+    "the padded fit's coefficients read from the wrong columns": (
+        "vojax/_refit_active.py",
+        [("    return u_pad, v_pad, np.r_[np.arange(width), wide + np.arange(v.shape[1])]",
+          "    return u_pad, v_pad, np.arange(width + v.shape[1])")],
+        ["tests/test_refit_units.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
+    ),
+    "short records not padded to two inputs": (
+        "vojax/_refit_active.py",
+        [("if num_knots == 1 and n_all <= PAD_INPUTS_UP_TO else width",
+          "if num_knots == 1 and n_all > PAD_INPUTS_UP_TO else width")],
+        ["tests/test_refit_units.py::test_the_four_laws_share_a_program_and_padding_changes_no_fit"],
+    ),
+    "a refit whose every input is held is not run again": (
+        "vojax/_refit_active.py",
+        [(" and bool(active[:width].any())", "")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "the refit's restarts keep the largest sum of squares": (
+        "vojax/_refit_active.py",
+        [("        if (settled(fit), -rss(fit)) > (settled(best), -rss(best) * (1 - 1e-12)):",
+          "        if (settled(fit), rss(fit)) > (settled(best), rss(best) * (1 - 1e-12)):")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "a law's response convolves the ramp response, not its pulses": (
+        "vojax/_models/_respond.py",
+        [("out[1:] = _convolve(slopes, pulse)[: num - 1]",
+          "out[1:] = _convolve(slopes, ramp(lags)[1:])[: num - 1]")],
+        ["tests/test_responses.py"],
+    ),
+    "Kelvin–Voigt's response coefficients with k's sign flipped": (
+        "vojax/_models/_viscoelastic.py",
+        [("return 1.0 / eta, -k / eta, 0.0", "return 1.0 / eta, k / eta, 0.0")],
+        ["tests/test_responses.py"],
+    ),
+    "a stress response's rate inverted (c/a for a/c)": (
+        "vojax/_models/_respond.py",
+        [("return _ratio_kernels(q, 1.0 / c, -b / c, a / c)",
+          "return _ratio_kernels(q, 1.0 / c, -b / c, c / a)")],
+        ["tests/test_responses.py"],
+    ),
+    "a response on a general clock turns its ramps off before on": (
+        "vojax/_models/_respond.py",
+        [("(ramp_at[:, :-1] - ramp_at[:, 1:]) @ slopes", "(ramp_at[:, 1:] - ramp_at[:, :-1]) @ slopes")],
+        ["tests/test_responses.py"],
+    ),
+    "E_{α,2}'s weight series cut short": (
+        "vojax/_models/_closed.py",
+        [("for k in range(24))", "for k in range(6))")],
+        ["tests/test_responses.py"],
+    ),
+    "fitted law solved: the offset added, not relaxing through the law": (
+        "vojax/_models/_fitted.py",
+        [("strain + x0 * pair(q, -b * since**q, 1.0)[0]", "strain + x0")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted law solved from the first sample, not the origin": (
+        "vojax/_models/_fitted.py",
+        [("        since = times - origin", "        since = times - times[0]")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted Zener's viscosity from the wrong spring": (
+        "vojax/_models/_fitted.py",
+        [("dict(eta=zener_e1 * c / a, E0=e0", "dict(eta=e0 * c / a, E0=e0")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted law read with the spring's and the feedback's coefficients swapped": (
+        "vojax/_models/_viscoelastic.py",
+        [("        return p[0], p[1], p[2]", "        return p[0], p[2], p[1]")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "fitted spring alone loses its offset": (
+        "vojax/_models/_fitted.py",
+        [("        return x0 + c * stress", "        return c * stress")],
+        ["tests/test_fitted_strain.py"],
+    ),
+    "refit's profile check skipped (a stalled or local fit kept)": (
+        "vojax/_refit_active.py",
+        [("    if start is None:\n        return best\n", "    return best\n")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "profile's faces ignore the signs": (
+        "vojax/_refit_profile.py",
+        [("        if np.any(signs[free] * p[: free.size] < 0):\n            continue\n", "")],
+        ["tests/test_refit_settles.py::test_the_profiles_face_is_the_constrained_least_squares"],
+    ),
+    "profile's sum of squares forgets the part outside the design": (
+        "vojax/_refit_profile.py",
+        [("        rss = rest + float(", "        rss = float(")],
+        ["tests/test_refit_settles.py::test_the_profiles_face_is_the_constrained_least_squares"],
+    ),
+    "profile narrows only the fit's own basin": (
+        "vojax/_refit_profile.py",
+        [("        if a <= fit_order <= b and not rss[k] < best[0]:",
+          "        if not rss[k] < best[0]:")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "profile's narrowing keeps the grid's order, not the narrowed one": (
+        "vojax/_refit_profile.py",
+        [("            best = (values[k][0], float(orders[k]), values[k][1])\n        a, b",
+          "            best = (values[k][0], best[1], values[k][1])\n        a, b")],
+        ["tests/test_refit_settles.py"],
+    ),
+    "refit from the profile's order ignores its face": (
+        "vojax/_refit_active.py",
+        [("dict(solver, order0=start[0]), active=start[1])", "dict(solver, order0=start[0]))")],
+        ["tests/test_refit_settles.py"],
+    ),
+}

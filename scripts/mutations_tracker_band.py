@@ -1,0 +1,344 @@
+"""Planted bugs of `mutation_check.py`: the tracker's band (explanations, the level profile, the mixture, the trade-off,
+moving orders, the second clock)."""
+
+# name: (file, [(old, new), ...], tests that should fail)
+MUTATIONS = {
+    'held smoothing keeps the tuned parameter drift': (
+        'vojax/_tracker/_mixture.py',
+        [
+            ('        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     jnp.log(to_device(np.asarray(s.constant_drift, dtype))),',
+             '        held = Hyper(jnp.log(to_device(np.asarray(np.exp(log_drift), dtype))),\n                     hyper.log_q_params,'),
+        ],
+        ['tests/test_held_level.py::test_the_held_smoothing_holds_the_parameters_whatever_the_tuned_drift'],
+    ),
+    "held smoothing stops at its first ladder": (
+        'vojax/_tracker/_mixture.py',
+        [('    while len(runs) < budget:', '    while False:')],
+        ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
+    ),
+    "held smoothing's pair of refinements run as one side only": (
+        'vojax/_tracker/_mixture.py',
+        [('            at(best - fraction * step, best + fraction * step)',
+          '            at(best - fraction * step)')],
+        ['tests/test_held_search.py::test_the_runs_side_by_side_are_the_runs_one_by_one'],
+    ),
+    "held smoothing not refined between its rungs": (
+        'vojax/_tracker/_mixture.py',
+        [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],
+        ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
+    ),
+    "the held answer without its held scales": (
+        "vojax/_tracker/_band.py",
+        [("held.var + spread", "held.var")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the held smoothing's scales floored at the degrees of freedom": (
+        "vojax/_tracker/_band.py",
+        [('    at_dof = kind == "level"\n', "    at_dof = True\n")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the held smoothing's scales weighed however far the evidence excludes them": (
+        "vojax/_tracker/_band.py",
+        [("level_spread([e for e in explanations if plausible(e)], held,",
+          "level_spread(explanations, held,")],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the held smoothing's scales unioned with the free band": (
+        "vojax/_tracker/_band.py",
+        [('INTEGRATED = ("start", "order_drift", "level")\n',
+          'INTEGRATED = ("start", "order_drift", "level", "held_level")\n')],
+        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+    ),
+    "the least drift's constant parameters judged by the penalised ladder only": (
+        "vojax/_tracker/_trade.py",
+        [("    if float(res @ res) * scale <= limit:\n        return 0.0",
+          "    if False:\n        return 0.0")],
+        ["tests/test_band.py::test_least_drift_against_a_brute_force_search"],
+    ),
+    "trade interval without its χ² test": (
+        "vojax/_tracker/_trade.py",
+        [("        if not np.all(np.isfinite(c)) or not chi2_fits(c.min(), dof):",
+          "        if not np.all(np.isfinite(c)):")],
+        ["tests/test_trade_off.py::test_trade_interval_against_an_independent_profile"],
+    ),
+    "trade interval ends on grid orders": (
+        "vojax/_tracker/_trade.py",
+        [("        found.append(lo if i == 0 else crossing(i, i - 1))",
+          "        found.append(lo if i == 0 else alphas[i - 1])")],
+        ["tests/test_trade_off.py::test_trade_interval_against_an_independent_profile"],
+    ),
+    "level profile's runs not pinned (the parameters' prior left wide)": (
+        'vojax/_tracker/_level.py',
+        [
+            ('p[1 : 1 + n, 1 : 1 + n] = np.diag(s.level_pin',
+             'p[1 : 1 + n, 1 : 1 + n] = np.diag(1e4'),
+        ],
+        ['tests/test_envelope.py'],
+    ),
+    "the held scales may narrow the held band": (
+        'vojax/_tracker/_band.py',
+        [
+            ('        spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                         level_weights, "held_level"), 0.0)',
+             '        spread = level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                         level_weights, "held_level")'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    "a run whose optimiser failed stands for the data if its chi2 passes": (
+        'vojax/_tracker/_explanations.py',
+        [
+            ('        return self.fits and self.converged', '        return self.fits'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    "the band's members need not fit (every alternative widens the band)": (
+        'vojax/_tracker/_band.py',
+        [
+            ('              and e.holds and plausible(e)]',
+             '              and e.converged and plausible(e)]'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    'level profile keeps a run that did not converge': (
+        'vojax/_tracker/_level.py',
+        [
+            ('fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)',
+             'fitting(residuals, problem.mask, n, fit_noise, whiten)'),
+        ],
+        ['tests/test_envelope.py'],
+    ),
+    "trade-off's finer drift pays 2 per knot, not per coefficient of every input": (
+        "vojax/_tracker/_trade.py",
+        [("> 2 * n * (s.trade_knots_fine - s.trade_knots)",
+          "> 2 * (s.trade_knots_fine - s.trade_knots)")],
+        ["tests/test_trade_off.py::test_the_trade_offs_finer_drift_pays_two_per_coefficient_of_every_input"],
+    ),
+    "the widened band's σ is half its width (every widened band doubled)": (
+        "vojax/_tracker/_band.py",
+        [("hi) - np.minimum(lower, lo)) / 4)", "hi) - np.minimum(lower, lo)) / 2)")],
+        ["tests/test_band.py::test_the_breakdown_drift_is_the_least_drift_of_an_order_outside_that_fits"],
+    ),
+    "the level profile rewards a fit below the noise": (
+        "vojax/_tracker/_band.py",
+        [("np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])",
+          "np.array([e.chi2 for e in members])")],
+        ["tests/test_band.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
+    ),
+    "the band ignores the evidence floor of alternative smoothings": (
+        'vojax/_tracker/_band.py',
+        [
+            ('        and e.evidence < tuned.evidence - evidence_floor)',
+             '        and False)'),
+        ],
+        ['tests/test_band.py::test_a_drifting_smoothing_far_below_the_tuned_evidence_does_not_count',
+         'tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
+    ),
+    "the free band covers integrated smoothings the evidence excludes": (
+        'vojax/_tracker/_band.py',
+        [
+            ('                  if e.kind in INTEGRATED and e.holds and plausible(e)]',
+             '                  if e.kind in INTEGRATED and e.holds]'),
+        ],
+        ['tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
+    ),
+    "the held scales' spread about the reference order left out of the band": (
+        'vojax/_tracker/_band.py',
+        [
+            ('    spread = sum(wi * (e.var + (e.beta - reference.beta) ** 2) for wi, e in zip(w, members))',
+             '    spread = sum(wi * e.var for wi, e in zip(w, members))'),
+        ],
+        ['tests/test_band.py::test_integrated_alternatives_are_weighed_not_unioned'],
+    ),
+    'the breakdown set by any drifting alternative, inside the band or not': (
+        'vojax/_tracker/_band.py',
+        [
+            ('if max(e.drift - reference.drift, 0.0) > drift_floor and outside(m[0], band, half):',
+             'if max(e.drift - reference.drift, 0.0) > drift_floor:'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    'the stated band ignores the statement about the parameters': (
+        'vojax/_tracker/_band.py',
+        [
+            ('                    e.drift <= max(stated_drift, reference.drift) + drift_floor):',
+             '                    True):'),
+        ],
+        ['tests/test_band.py', 'tests/test_verdict.py::test_a_drift_bound_admits_the_explanations_that_drift_no_more'],
+    ),
+    "the level profile's held scales left out of the reference's variance": (
+        'vojax/_tracker/_band.py',
+        [
+            ('    if not levels:',
+             '    if True:'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    'the held scales weighted by exp(+Δχ²/2)': (
+        'vojax/_tracker/_band.py',
+        [
+            ('    w = np.exp(-(chi2 - chi2.min()) / 2)',
+             '    w = np.exp((chi2 - chi2.min()) / 2)'),
+        ],
+        ['tests/test_band.py'],
+    ),
+    'outside judged over the first half': (
+        'vojax/_tracker/_band.py',
+        [
+            ('    return bool(np.mean(out[half:]) > 0.5)',
+             '    return bool(np.mean(out[:half]) > 0.5)'),
+        ],
+        ['tests/test_band.py::test_outside_is_judged_over_the_second_half'],
+    ),
+    "the parameters' drift measured over the padding too": (
+        'vojax/_tracker/_explanations.py',
+        [
+            ('    p = np.asarray(params)[:span]',
+             '    p = np.asarray(params)'),
+        ],
+        ['tests/test_band.py::test_relative_drift'],
+    ),
+    "the least drift's bisection keeps the failing side": (
+        'vojax/_tracker/_trade.py',
+        [
+            ('        if c_mid <= limit:\n            lo, coef = mid, coef_mid',
+             '        if c_mid > limit:\n            lo, coef = mid, coef_mid'),
+        ],
+        ['tests/test_band.py::test_least_drift_against_a_brute_force_search'],
+    ),
+    "a stated drift bound ignored by the second clock (the union as with free parameters)": (
+        "vojax/_tracker/_clock.py",
+        [("    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (",
+          "    excluded = False or (")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer",
+         "tests/test_clock.py::test_parameters_stated_constant_are_constant_on_the_spans_clock"],
+    ),
+    "free parameters treated as a statement of none by the second clock": (
+        "vojax/_tracker/_clock.py",
+        [("    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (",
+          "    excluded = (clock_drift(o_alpha, scale) > (bound or 0.0)) or (")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer"],
+    ),
+    "the evidence between the two clocks never excludes the data unit's account": (
+        "vojax/_tracker/_clock.py",
+        [("        evidence_apart(res, fit, other) > evidence)", "        False)")],
+        ["tests/test_clock.py::test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement",
+         "tests/test_clock.py::test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them_apart"],
+    ),
+    "the clocks' evidence taken whole, not per fitted point": (
+        "vojax/_tracker/_clock.py",
+        [("    return float(gain / max(points, 1))", "    return float(gain)")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks"],
+    ),
+    "the clocks' evidence counts masked points": (
+        "vojax/_tracker/_clock.py",
+        [("    points = span if mask is None else int(np.sum(np.asarray(mask)[:span] > 0))",
+          "    points = span")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks"],
+    ),
+    "the clocks' evidence read the wrong way round": (
+        "vojax/_tracker/_clock.py",
+        [("    gain = res.tuning.log_likelihood - other.tuning.log_likelihood",
+          "    gain = other.tuning.log_likelihood - res.tuning.log_likelihood")],
+        ["tests/test_clock.py::test_the_evidence_per_fitted_point_between_the_two_clocks",
+         "tests/test_clock.py::test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement"],
+    ),
+    "an excluded clock covered whatever the union's width": (
+        "vojax/_tracker/_clock.py",
+        [("    if excluded and np.median(hi[half:] - lo[half:]) / 2 > answer:",
+          "    if excluded and False:")],
+        ["tests/test_clock.py::test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps_an_answer"],
+    ),
+    "the clock's drift measured without the span's unit": (
+        "vojax/_tracker/_clock.py",
+        [("    g = np.exp(np.log(scale) * (np.asarray(alpha) - np.mean(alpha)))",
+          "    g = np.exp(np.asarray(alpha) - np.mean(alpha))")],
+        ["tests/test_clock.py::test_the_drift_on_the_spans_clock_of_parameters_constant_in_the_data_unit"],
+    ),
+    "moving orders' columns interpolated linearly between two profiled orders": (
+        "vojax/_tracker/_moving.py",
+        [("    for m in range(4):\n", "    for m in (1, 2):\n"),
+         ("        w = d[o[0]] / (m - o[0]) * (d[o[1]] / (m - o[1])) * (d[o[2]] / (m - o[2]))",
+          "        w = d[3 - m] / (m - (3 - m))")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders' coarse inside design without the refinement": (
+        "vojax/_tracker/_moving.py",
+        [("        if level == 0:\n            c = c @ refinement(profile.settings.trade_knots)\n",
+          "")],
+        ["tests/test_moving.py"],
+    ),
+    "the shape fit's design kept from the first θ asked for": (
+        "vojax/_tracker/_moving.py",
+        [("        if not kept or kept[0] != key:", "        if not kept:")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders kept whatever their χ²": (
+        "vojax/_tracker/_moving.py",
+        [("                    if chi2 > limit:\n                        break\n", "")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders kept inside the band": (
+        "vojax/_tracker/_moving.py",
+        [("                    if outside(alpha[:span], band, half):\n", "                    if True:\n")],
+        ["tests/test_moving.py"],
+    ),
+    "moving orders' penalty rows left out of the shape fit's residuals": (
+        "vojax/_tracker/_moving.py",
+        [("        return np.concatenate([res, rows]), float(res @ res), None",
+          "        return res, float(res @ res), None")],
+        ["tests/test_moving.py"],
+    ),
+    "a moving order inside the band joins the conditional band": (
+        "vojax/_tracker/_band.py",
+        [("        if e.kind in REACH_ONLY:\n            continue\n", "")],
+        ["tests/test_band.py::test_a_moving_order_lowers_the_breakdown_drift_and_widens_no_band"],
+    ),
+    "a moving order widens the stated band": (
+        "vojax/_tracker/_band.py",
+        [("            if e.kind not in REACH_ONLY and (", "            if True and (")],
+        ["tests/test_band.py::test_a_moving_order_lowers_the_breakdown_drift_and_widens_no_band"],
+    ),
+    "the fit test's 2σ with √dof instead of √(2·dof)": (
+        "vojax/_tracker/_mixture.py",
+        [("    return chi2 <= dof + 2 * np.sqrt(2 * dof)", "    return chi2 <= dof + 2 * np.sqrt(dof)")],
+        ["tests/test_band.py::test_the_fit_test_rejects_a_correct_model_about_one_time_in_forty"],
+    ),
+    "the second clock's band never joins the span's": (
+        "vojax/_tracker/_clock.py",
+        [("    if not outside(o_alpha, (*points, 0.0), half):", "    if True:")],
+        ["tests/test_clock.py"],
+    ),
+    "the second clock's union takes the span's band twice": (
+        "vojax/_tracker/_clock.py",
+        [("    _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))",
+          "    _, lo, hi, _ = union((*points, 0.0), (*points, 0.0))")],
+        ["tests/test_clock.py"],
+    ),
+    "the second clock fitted where the span is one unit": (
+        "vojax/_tracker/_clock.py",
+        [("    return bool(abs(np.log(span)) > SAME_CLOCK)", "    return bool(abs(np.log(span)) >= 0)")],
+        ["tests/test_clock.py"],
+    ),
+    "the band's second half from the record's middle, not the window's": (
+        "vojax/_tracker/_band.py",
+        [("    return first + (span - first) // 2", "    return span // 2")],
+        ["tests/test_tracker_window.py::test_second_half_of_the_fitted_range"],
+    ),
+    "the moving orders' Jacobian without the penalty's unit moving with the columns": (
+        "vojax/_tracker/_moving.py",
+        [("    dunit = unit * 2.0 *", "    dunit = 0.0 * unit * 2.0 *")],
+        ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
+    ),
+    "the moving orders' Jacobian on unwhitened columns": (
+        "vojax/_tracker/_moving.py",
+        [("        cols = profile.whiten(cols)", "        pass")],
+        ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
+    ),
+    "the memory's slope in the order off by a factor": (
+        "vojax/_tracker/_moving.py",
+        [("    return out, np.where(held[:, None], 0.0, slope / h)",
+          "    return out, np.where(held[:, None], 0.0, slope / h * 1.001)")],
+        ["tests/test_moving.py::test_the_columns_slopes_are_the_interpolants_derivatives"],
+    ),
+}
