@@ -254,6 +254,19 @@ MUTATIONS = {
           "        return 2 * np.pi * f0 * tau")],
         ["tests/test_protocol.py::test_a_chirp_is_the_integral_of_its_rising_frequency"],
     ),
+    "the settling test's expectation narrows as the bound does": (
+        "vojax/_settling.py",
+        [("        self.expected = (float(band_now) * ratio**exponent",
+          "        self.expected = (float(band_now) * ratio")],
+        ["tests/test_protocol.py::test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing",
+         "tests/test_batch_settling.py"],
+    ),
+    "the batch's settling test is given no band now": (
+        "vojax/_data/_parts.py",
+        [("                             band_now=band_now if 0 < band_now < np.inf else None)",
+          "                             band_now=None)")],
+        ["tests/test_batch_settling.py"],
+    ),
     "the settling test never tries its chirp": (
         "vojax/_settling.py",
         [("            tries.append((min(cycles) / length, top, None))", "            pass")],

@@ -23,7 +23,9 @@ def test_the_batch_settling_test_is_the_unpadded_one(num, size):
     y = 0.3 * u[:, 0] + 0.002 * rng.standard_normal(num)
     alpha = np.linspace(0.3, 0.4, num)
     p = np.column_stack([np.linspace(1.8, 2.0, num)])
-    got = settling_part(u, y, SimpleNamespace(alpha=alpha, p=p), times, "s")
+    band_now = 0.21  # the tracker's band on the record as it is
+    res = SimpleNamespace(alpha=alpha, p=p, diagnostics=SimpleNamespace(band_halfwidth=band_now))
+    got = settling_part(u, y, res, times, "s")
     # by hand: the blocks, the median order and parameters over the second half, the noise
     t_b = block_average(times, size)
     assert t_b.size <= 1000 and t_b.size not in SETTLING_LENGTHS  # really padded
@@ -35,3 +37,26 @@ def test_the_batch_settling_test_is_the_unpadded_one(num, size):
     assert got["band_without"] == pytest.approx(want.band_without, rel=1e-9)
     assert got["cycles"] == want.cycles and got["frequency"] == pytest.approx(want.frequency)
     assert got["start"] == pytest.approx(want.start + times[0])
+    # the band the tracker is expected to give: its band now × the bound's narrowing^¼
+    expected = band_now * (want.band / want.band_without) ** 0.25
+    assert want.band < want.band_without and got["band_now"] == band_now
+    assert got["expected"] == pytest.approx(expected, rel=1e-9)
+    assert expected < band_now
+    assert got["sentence"].endswith(f"the tracker, whose band also covers faster drift, "
+                                    f"about ±{expected:.2g}")
+
+
+@pytest.mark.parametrize("band_now", [np.inf, np.nan, 0.0])
+def test_without_a_band_now_the_batch_settling_test_expects_nothing(band_now):
+    """A tracker band that is not a positive finite number (a refusal with no band) scales
+    to no expectation: `expected` is None and the sentence cautions instead."""
+    dt, num = 0.1, 150
+    times = dt * np.arange(num)
+    u = np.minimum(times / 4.0, 1.0)[:, None]
+    y = 0.3 * u[:, 0] + 0.002 * np.random.default_rng(0).standard_normal(num)
+    res = SimpleNamespace(alpha=np.full(num, 0.35), p=np.full((num, 1), 1.9),
+                          diagnostics=SimpleNamespace(band_halfwidth=band_now))
+    got = settling_part(u, y, res, times, "s")
+    assert got["expected"] is None and got["band"] < got["band_without"]
+    assert got["sentence"].endswith("can be several times wider)")
+

@@ -160,6 +160,36 @@ def test_with_a_chirp_the_settling_test_picks_the_narrowest_of_sines_and_chirps(
         vojax.settling_test(u, 0.45, [2.0], dt, chirp="yes", **common)
 
 
+def test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing():
+    """`band_now` (the tracker's band on the record as it is) gives `expected`: band_now ×
+    (band / band_without)^¼ (`TrackerSettings.settling_exponent`), the same through
+    `expect` at any exponent in [0, 1] (0: the band stays; 1: it narrows as the bound);
+    None, and the sentence's caution instead, where the load alone does not determine the
+    order. A band that is not a positive number is refused naming it."""
+    t, u = _ramp_hold()
+    dt = t[1]
+    plain = vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01)
+    test = vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, band_now=0.3)
+    ratio = plain.band / plain.band_without
+    assert plain.expected is None and 0 < ratio < 0.9
+    assert (test.band, test.band_without) == (plain.band, plain.band_without)
+    assert test.expected == pytest.approx(0.3 * ratio**0.25, rel=1e-12)
+    assert vojax.TrackerSettings().settling_exponent == 0.25
+    assert f"about ±{test.expected:.2g}" in test.sentence("s") and "expected=±" in repr(test)
+    assert plain.expect(0.3, 0.0) == pytest.approx(0.3, rel=1e-12)
+    assert plain.expect(0.3, 1.0) == pytest.approx(0.3 * ratio, rel=1e-12)
+    plain.band_without = np.inf  # the load alone does not determine the order
+    assert plain.expect(0.3) is None and "several times wider" in plain.sentence("s")
+    for bad, error in ((True, TypeError), ("0.3", TypeError), (0.0, ValueError),
+                       (np.nan, ValueError), (np.inf, ValueError)):
+        with pytest.raises(error, match="`band_now` must be a positive number"):
+            vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, band_now=bad)
+    with pytest.raises(ValueError, match=r"`exponent` must be in \[0, 1\], got 2"):
+        test.expect(0.3, 2)
+    with pytest.raises(ValueError, match=r"settling_exponent must be a finite number in \[0, 1\]"):
+        vojax.TrackerSettings(settling_exponent=1.5)
+
+
 def test_several_starts_give_the_best_of_their_single_searches():
     """Starts of 1, 4.5 and 12 cycles (S, 1): the cycles returned are those of the single
     search whose criterion (recomputed with `fisher_information`) is the lowest, here not the

@@ -30,7 +30,7 @@ def _identify_options():
 def _python_names():
     """The keywords of the functions a Python user calls, and vojax's public names."""
     names = set()
-    for f in (vojax.identify, vojax.load_records, vojax.refit):
+    for f in (vojax.identify, vojax.load_records, vojax.refit, vojax.settling_test):
         names |= set(inspect.signature(f).parameters)
     return names
 

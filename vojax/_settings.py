@@ -120,6 +120,11 @@ class TrackerSettings:
     bound_tol: float = 1e-3  # an order within this fraction of the range of a bound is at it
     bound_fraction: float = 0.05  # the most samples at a bound an identified order may have
     block_error_limit: float = 0.5  # the coarse clock's model error (× block noise) allowed
+    # the band a refused record's settling test is expected to give the tracker: its band now
+    # × (the test's bound with the oscillation / without it) to this power (fitted 0.26 on
+    # draws 0–11 of four families, docs/calibration.md: the oscillation narrows the bound far
+    # more than the band, which also covers parameters drifting fast enough to follow it)
+    settling_exponent: float = 0.25
 
     # ---- long records and execution (no effect on the numbers)
     max_points: int = 1_000  # a longer record is fitted as the means of blocks of samples
@@ -196,6 +201,7 @@ RANGES = {
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),
     "bound_tol": (0.0, (0.5,), False), "bound_fraction": (0.0, 1.0, False),
+    "settling_exponent": (0.0, 1.0, False),
     "held_order_step": ((1.0,), math.inf, False), "level_step": ((1.0,), math.inf, False),
     "level_max": (1.0, math.inf, False),
     "max_iter": (1, math.inf, True), "grid_max_iter": (1, math.inf, True),

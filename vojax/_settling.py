@@ -18,13 +18,16 @@ class SettlingTest:
     ±2σ half-width with it, `band_without`: without it (∞ where the test alone does not
     determine the order), both with the parameters free to drift on hat functions (the
     Cramér–Rao bound: no estimator does better; the tracker's band also covers faster
-    drift); `design`: its `fisher_information`."""
+    drift); `design`: its `fisher_information`. `expected`: the ±2σ half-width the tracker
+    is expected to give with the oscillation, where the band it gave without it is known
+    (`expect`), else None."""
 
     def __init__(self, amplitude, frequency, start, cycles, band, band_without, design,
                  fraction=None, frequency_end=None, end=None):
         self.amplitude, self.frequency, self.start, self.cycles = (
             amplitude, frequency, start, cycles)
         self.band, self.band_without, self.design = band, band_without, design
+        self.expected = None
         self.fraction = fraction  # the amplitude over the input's RMS
         # a chirp: the frequency rises exponentially from `frequency` at `start` to this at
         # `end` (the test's last time); None: a sine
@@ -46,34 +49,59 @@ class SettlingTest:
         length, rate = self.end - self.start, math.log(self.frequency_end / f0)
         return 2 * np.pi * f0 * length * np.expm1(rate * tau / length) / rate
 
+    def expect(self, band_now, exponent=None):
+        """Sets and returns `expected`: the tracker's band with the oscillation, from its band
+        on the record as it is, `band_now` (a median ±2σ half-width), as ``band_now ×
+        (band / band_without)^exponent`` (`TrackerSettings.settling_exponent` by default,
+        calibrated on the suite: the tracker's band also covers parameters drifting fast
+        enough to follow the oscillation, so it narrows far less than the bound). None where
+        the test without the oscillation does not determine the order (no ratio to scale)."""
+        _positive(band_now, "band_now")
+        if exponent is None:
+            from ._settings import TrackerSettings
+
+            exponent = TrackerSettings().settling_exponent
+        elif not 0 <= _positive(exponent, "exponent", zero=True) <= 1:
+            raise ValueError(f"`exponent` must be in [0, 1], got {exponent!r}.")
+        ratio = self.band / self.band_without
+        self.expected = (float(band_now) * ratio**exponent
+                         if np.isfinite(ratio) and ratio > 0 else None)
+        return self.expected
+
     def sentence(self, unit="") -> str:
         """The test in words, e.g. "an oscillation of 10 % of the load's RMS at 0.5 Hz from
-        t = 20 s would give about ±0.03 with the parameters drifting slowly; …". The band is
-        the Cramér–Rao bound with the parameters drifting on a few hat functions: the
-        tracker's own band, which also covers parameters that drift faster, can be several
+        t = 20 s would give about ±0.03 with the parameters drifting slowly (…); the tracker,
+        whose band also covers faster drift, about ±0.12". The first band is the Cramér–Rao
+        bound with the parameters drifting on a few hat functions; the second the tracker's
+        expected band (`expected`), where it is known, else a caution that it can be several
         times wider (`docs/calibration.md`, *The settling test's promise*)."""
         per = {"s": " Hz", "": " per unit of time"}.get(unit, f" per {unit}")
         size = (f"{100 * self.fraction:.0f} % of the load's RMS ({self.amplitude:.3g})"
                 if self.fraction else f"{self.amplitude:.3g}")
         at = (f"at {self.frequency:.3g}{per}" if self.frequency_end is None else
               f"sweeping from {self.frequency:.3g} to {self.frequency_end:.3g}{per} (a chirp)")
-        return (f"an oscillation of {size} {at} from t = "
+        head = (f"an oscillation of {size} {at} from t = "
                 f"{self.start:.3g}{' ' + unit if unit else ''} would give about ±{self.band:.2g} "
                 "with the parameters drifting slowly (the best any estimator can do, under the "
-                "model, at the noise measured; the tracker's band, which also covers faster "
-                "drift, can be several times wider)")
+                "model, at the noise measured")
+        if self.expected is None:
+            return head + "; the tracker's band, which also covers faster drift, can be "\
+                "several times wider)"
+        return head + f"); the tracker, whose band also covers faster drift, about " \
+            f"±{self.expected:.2g}"
 
     def __repr__(self):
         end = "" if self.frequency_end is None else f"–{self.frequency_end:.3g}"
         return (f"SettlingTest(amplitude={self.amplitude:.3g}, "
                 f"frequency={self.frequency:.3g}{end}, start={self.start:.3g}, band=±{self.band:.3g}, "
-                f"band_without=±{self.band_without:.3g})")
+                f"band_without=±{self.band_without:.3g}"
+                + ("" if self.expected is None else f", expected=±{self.expected:.3g}") + ")")
 
 
 def settling_test(
     u, order, p, dt=None, *, t=None, noise_std, amplitude=0.1, cycles=(5, 10, 20, 40),
     starts=(0.0, 0.5), parameter_knots=8, order_drift=None, x0=True, memory="direct",
-    order_range=(0.01, 0.99), pad_to=None, chirp=False,
+    order_range=(0.01, 0.99), pad_to=None, chirp=False, band_now=None,
 ) -> SettlingTest:
     """The oscillation to superpose on the load `u` (planned, or the one a record had) that
     best determines the order while the parameters are free to drift (on `parameter_knots`
@@ -86,7 +114,9 @@ def settling_test(
     which needs no guess of the frequency that settles the order. `order`, `p`, `noise_std`:
     the hypothesised order (a number or a trajectory), parameters and noise, e.g. from
     `identify` on a first test. `pad_to`: as `fisher_information`'s (the same result; records
-    padded alike share a program). Returns a `SettlingTest`."""
+    padded alike share a program). `band_now`: the tracker's median ±2σ half-width on the
+    record as it is (`Diagnostics.band_halfwidth`), from which the test's `expected` band is
+    scaled (`SettlingTest.expect`); None: no expectation. Returns a `SettlingTest`."""
     u2 = np.asarray(check.samples(u, "u"), float)
     u2 = u2.reshape(u2.shape[0], -1)
     num = u2.shape[0]
@@ -95,6 +125,8 @@ def settling_test(
         raise TypeError(f"`amplitude` must be a positive number, got {amplitude!r}.")
     if not 0 < amplitude < math.inf:
         raise ValueError(f"`amplitude` must be a positive number, got {amplitude!r}.")
+    if band_now is not None:
+        _positive(band_now, "band_now")
     cycles = _numbers(cycles, "cycles", "one or more positive numbers",
                       lambda c: 0 < c < math.inf)
     starts = _numbers(starts, "starts", "one or more fractions of the span in [0, 1)",
@@ -139,7 +171,19 @@ def settling_test(
     if best is None:
         raise ValueError("no oscillation of these cycles fits the sampling (8 samples a cycle "
                          "at least) or determines the order; sample faster or longer.")
+    if band_now is not None:
+        best.expect(band_now)
     return best
+
+
+def _positive(value, name, zero=False):
+    """`value` as a finite number, positive (or ≥ 0 with `zero`), else a one-line error."""
+    what = "a number ≥ 0" if zero else "a positive number"
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"`{name}` must be {what}, got {value!r}.")
+    if not (0 <= value if zero else 0 < value) or not value < math.inf:
+        raise ValueError(f"`{name}` must be {what}, got {value!r}.")
+    return float(value)
 
 
 def _numbers(values, name, what, valid):

@@ -46,7 +46,7 @@ _WORDS = {
     Step.SETTLING_TEST: (
         "run a test with an oscillation superposed on the load, which separates the order "
         "from a drifting parameter (vojax.settling_test gives its frequency and the band it "
-        "would give)",
+        "would give; with band_now=diagnostics.band_halfwidth, the band the tracker would)",
         "run a test with an oscillation superposed on the load, which separates the order "
         "from a drifting parameter (the next line gives it, where one can)",
     ),

@@ -96,8 +96,10 @@ def settling_part(u, y, res, times, unit=""):
     record's own load, at its median order and parameters over the second half and its
     noise), as JSON-ready values with its sentence; the record averaged to at most 1,000
     points (the design needs no finer clock) and padded to one of `SETTLING_LENGTHS` (one
-    compiled program for all records of a batch up to that length; the same result). None
-    where no oscillation determines it."""
+    compiled program for all records of a batch up to that length; the same result). With
+    the bound (`band`) it gives the band the tracker is expected to give (`expected`, from
+    its band now, `band_now`; `SettlingTest.expect`). None where no oscillation determines
+    it."""
     from .._settling import settling_test
     from .._stats import noise_variance
     from .._tracker._blocks import block_average, block_size
@@ -109,14 +111,17 @@ def settling_part(u, y, res, times, unit=""):
     half = alpha.size // 2
     noise = float(np.sqrt(max(noise_variance(np.asarray(y)), 1e-300) / size))
     pad = next(n for n in SETTLING_LENGTHS if n >= t_b.size)
+    band_now = float(res.diagnostics.band_halfwidth)
     try:
         test = settling_test(u_b, float(np.median(alpha[half:])), np.median(p[half:], axis=0),
-                             t=t_b - t_b[0], noise_std=noise, pad_to=pad)
+                             t=t_b - t_b[0], noise_std=noise, pad_to=pad,
+                             band_now=band_now if 0 < band_now < np.inf else None)
     except ValueError:
         return None
     return {"amplitude": test.amplitude, "frequency": test.frequency,
             "start": test.start + float(t_b[0]), "cycles": test.cycles, "band": test.band,
-            "band_without": test.band_without, "sentence": test.sentence(unit)}
+            "band_without": test.band_without, "band_now": band_now,
+            "expected": test.expected, "sentence": test.sentence(unit)}
 
 
 def time_unit(record) -> str:
