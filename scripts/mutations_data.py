@@ -24,6 +24,11 @@ MUTATIONS = {
           'block = [answer, a["message"]]')],
         ["tests/test_cli_identify.py::test_cli_identify_end_to_end"],
     ),
+    "the command says a settling test settles whatever the tracker is expected to give": (
+        "vojax/_cli/_commands.py",
+        [("    if expected is None or expected <= limit:", "    if True:")],
+        ["tests/test_batch_settling.py"],
+    ),
     "resampling smooths away a fast phase": (
         "vojax/_data/_record.py",
         [("if step > RESAMPLE_MAX_RATIO * steps[shortest]:", "if step > 1e9 * steps[shortest]:")],

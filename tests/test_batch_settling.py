@@ -60,3 +60,20 @@ def test_without_a_band_now_the_batch_settling_test_expects_nothing(band_now):
     assert got["expected"] is None and got["band"] < got["band_without"]
     assert got["sentence"].endswith("can be several times wider)")
 
+
+
+@pytest.mark.parametrize("expected, words", [
+    (None, "the test that would settle the order: "),
+    (0.06, "the test that would settle the order: "),
+    (0.1, "the test that would settle the order: "),
+    (0.25, "the test that would narrow the order most: "),
+])
+def test_the_command_says_settle_only_where_the_tracker_is_expected_to_identify(expected, words):
+    """The command's line: "settle" where the tracker's expected band with the oscillation is
+    within ±0.1 (or unknown), else "narrow most", with why it would not settle it alone."""
+    from vojax._cli._commands import settling_line
+
+    line = settling_line("rec", {"expected": expected, "sentence": "an oscillation …"})
+    assert line.startswith(f"vojax: rec: {words}an oscillation … (vojax.settling_test)")
+    alone = "wider than ±0.1, it would not settle the order alone with the parameters free."
+    assert line.endswith(alone) == (expected is not None and expected > 0.1)

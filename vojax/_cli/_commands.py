@@ -131,9 +131,7 @@ def identify_command(args) -> int:
                 block = say_block(answer, a["finding"], a["next_steps"], "cli")
                 print(f"vojax: warning: {record.name}: " + "\n".join(block), file=sys.stderr)
             if a.get("settling_test"):
-                print(f"vojax: {record.name}: the test that would settle the order: "
-                      f"{a['settling_test']['sentence']} (vojax.settling_test).",
-                      file=sys.stderr)
+                print(settling_line(record.name, a["settling_test"]), file=sys.stderr)
         if "refit" in summary:
             r = summary["refit"]
             flag = " (at a bound: the interval is not meaningful)" if r["at_bound"] else ""
@@ -153,6 +151,23 @@ def identify_command(args) -> int:
             print(f"vojax: warning: {record.name}: {summary['disagreement']}.", file=sys.stderr)
         print("; ".join(parts) + f" → {target}/")
     return 0
+
+
+def settling_line(name, test) -> str:
+    """The line that names a refused record's settling test (`summary.json`'s
+    `settling_test`): the test that would settle the order where the tracker is expected to
+    identify it with the oscillation (`expected` within ±`identified_halfwidth`) or where no
+    expectation is known; else the test that would narrow it most, which alone would not."""
+    from .._settings import TrackerSettings
+
+    limit = TrackerSettings().identified_halfwidth
+    expected = test.get("expected")
+    if expected is None or expected <= limit:
+        return (f"vojax: {name}: the test that would settle the order: {test['sentence']} "
+                "(vojax.settling_test).")
+    return (f"vojax: {name}: the test that would narrow the order most: {test['sentence']} "
+            f"(vojax.settling_test); wider than ±{limit:g}, it would not settle the order "
+            "alone with the parameters free.")
 
 
 def compare_command(args) -> int:
