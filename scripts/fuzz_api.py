@@ -128,7 +128,10 @@ def _calls():
          dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01, cycles=(4,), starts=(0.0,)),
          dict(amplitude=SCALARS, cycles=[None, (), (0,), (-1,), ("a",), (1e9,), 5],
               starts=[None, (), (1.5,), (-0.1,), (math.nan,), 0.2],
-              parameter_knots=COUNTS, noise_std=SCALARS, pad_to=COUNTS))
+              parameter_knots=COUNTS, noise_std=SCALARS, pad_to=COUNTS, band_now=SCALARS))
+    settling = vojax.settling_test(U, 0.4, [1.0], DT, noise_std=0.01, cycles=(4,), starts=(0.0,))
+    vary("SettlingTest.expect", lambda **kw: settling.expect(**kw), dict(band_now=0.2),
+         dict(band_now=SCALARS, exponent=SCALARS))
     vary("settling_test[chirp]", vojax.settling_test,
          dict(u=U, order=0.4, p=[1.0], dt=DT, noise_std=0.01, cycles=(2, 8), starts=(0.0,),
               chirp=True),
