@@ -256,8 +256,8 @@ MUTATIONS = {
     ),
     "the settling test's expectation narrows as the bound does": (
         "vojax/_settling.py",
-        [("        self.expected = (float(band_now) * ratio**exponent",
-          "        self.expected = (float(band_now) * ratio")],
+        [("        self.expected = (band_now * ratio**exponent",
+          "        self.expected = (band_now * ratio")],
         ["tests/test_protocol.py::test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing",
          "tests/test_batch_settling.py"],
     ),

@@ -184,7 +184,7 @@ def test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing():
                        (np.nan, ValueError), (np.inf, ValueError)):
         with pytest.raises(error, match="`band_now` must be a positive number"):
             vojax.settling_test(u, 0.45, [2.0], dt, noise_std=0.01, band_now=bad)
-    with pytest.raises(ValueError, match=r"`exponent` must be in \[0, 1\], got 2"):
+    with pytest.raises(ValueError, match=r"`exponent` must be a number in \[0, 1\], got 2"):
         test.expect(0.3, 2)
     with pytest.raises(ValueError, match=r"settling_exponent must be a finite number in \[0, 1\]"):
         vojax.TrackerSettings(settling_exponent=1.5)

@@ -9,6 +9,8 @@ import numpy as np
 from . import _validate as check
 from ._design import Undetermined, fisher_information
 
+_POSITIVE = ("a positive number", lambda v: 0 < v < math.inf)  # `_number`'s words and test
+
 
 class SettlingTest:
     """An oscillation to superpose on a load so that the order is determined while the
@@ -56,15 +58,14 @@ class SettlingTest:
         calibrated on the suite: the tracker's band also covers parameters drifting fast
         enough to follow the oscillation, so it narrows far less than the bound). None where
         the test without the oscillation does not determine the order (no ratio to scale)."""
-        _positive(band_now, "band_now")
+        band_now = _number(band_now, "band_now", *_POSITIVE)
         if exponent is None:
             from ._settings import TrackerSettings
 
             exponent = TrackerSettings().settling_exponent
-        elif not 0 <= _positive(exponent, "exponent", zero=True) <= 1:
-            raise ValueError(f"`exponent` must be in [0, 1], got {exponent!r}.")
+        exponent = _number(exponent, "exponent", "a number in [0, 1]", lambda v: 0 <= v <= 1)
         ratio = self.band / self.band_without
-        self.expected = (float(band_now) * ratio**exponent
+        self.expected = (band_now * ratio**exponent
                          if np.isfinite(ratio) and ratio > 0 else None)
         return self.expected
 
@@ -121,12 +122,9 @@ def settling_test(
     u2 = u2.reshape(u2.shape[0], -1)
     num = u2.shape[0]
     times = np.asarray(t, float) if t is not None else float(check.step(dt)) * np.arange(num)
-    if (isinstance(amplitude, bool) or not isinstance(amplitude, (int, float, np.floating))):
-        raise TypeError(f"`amplitude` must be a positive number, got {amplitude!r}.")
-    if not 0 < amplitude < math.inf:
-        raise ValueError(f"`amplitude` must be a positive number, got {amplitude!r}.")
+    _number(amplitude, "amplitude", *_POSITIVE)
     if band_now is not None:
-        _positive(band_now, "band_now")
+        _number(band_now, "band_now", *_POSITIVE)
     cycles = _numbers(cycles, "cycles", "one or more positive numbers",
                       lambda c: 0 < c < math.inf)
     starts = _numbers(starts, "starts", "one or more fractions of the span in [0, 1)",
@@ -176,12 +174,12 @@ def settling_test(
     return best
 
 
-def _positive(value, name, zero=False):
-    """`value` as a finite number, positive (or ≥ 0 with `zero`), else a one-line error."""
-    what = "a number ≥ 0" if zero else "a positive number"
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+def _number(value, name, what, valid):
+    """`value`, one Python or NumPy float or int (not a bool), as a float where `valid`, else
+    a one-line error saying it must be `what`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
         raise TypeError(f"`{name}` must be {what}, got {value!r}.")
-    if not (0 <= value if zero else 0 < value) or not value < math.inf:
+    if not valid(value):
         raise ValueError(f"`{name}` must be {what}, got {value!r}.")
     return float(value)
 
