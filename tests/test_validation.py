@@ -310,7 +310,11 @@ def _short_record():
     (lambda u, y: vojax.testing.check_gradients(u, "x", 0.1), TypeError, "`order`"),
     # a one-element order is refused, as `vojax.simulate` refuses it (it took it as a number)
     (lambda u, y: vojax.testing.check_gradients(u, [0.4], 0.1), ValueError,
-     r"`order` must be a number or \(40,\)"),
+     r"`order` must be a scalar or have shape \(40,\)"),
+    (lambda u, y: vojax.testing.check_gradients(u, np.full(40, np.nan), 0.1), ValueError,
+     "`order` contains NaN"),
+    (lambda u, y: vojax.testing.check_gradients(u, np.linspace(0.2, 1.0, 40), 0.1), ValueError,
+     r"`order` must lie in \(0.0, 1.0\), got 1.0 at sample 39"),
     (lambda u, y: vojax.simulate(u, [0.4], 1.0, 0.1), ValueError,
      r"`order` must be a scalar or have shape \(40,\)"),
     (lambda u, y: vojax.testing.check_gradients(u, 0.4, 0.1, rtol="x"), TypeError, "`rtol`"),

@@ -137,13 +137,7 @@ def _inputs(u, order, dt, max_samples):
             f"`u` has {num} samples; the closed forms are O(N²) sums, so the check takes at "
             f"most max_samples={max_samples}: pass a part of the record (e.g. u[:{max_samples}])."
         )
-    order = check.reals(order, "order")
-    if order.shape not in ((), (num,)):  # as `vojax.simulate` and the estimators take it
-        raise ValueError(f"`order` must be a number or ({num},), one per sample, got shape "
-                         f"{order.shape}.")
-    order = np.broadcast_to(order, (num,))
-    if not np.all(np.isfinite(order)) or np.any(order <= 0) or np.any(order >= 1):
-        raise ValueError("`order` must lie in (0, 1) at every sample.")
+    order = np.asarray(check.order(order, num))  # as `vojax.simulate` and the estimators
     return u, order, float(check.step(dt))
 
 
