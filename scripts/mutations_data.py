@@ -120,7 +120,7 @@ MUTATIONS = {
     "a new table left under the old summary": (
         "vojax/_data/_outputs.py",
         [("    if summary.is_file() or summary.is_symlink():\n        summary.unlink()", "    pass")],
-        ["tests/test_outputs.py::test_a_folder_is_current_only_with_the_summary_of_its_own_run"],
+        ["tests/test_batch_folders.py::test_a_folder_is_current_only_with_the_summary_of_its_own_run"],
     ),
     "a decimal comma read as a separator of thousands": (
         "vojax/_data/_read.py",
@@ -337,7 +337,7 @@ MUTATIONS = {
     "manifest rewritten with this run's names only": (
         "vojax/_data/_paths.py",
         [("    new = known | set(names)", "    new = set(names)")],
-        ["tests/test_outputs.py::test_the_manifest_keeps_what_every_run_wrote"],
+        ["tests/test_batch_folders.py::test_the_manifest_keeps_what_every_run_wrote"],
     ),
     "the output taken as its own input": (
         "vojax/_data/_records.py",
@@ -372,7 +372,7 @@ MUTATIONS = {
     "--out as the input folder called a folder without files": (
         "vojax/_cli/_commands.py",
         [("            if found and inside_out(folder):", "            if False:")],
-        ["tests/test_outputs.py::test_a_batch_whose_out_is_its_input_folder_says_so"],
+        ["tests/test_batch_folders.py::test_a_batch_whose_out_is_its_input_folder_says_so"],
     ),
     "more local workers than cores": (
         "vojax/_cli/_commands.py",

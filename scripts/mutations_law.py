@@ -125,7 +125,7 @@ MUTATIONS = {
         "vojax/_linalg.py",
         [("            low[i][j] = (a[i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]",
           "            low[i][j] = (a[i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[i][i]")],
-        ["tests/test_kalman.py::test_small_spd_solve_equals_lapack"],
+        ["tests/test_linalg.py::test_small_spd_solve_equals_lapack"],
     ),
     "diagnostics ignore the order's trade-off with the parameters' drift": (
         "vojax/_diagnostics.py",

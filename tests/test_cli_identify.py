@@ -1,6 +1,6 @@
 """`vojax identify` on recorded datasets, end to end: its outputs, the compilation cache, one
-sentence per error, one name per estimator, its options (parameters, max points, units,
-order bounds) and a folder of records."""
+sentence per error, one name per estimator, its options (parameters, max points, units) and
+a folder of records (order bounds: `tests/test_cli_recordings.py`)."""
 
 import csv
 import json
@@ -370,40 +370,3 @@ def test_units_label_the_figures_and_change_no_number(tmp_path, capsys, monkeypa
     (rec,) = load_records(tmp_path / "s.csv", time="time_s", inputs=["stress"],
                           output="strain", units={"time_s": "ms"})
     assert rec.units == (("time_s", "ms"),)
-
-
-def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_path):
-    """``--alpha-bounds LO,HI`` is the order's range of every estimator the command runs, as
-    `vojax.identify(alpha_bounds=…)` and `vojax.refit(order_bounds=…)` in Python: a springpot
-    of order 0.35 searched in [0.5, 0.9] sits at 0.5 on both routes (each estimator's
-    default range would find 0.35), through `identify` and through the batch (whose law
-    otherwise runs vmapped at its default range)."""
-    _springpot_csv(tmp_path / "test.csv")
-    (rec,) = load_records(tmp_path / "test.csv", time="time_s", inputs=["stress"],
-                          output="strain")
-    bounds = (0.5, 0.9)
-    common = ("--time", "time_s", "--input", "stress", "--output", "strain",
-              "--alpha-bounds", "0.5,0.9", "--gamma", "0.5")
-    proc = _cli("identify", "test.csv", *common, "--method", "gradient+refit", "--out", "o",
-                cwd=tmp_path)
-    assert proc.returncode == 0, proc.stderr
-    batch = _cli("batch", "test.csv", *common, "--method", "gradient+refit", "--out", "b",
-                 "--figures", "overview", "--quiet", cwd=tmp_path)
-    assert batch.returncode == 0, batch.stderr
-    law = vojax.identify(rec, method="gradient", gamma=0.5, alpha_bounds=bounds, warn=False)
-    fit = vojax.refit(rec, order_bounds=bounds, p_signs=(1,), warn=False)
-    assert float(fit.order[0]) == pytest.approx(0.5, abs=1e-3)  # the bound binds
-    assert float(np.min(law.alpha)) >= 0.5 and float(np.max(law.alpha)) <= 0.9
-    for folder in (tmp_path / "o", tmp_path / "b" / "test"):
-        with open(folder / "identification.csv") as f:
-            rows = list(csv.DictReader(f))
-        alpha = np.array([float(r["alpha"]) for r in rows])
-        refit_alpha = np.array([float(r["refit_alpha"]) for r in rows])
-        np.testing.assert_allclose(alpha, np.asarray(law.alpha), rtol=0, atol=1e-9)
-        np.testing.assert_allclose(refit_alpha, np.asarray(fit.order), rtol=0, atol=1e-9)
-        settings = json.loads((folder / "summary.json").read_text())["provenance"]["settings"]
-        assert settings["alpha_bounds"] == [0.5, 0.9]
-    bad = _cli("identify", "test.csv", *common[:-4], "--alpha-bounds", "0.9,0.5", "--out", "p",
-               cwd=tmp_path)
-    assert bad.returncode != 0 and "expected 0 < LO < HI < 1" in bad.stderr
-    assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "p").exists()

@@ -1,6 +1,8 @@
 """The command line on recordings as they come: irregular clocks used as recorded, the test's
-origin, fit windows, order-0 models and sign constraints, each equal to the library call."""
+origin, fit windows, order-0 models, sign constraints and order bounds, each equal to the
+library call."""
 
+import csv
 import json
 import math
 
@@ -9,6 +11,9 @@ import pytest
 
 import vojax
 from vojax._cli import main
+from vojax._data import load_records
+
+from .test_data_cli import _cli, _springpot_csv
 
 COLUMNS = ["--time", "t", "--input", "stress", "--output", "strain"]
 
@@ -168,3 +173,40 @@ def test_record_figure_with_an_infinite_error_warns_nothing(tmp_path):
                          "parameters_stderr": {"eta": float("inf"), "k": 3.0}}}
     record_figure(columns, summary, np.sin(t)[:, None], tmp_path / "f.png")
     assert (tmp_path / "f.png").stat().st_size > 0
+
+
+def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_path):
+    """``--alpha-bounds LO,HI`` is the order's range of every estimator the command runs, as
+    `vojax.identify(alpha_bounds=…)` and `vojax.refit(order_bounds=…)` in Python: a springpot
+    of order 0.35 searched in [0.5, 0.9] sits at 0.5 on both routes (each estimator's
+    default range would find 0.35), through `identify` and through the batch (whose law
+    otherwise runs vmapped at its default range)."""
+    _springpot_csv(tmp_path / "test.csv")
+    (rec,) = load_records(tmp_path / "test.csv", time="time_s", inputs=["stress"],
+                          output="strain")
+    bounds = (0.5, 0.9)
+    common = ("--time", "time_s", "--input", "stress", "--output", "strain",
+              "--alpha-bounds", "0.5,0.9", "--gamma", "0.5")
+    proc = _cli("identify", "test.csv", *common, "--method", "gradient+refit", "--out", "o",
+                cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    batch = _cli("batch", "test.csv", *common, "--method", "gradient+refit", "--out", "b",
+                 "--figures", "overview", "--quiet", cwd=tmp_path)
+    assert batch.returncode == 0, batch.stderr
+    law = vojax.identify(rec, method="gradient", gamma=0.5, alpha_bounds=bounds, warn=False)
+    fit = vojax.refit(rec, order_bounds=bounds, p_signs=(1,), warn=False)
+    assert float(fit.order[0]) == pytest.approx(0.5, abs=1e-3)  # the bound binds
+    assert float(np.min(law.alpha)) >= 0.5 and float(np.max(law.alpha)) <= 0.9
+    for folder in (tmp_path / "o", tmp_path / "b" / "test"):
+        with open(folder / "identification.csv") as f:
+            rows = list(csv.DictReader(f))
+        alpha = np.array([float(r["alpha"]) for r in rows])
+        refit_alpha = np.array([float(r["refit_alpha"]) for r in rows])
+        np.testing.assert_allclose(alpha, np.asarray(law.alpha), rtol=0, atol=1e-9)
+        np.testing.assert_allclose(refit_alpha, np.asarray(fit.order), rtol=0, atol=1e-9)
+        settings = json.loads((folder / "summary.json").read_text())["provenance"]["settings"]
+        assert settings["alpha_bounds"] == [0.5, 0.9]
+    bad = _cli("identify", "test.csv", *common[:-4], "--alpha-bounds", "0.9,0.5", "--out", "p",
+               cwd=tmp_path)
+    assert bad.returncode != 0 and "expected 0 < LO < HI < 1" in bad.stderr
+    assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "p").exists()
