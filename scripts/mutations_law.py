@@ -261,6 +261,18 @@ MUTATIONS = {
         ["tests/test_protocol.py::test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing",
          "tests/test_batch_settling.py"],
     ),
+    "a planned test's expected band given on designs the factor was not calibrated on": (
+        "vojax/_design.py",
+        [("    if knots == 1 and x0 and parameter_knots == PROTOCOL_KNOTS and order_drift is None:",
+          "    if knots == 1 and parameter_knots == PROTOCOL_KNOTS and order_drift is None:")],
+        ["tests/test_protocol.py::test_a_planned_test_states_the_trackers_expected_band_on_the_calibrated_design"],
+    ),
+    "a planned test's expected band is the bound itself": (
+        "vojax/_design.py",
+        [("        design.expected = TrackerSettings().protocol_factor * design.order_band",
+          "        design.expected = design.order_band")],
+        ["tests/test_protocol.py::test_a_planned_test_states_the_trackers_expected_band_on_the_calibrated_design"],
+    ),
     "the batch's settling test is given no band now": (
         "vojax/_data/_parts.py",
         [("                             band_now=band_now if 0 < band_now < np.inf else None)",

@@ -123,6 +123,10 @@ def test_a_chirp_is_the_integral_of_its_rising_frequency():
     assert test.cycles == pytest.approx(phase[-1] / (2 * np.pi), rel=1e-6)
     assert f"sweeping from {f0:.3g} to {f1:.3g} Hz (a chirp) from t = {start:.3g} s" in (
         test.sentence("s"))
+    # a clock in another unit, or in none, says what its frequencies count
+    assert f"to {f1:.3g} cycles per ms (a chirp) from t = {start:.3g} ms" in test.sentence("ms")
+    assert f"to {f1:.3g} cycles per unit of time (a chirp) from t = {start:.3g} would" in (
+        test.sentence(""))
 
 
 def test_with_a_chirp_the_settling_test_picks_the_narrowest_of_sines_and_chirps():
@@ -188,6 +192,34 @@ def test_the_settling_test_scales_the_trackers_band_by_the_bounds_narrowing():
         test.expect(0.3, 2)
     with pytest.raises(ValueError, match=r"settling_exponent must be a finite number in \[0, 1\]"):
         vojax.TrackerSettings(settling_exponent=1.5)
+
+
+def test_a_planned_test_states_the_trackers_expected_band_on_the_calibrated_design():
+    """`Design.expected` is `TrackerSettings.protocol_factor` (6.8) × the bound's median ±2σ
+    half-width over the second half, on the design the factor was calibrated on (one order
+    shift, the offset estimated, the parameters free on 8 hat functions), from
+    `fisher_information` and from the design `optimal_protocol` returns; in `summary` and
+    `repr`. Any other design has none: the factor was not calibrated there. A factor that
+    is not a positive finite number is refused naming it."""
+    u = np.asarray(_oscillation(jnp.array([6.0]), jnp.asarray(TIMES)))
+    factor = vojax.TrackerSettings().protocol_factor
+    assert factor == 6.8
+    design = vojax.fisher_information(u, ORDER, P, DT, noise_std=SD, parameter_knots=8)
+    bound = 2 * np.median(design.order_stderr[N // 2 :])
+    assert design.expected == pytest.approx(factor * bound, rel=1e-12)
+    assert f"{design.expected:.4g}" in design.summary()
+    assert f"tracker ±{design.expected:.3g} expected" in repr(design)
+    for other in (dict(), dict(parameter_knots=4), dict(parameter_knots=8, knots=2),
+                  dict(parameter_knots=8, x0=False), dict(order_drift=0.1)):
+        d = vojax.fisher_information(u, ORDER, P, DT, noise_std=SD, **other)
+        assert d.expected is None and "tracker" not in d.summary() + repr(d), other
+    _, planned = vojax.optimal_protocol(_oscillation, [6.0], [0.3], [30.0], ORDER, P, DT,
+                                        noise_std=SD, num_samples=N, parameter_knots=8,
+                                        max_steps=3)
+    assert planned.expected == pytest.approx(factor * planned.order_band, rel=1e-12)
+    for bad in (0.0, -1.0, np.inf, np.nan):
+        with pytest.raises(ValueError, match="protocol_factor must be a finite number > 0"):
+            vojax.TrackerSettings(protocol_factor=bad)
 
 
 def test_several_starts_give_the_best_of_their_single_searches():

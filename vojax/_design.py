@@ -45,6 +45,10 @@ MAX_PAD_FLOOR = 1024
 # the prior of `order_drift` puts the order at every sample: its covariance is dense (N, N)
 MAX_DRIFT_SAMPLES = 5000
 
+# the parameters' hat functions of the design `TrackerSettings.protocol_factor` was
+# calibrated on (`Design.expected`): the tracker's band is that factor × this design's bound
+PROTOCOL_KNOTS = 8
+
 
 class Design:
     """What a planned test can tell, before it is run (`fisher_information`).
@@ -55,10 +59,16 @@ class Design:
     - `information` (P, P), `covariance` (P, P) = its inverse, `stderr` (P,): the best
       standard errors any unbiased estimator can reach;
     - `times` (N,), `order` (N,): the hypothesised order; `order_stderr` (N,): the predicted
-      standard error of the order at each sample; `knot_times` (K,).
+      standard error of the order at each sample; `knot_times` (K,);
+    - `expected`: the ±2σ half-width `vojax.identify`'s default tracker is expected to give
+      on this test, `order_band` × `TrackerSettings.protocol_factor` (the tracker's band also
+      covers parameters drifting faster than the design's hat functions can follow). Set
+      for the design the factor was calibrated on (one order shift, ``knots=1``; the offset
+      estimated; the parameters free on ``parameter_knots=8``; no ``order_drift``), else None.
     """
 
-    def __init__(self, names, information, covariance, times, order, order_stderr, knot_times):
+    def __init__(self, names, information, covariance, times, order, order_stderr, knot_times,
+                 expected=None):
         self.names = tuple(names)
         self.information = information
         self.covariance = covariance
@@ -67,6 +77,7 @@ class Design:
         self.order = order
         self.order_stderr = order_stderr
         self.knot_times = knot_times
+        self.expected = expected
 
     @property
     def order_band(self) -> float:
@@ -80,10 +91,14 @@ class Design:
         lines += [f"{n:<16}{s:>24.4g}" for n, s in zip(self.names, self.stderr)
                   if not n.startswith("order_at_")]  # an order at every sample: its band
         lines.append(f"{'order band ±2σ':<16}{self.order_band:>24.4g}")
+        if self.expected is not None:
+            lines.append(f"{'tracker ±2σ':<16}{self.expected:>24.4g}  (expected)")
         return "\n".join(lines)
 
     def __repr__(self):
-        return f"Design(order band ±{self.order_band:.3g}, {len(self.names)} quantities)"
+        tracker = "" if self.expected is None else f", tracker ±{self.expected:.3g} expected"
+        return (f"Design(order band ±{self.order_band:.3g}{tracker}, "
+                f"{len(self.names)} quantities)")
 
 
 def _hats(times, knots):
@@ -130,7 +145,8 @@ def fisher_information(
       K ≥ 2) instead of constant: the band the test gives whatever the parameters do
       (`names` gain ``drift_j_k``). With one slowly varying input the order is then hardly
       determined; an oscillation superposed on the load (`settling_test`) determines it,
-      since a springpot's phase lag depends on its order alone.
+      since a springpot's phase lag depends on its order alone. At 8 (with ``knots=1``
+      and `x0`), `Design.expected` is the band the tracker is expected to give.
     - `pad_to`: run the model on the grid continued to this many samples (zero input, the
       last order and step) and keep the real samples' rows: the result is the same (the
       memory is causal; with the exponential memory, to its tolerance), and plans of different lengths padded alike share one compiled
@@ -185,7 +201,10 @@ def fisher_information(
     k = hats.shape[1]
     order_cov = covariance[:k, :k]
     order_stderr = np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", hats, order_cov, hats), 0.0))
-    return Design(names, information, covariance, times, order, order_stderr, places)
+    design = Design(names, information, covariance, times, order, order_stderr, places)
+    if knots == 1 and x0 and parameter_knots == PROTOCOL_KNOTS and order_drift is None:
+        design.expected = TrackerSettings().protocol_factor * design.order_band
+    return design
 
 
 def _check_design(p, n, num, noise_std, knots, order_drift, parameter_knots):

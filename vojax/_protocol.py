@@ -46,7 +46,9 @@ def optimal_protocol(
     several minima needs several starts).
 
     **Returns:** ``(params, Design)``: the best parameters found and `fisher_information` of
-    the protocol they give (with the same `knots` and `parameter_knots`).
+    the protocol they give (with the same `knots` and `parameter_knots`; with
+    ``parameter_knots=8``, ``knots=1`` and `x0`, `Design.expected` is the band the tracker
+    is expected to give on it).
 
     **Raises:** `ValueError` for an argument out of range, or a protocol whose inputs at
     `start` are not finite or not of shape (N,) or (N, n) with one parameter in `p` per input.

@@ -125,6 +125,11 @@ class TrackerSettings:
     # draws 0–11 of four families, docs/calibration.md: the oscillation narrows the bound far
     # more than the band, which also covers parameters drifting fast enough to follow it)
     settling_exponent: float = 0.25
+    # the band the tracker is expected to give on a planned test (no band now to scale): the
+    # Fisher bound with one order shift and the parameters free on 8 hat functions
+    # (`Design.expected`), × this (the geometric mean ratio, 6.81, on `informative` draws
+    # 0–11, docs/calibration.md: the bound excludes drift faster than its hats; the band not)
+    protocol_factor: float = 6.8
 
     # ---- long records and execution (no effect on the numbers)
     max_points: int = 1_000  # a longer record is fitted as the means of blocks of samples
@@ -201,7 +206,7 @@ RANGES = {
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),
     "bound_tol": (0.0, (0.5,), False), "bound_fraction": (0.0, 1.0, False),
-    "settling_exponent": (0.0, 1.0, False),
+    "settling_exponent": (0.0, 1.0, False), "protocol_factor": ((0.0,), (math.inf,), False),
     "held_order_step": ((1.0,), math.inf, False), "level_step": ((1.0,), math.inf, False),
     "level_max": (1.0, math.inf, False),
     "max_iter": (1, math.inf, True), "grid_max_iter": (1, math.inf, True),

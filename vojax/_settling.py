@@ -76,7 +76,7 @@ class SettlingTest:
         bound with the parameters drifting on a few hat functions; the second the tracker's
         expected band (`expected`), where it is known, else a caution that it can be several
         times wider (`docs/calibration.md`, *The settling test's promise*)."""
-        per = {"s": " Hz", "": " per unit of time"}.get(unit, f" per {unit}")
+        per = {"s": " Hz", "": " cycles per unit of time"}.get(unit, f" cycles per {unit}")
         size = (f"{100 * self.fraction:.0f} % of the load's RMS ({self.amplitude:.3g})"
                 if self.fraction else f"{self.amplitude:.3g}")
         at = (f"at {self.frequency:.3g}{per}" if self.frequency_end is None else
