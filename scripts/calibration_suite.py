@@ -45,6 +45,7 @@ runs the estimators on them and scores their bands.
 """
 
 import csv
+import sys
 import zlib
 from pathlib import Path
 
@@ -73,6 +74,18 @@ def _rows(path):
 
 def _column(rows, name, where=None):
     return np.array([float(r[name]) for r in rows if where is None or where(r)])
+
+
+def suite_signals(data: Path = DATA):
+    """For a script on the suite's draws: float64 on, and the recorded signals under `data`,
+    or the script's exit saying there are none."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    signals = real_signals(data)
+    if not signals:
+        sys.exit(f"no recorded signals under {data}")
+    return signals
 
 
 def real_signals(data: Path = DATA):

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from calibration_suite import suite_signals  # noqa: E402
 
 FORMS = ("constant", "inside", "gain")  # the `informative` family's index % 3
 
@@ -100,14 +101,9 @@ def main(argv=None):
     parser.add_argument("--data", type=Path, default=bc.DATA)
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
-    import jax
-
-    jax.config.update("jax_enable_x64", True)
+    signals = suite_signals(args.data)
     import vojax
 
-    signals = bc.real_signals(args.data)
-    if not signals:
-        sys.exit(f"no recorded signals under {args.data}")
     lines = [f"{'#':>3} {'input':<26}{'shape':<9}{'form':<9}{'noise':<6}{'N':>6}{'band':>8}"
              f"{'rms':>8}{'bound':>9}{'bound 4':>9}{'band÷bound':>11}{'expected':>9}"
              f"{'÷exp.':>7}  verdict"]

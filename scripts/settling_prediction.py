@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from calibration_suite import suite_signals  # noqa: E402
 
 
 def _band(res, half):
@@ -100,12 +101,7 @@ def main(argv=None):
     parser.add_argument("--data", type=Path, default=bc.DATA)
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
-    import jax
-
-    jax.config.update("jax_enable_x64", True)
-    signals = bc.real_signals(args.data)
-    if not signals:
-        sys.exit(f"no recorded signals under {args.data}")
+    signals = suite_signals(args.data)
     lines = [f"{'family':<8}{'#':>3} {'input':<26}{'shape':<9}{'N':>6}{'before':>9}"
              f"{'without':>9}{'predicted':>10}{'realised':>10}{'ratio':>7}{'expected':>9}{'÷exp.':>7}"
              f"{'cover':>7}{'rms':>8}{'cond.':>8}"

@@ -128,7 +128,7 @@ class TrackerSettings:
     # the band the tracker is expected to give on a planned test (no band now to scale): the
     # Fisher bound with one order shift and the parameters free on 8 hat functions
     # (`Design.expected`), × this (the geometric mean ratio, 6.81, on `informative` draws
-    # 0–11, docs/calibration.md: the bound excludes drift faster than its hats; the band not)
+    # 0–11, docs/calibration.md: the band covers drift faster than the bound's hats follow)
     protocol_factor: float = 6.8
 
     # ---- long records and execution (no effect on the numbers)
