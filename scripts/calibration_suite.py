@@ -88,6 +88,11 @@ def suite_signals(data: Path = DATA):
     return signals
 
 
+def within(ratios, factor) -> float:
+    """The share of the `ratios` (realised over predicted) within a `factor` either way."""
+    return float(np.mean(np.abs(np.log(ratios)) <= np.log(factor)))
+
+
 def real_signals(data: Path = DATA):
     """``[(name, t, v)]``: recorded signals of every dataset, each on its own clock. A
     dataset absent from `data` is skipped."""

@@ -346,13 +346,13 @@ MUTATIONS = {
     "r0's symmetry left to an eigenvalue routine that reads one triangle": (
         "vojax/_validate.py",
         [("    if np.max(np.abs(m - m.T)) > 1e-10 * np.max(np.abs(m)):", "    if False:")],
-        ["tests/test_validation.py::test_one_rule_for_r0_wherever_it_is_taken"],
+        ["tests/test_validation_r0.py::test_one_rule_for_r0_wherever_it_is_taken"],
     ),
     "r0's symmetry judged on an absolute scale (a tiny matrix passes)": (
         "vojax/_validate.py",
         [("    if np.max(np.abs(m - m.T)) > 1e-10 * np.max(np.abs(m)):",
           "    if np.max(np.abs(m - m.T)) > 1e-10:")],
-        ["tests/test_validation.py::test_a_symmetric_r0_built_by_rounding_is_taken"],
+        ["tests/test_validation_r0.py::test_a_symmetric_r0_built_by_rounding_is_taken"],
     ),
     "optimal protocol traces an integer noise level (2**63 overflows)": (
         "vojax/_protocol.py",

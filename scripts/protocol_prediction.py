@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from calibration_suite import suite_signals  # noqa: E402
+from calibration_suite import suite_signals, within  # noqa: E402
 
 FORMS = ("constant", "inside", "gain")  # the `informative` family's index % 3
 
@@ -63,10 +63,6 @@ def one(case):
                 bound_4=coarse.order_band, expected=design.expected)
 
 
-def _within(ratios, factor):
-    return float(np.mean(np.abs(np.log(ratios)) <= np.log(factor)))
-
-
 def summary(rows, fit):
     """The summary's lines: the factor the fitted draws give, then the ratios to the
     expectation per part of the family."""
@@ -86,7 +82,7 @@ def summary(rows, fit):
             if got.size:
                 lines.append(f"{name:<10}{part:<10}{got.size:>8}{np.median(got):>14.2f}"
                              f"{f'{got.min():.2f}–{got.max():.2f}':>14}"
-                             f"{_within(got, 1.3):>13.2f}{_within(got, 2.0):>11.2f}")
+                             f"{within(got, 1.3):>13.2f}{within(got, 2.0):>11.2f}")
     return lines
 
 

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from calibration_suite import suite_signals  # noqa: E402
+from calibration_suite import suite_signals, within  # noqa: E402
 
 
 def _band(res, half):
@@ -131,16 +131,16 @@ def main(argv=None):
         got = [r for r in rows if "ratio" in r and (name == "pooled" or r["family"] == name)]
         if got:
             ratios = np.array([r["ratio"] for r in got])
-            within = np.mean(np.abs(np.log(ratios)) <= np.log(1.3))
+            share = within(ratios, 1.3)
             expected = np.array([r["ratio_expected"] for r in got])
             known = expected[np.isfinite(expected)]
             near = (f"{np.median(known):.2f} (range {known.min():.2f}–{known.max():.2f}), "
-                    f"within 30 %: {np.mean(np.abs(np.log(known)) <= np.log(1.3)):.2f}, "
-                    f"within 2x: {np.mean(np.abs(np.log(known)) <= np.log(2)):.2f}"
+                    f"within 30 %: {within(known, 1.3):.2f}, "
+                    f"within 2x: {within(known, 2.0):.2f}"
                     if known.size else "none expected")
             lines.append(
                 f"{name:<8} tests {len(got):>2}: realised/predicted median {np.median(ratios):.2f} "
-                f"(range {ratios.min():.2f}–{ratios.max():.2f}), within 30 %: {within:.2f}; "
+                f"(range {ratios.min():.2f}–{ratios.max():.2f}), within 30 %: {share:.2f}; "
                 f"realised/expected median {near}; "
                 f"identified after: {sum(r['verdict_after'] == 'identified' for r in got)}, "
                 f"median coverage {np.median([r['coverage'] for r in got]):.2f}")

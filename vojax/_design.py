@@ -67,8 +67,7 @@ class Design:
       estimated; the parameters free on ``parameter_knots=8``; no ``order_drift``), else None.
     """
 
-    def __init__(self, names, information, covariance, times, order, order_stderr, knot_times,
-                 expected=None):
+    def __init__(self, names, information, covariance, times, order, order_stderr, knot_times):
         self.names = tuple(names)
         self.information = information
         self.covariance = covariance
@@ -77,7 +76,7 @@ class Design:
         self.order = order
         self.order_stderr = order_stderr
         self.knot_times = knot_times
-        self.expected = expected
+        self.expected = None  # set by `fisher_information` where the factor applies
 
     @property
     def order_band(self) -> float:
