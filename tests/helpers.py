@@ -52,6 +52,49 @@ def load_script(name):
     return module
 
 
+def fresh_cli(*args, cwd):
+    """``vojax ARGS`` in a fresh Python process in the folder `cwd` (its own loops: the
+    command's default, fast ones), as ``subprocess.run`` reports it."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd,
+                          capture_output=True, text=True, env=env)
+
+
+def run_cli(*args, cwd):
+    """``vojax ARGS`` run by this process in the folder `cwd`, reported as
+    ``subprocess.run(..., capture_output=True, text=True)`` reports a command: its exit
+    status (an argument refused by argparse included), its standard output and error. With
+    XLA's default loops (this process has computed already), so its numbers equal
+    `identify`'s here; `fresh_cli` runs it in a fresh process."""
+    import contextlib
+    import io
+    import os
+    import subprocess
+
+    from vojax._cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    loops = os.environ.get("VOJAX_FAST_CPU_LOOPS")
+    os.environ["VOJAX_FAST_CPU_LOOPS"] = "0"
+    try:
+        with contextlib.chdir(cwd), contextlib.redirect_stdout(out), \
+                contextlib.redirect_stderr(err):
+            try:
+                code = main([str(a) for a in args])
+            except SystemExit as e:  # argparse's refusal
+                code = e.code if isinstance(e.code, int) else int(e.code is not None)
+    finally:
+        if loops is None:
+            os.environ.pop("VOJAX_FAST_CPU_LOOPS")
+        else:
+            os.environ["VOJAX_FAST_CPU_LOOPS"] = loops
+    return subprocess.CompletedProcess(["vojax", *args], code, out.getvalue(), err.getvalue())
+
+
 def make_problem(memory, u, y, *, dt=None, times=None, mask=None, bounds=(0.01, 0.99),
                  settings=None, offset_known=False, batched=False):
     """A tracker `Problem` on arrays given as they are (no normalisation): `u` (N, n), `y`

@@ -185,7 +185,7 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
     """Two damaged JPK files beside a good one: the good one is computed, each damaged one
     is in failures.csv with its one-line reason, exit 2 (a batch with failures); and `check`
     takes no --out (argparse read it as --output and ran)."""
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     folder = tmp_path / "in"
     folder.mkdir()
@@ -193,7 +193,7 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
     for name, channel, change, _ in DAMAGE[:2]:
         _damaged(folder / f"{name.split()[-1]}.jpk-force", channel, change)
     base = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
-    done = _cli("batch", "in", *base, "--method", "refit", "--quiet", "--out", "out",
+    done = run_cli("batch", "in", *base, "--method", "refit", "--quiet", "--out", "out",
                 cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     with open(tmp_path / "out" / "failures.csv", newline="") as f:
@@ -201,5 +201,5 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
     assert sorted(Path(r["file"]).name for r in failed) == ["byte.jpk-force", "sample.jpk-force"]
     assert all("curve 0:" in r["reason"] for r in failed)
     assert (tmp_path / "out" / "good" / "summary.json").is_file()
-    check = _cli("check", str(RAW), *base, "--out", "c", cwd=tmp_path)
+    check = run_cli("check", str(RAW), *base, "--out", "c", cwd=tmp_path)
     assert check.returncode == 1 and "unrecognized arguments: --out c" in check.stderr

@@ -157,7 +157,7 @@ def test_the_modulus_reaches_the_summary_the_table_and_the_line(tmp_path):
     modulus of nanite's fit done here directly on the same curve (same R, ν, segment), the
     batch's summary.csv has it as a column, the line prints it, and --contact on a CSV is
     refused."""
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     curve = afmformats.load_data(RAW)[0]
     idnt = nanite.Indentation({k: curve[k] for k in curve.columns}, curve.metadata)
@@ -171,7 +171,7 @@ def test_the_modulus_reaches_the_summary_the_table_and_the_line(tmp_path):
     base = ["--time", "time_s", "--input", "force_rise_N", "--output", "contact_strain",
             "--tip", "sphere:5e-6", "--segments", "0,1", "--model", "springpot",
             "--method", "refit"]
-    done = _cli("identify", str(RAW), *base, "--out", "one", cwd=tmp_path)
+    done = run_cli("identify", str(RAW), *base, "--out", "one", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     afm = json.loads((tmp_path / "one" / "summary.json").read_text())["afm"]
     assert afm["youngs_modulus_Pa"] == pytest.approx(e, rel=1e-9)
@@ -180,14 +180,14 @@ def test_the_modulus_reaches_the_summary_the_table_and_the_line(tmp_path):
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / "a.jpk-force").write_bytes(RAW.read_bytes())
-    done = _cli("batch", "in", *base, "--quiet", "--out", "out", cwd=tmp_path)
+    done = run_cli("batch", "in", *base, "--quiet", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         row, = list(csv.DictReader(f))
     assert float(row["afm_youngs_modulus_Pa"]) == pytest.approx(e, rel=1e-9)
     assert float(row["afm_contact_time"]) == pytest.approx(afm["contact_time"])
     (tmp_path / "a.csv").write_text("t,u,y\n0,1,2\n1,1,2\n2,1,2\n")
-    done = _cli("identify", "a.csv", "--time", "t", "--input", "u", "--output", "y",
+    done = run_cli("identify", "a.csv", "--time", "t", "--input", "u", "--output", "y",
                 "--contact", "gradient_zero_crossing", "--out", "c", cwd=tmp_path)
     assert done.returncode != 0 and "the AFM options are for AFM files and CSV" in done.stderr
 
@@ -251,7 +251,7 @@ def test_a_force_map_gives_a_record_per_curve_and_maps_over_its_grid(tmp_path):
     and refit order at its grid index (NaN elsewhere)."""
     from vojax._plotting_maps import map_figure
 
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     curves = afmformats.load_data(QI)
     want = {f"qi_map-{k}": (c.metadata["grid index x"], c.metadata["grid index y"],
@@ -259,7 +259,7 @@ def test_a_force_map_gives_a_record_per_curve_and_maps_over_its_grid(tmp_path):
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / QI.name).write_bytes(QI.read_bytes())
-    done = _cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
+    done = run_cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
                 "contact_strain", "--tip", "sphere:5e-6", "--segments", "0", "--model",
                 "springpot", "--method", "refit", "--quiet", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -13,8 +13,8 @@ import pytest
 from vojax._data import DataError, load_records
 from vojax.io import CurvesFailed
 
+from .helpers import run_cli
 from .test_afm_contact import TIPS, _curve
-from .test_data_cli import _cli
 
 OPTIONS = dict(time="time_s", inputs=["force_rise_N"], output="contact_strain",
                tip=("sphere", 5e-6), segments=[1], units={"force_rise_N": "N"})
@@ -71,7 +71,7 @@ def test_the_batch_keeps_a_maps_other_curves_and_lists_the_failed_one(tmp_path):
     folder = tmp_path / "in"
     folder.mkdir()
     _write_map(folder / "map.h5", ["hertz", "flat", "hertz", "hertz"])
-    done = _cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
+    done = run_cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
                 "contact_strain", "--tip", "sphere:5e-6", "--segments", "1", "--method",
                 "refit", "--quiet", "--out", "out", cwd=tmp_path)
     assert done.returncode == 2, done.stderr
@@ -88,7 +88,7 @@ def test_the_batch_keeps_a_maps_other_curves_and_lists_the_failed_one(tmp_path):
 
 def test_identify_picks_a_maps_curve_and_says_which_others_failed(tmp_path):
     _write_map(tmp_path / "map.h5", ["hertz", "flat"])
-    done = _cli("identify", "map.h5", "--record", "map-0", "--time", "time_s", "--input",
+    done = run_cli("identify", "map.h5", "--record", "map-0", "--time", "time_s", "--input",
                 "force_rise_N", "--output", "contact_strain", "--tip", "sphere:5e-6",
                 "--segments", "1", "--method", "refit", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -12,7 +12,8 @@ import pytest
 
 import vojax
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import fresh_cli
+from .test_data_cli import _springpot_csv
 
 
 def _folder(tmp_path):
@@ -50,7 +51,7 @@ def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
         "gradient+refit",
         "--quiet",
     ]
-    proc = _cli(*args, cwd=tmp_path)
+    proc = fresh_cli(*args, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     out = tmp_path / "out"
     with open(out / "failures.csv") as f:
@@ -72,7 +73,7 @@ def test_batch_survives_bad_files_and_reruns_do_nothing_new(tmp_path):
         for p in out.rglob("*")
         if p.is_file() and p.parent != out
     }
-    again = _cli(*args, cwd=tmp_path)
+    again = fresh_cli(*args, cwd=tmp_path)
     assert again.returncode == 2
     assert "0 computed, 3 up to date (skipped), 0 redone, 3 failed" in again.stdout
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # the complete records were skipped
@@ -129,7 +130,7 @@ def test_each_batch_record_equals_identify_on_that_record(tmp_path):
     series = {}
     for name, q in (("a", 0.3), ("b", 0.5), ("c", 0.7)):
         series[name] = _springpot_csv(data / f"{name}.csv", n=90, q=q)
-    proc = _cli(
+    proc = fresh_cli(
         "batch", *sorted(str(p) for p in data.glob("*.csv")), "--time", "time_s", "--input",
         "stress", "--output", "strain", "--out", "out", "--method", "gradient", "--gamma", "0.5",
         "--lam", "0.9", "--quiet", cwd=tmp_path,

@@ -11,7 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import fresh_cli
+from .test_data_cli import _springpot_csv
 
 
 def _tables(out):
@@ -92,9 +93,9 @@ def test_dask_batch_equals_the_single_process_batch_and_resumes_after_a_kill(tmp
     common = ["batch", str(data), "--time", "time_s", "--input", "stress", "--output", "strain",
               "--method", "kalman+refit", "--figures", "overview", "--quiet"]
     dask = ["--scheduler", "local", "--workers", "2"]
-    here = _cli(*common, "--out", "here", cwd=tmp_path)
+    here = fresh_cli(*common, "--out", "here", cwd=tmp_path)
     assert here.returncode == 2, here.stderr
-    there = _cli(*common, *dask, "--out", "there", cwd=tmp_path)
+    there = fresh_cli(*common, *dask, "--out", "there", cwd=tmp_path)
     assert there.returncode == 2, there.stderr
     assert "8 computed, 0 up to date (skipped), 0 redone, 1 failed" in there.stdout
     reference = _tables(tmp_path / "here")
@@ -102,7 +103,7 @@ def test_dask_batch_equals_the_single_process_batch_and_resumes_after_a_kill(tmp
     assert (tmp_path / "here" / "failures.csv").read_text().replace("here", "") == (
         tmp_path / "there" / "failures.csv"
     ).read_text().replace("there", "")
-    again = _cli(*common, *dask, "--out", "there", cwd=tmp_path)
+    again = fresh_cli(*common, *dask, "--out", "there", cwd=tmp_path)
     assert "0 computed, 8 up to date (skipped), 0 redone, 1 failed" in again.stdout, again.stderr
 
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
@@ -123,7 +124,7 @@ def test_dask_batch_equals_the_single_process_batch_and_resumes_after_a_kill(tmp
     while time.monotonic() < deadline and any(_running(p) for p in workers):
         time.sleep(0.1)
     assert workers and not any(_running(p) for p in workers)
-    resumed = _cli(*common, *dask, "--out", "killed", cwd=tmp_path)
+    resumed = fresh_cli(*common, *dask, "--out", "killed", cwd=tmp_path)
     assert resumed.returncode == 2, resumed.stderr
     _assert_same_batch(reference, _tables(folders))
 
@@ -134,11 +135,11 @@ def test_batch_scheduler_options_are_checked(tmp_path):
     _springpot_csv(data / "r.csv", n=20, q=0.3)
     common = ["batch", str(data), "--time", "time_s", "--input", "stress", "--output", "strain",
               "--out", "out"]
-    alone = _cli(*common, "--workers", "2", cwd=tmp_path)
+    alone = fresh_cli(*common, "--workers", "2", cwd=tmp_path)
     assert alone.returncode == 1
     assert alone.stderr.strip() == ("vojax: error: --workers sets the worker processes of "
                                     "--scheduler local; use it with that.")
-    none = _cli(*common, "--scheduler", "local", "--workers", "0", cwd=tmp_path)
+    none = fresh_cli(*common, "--scheduler", "local", "--workers", "0", cwd=tmp_path)
     assert none.returncode == 1 and "--workers must be at least 1, got 0." in none.stderr
     assert not (tmp_path / "out").exists()
 
@@ -186,7 +187,7 @@ def test_a_scheduler_address_that_never_answers_cannot_hang_the_batch(tmp_path):
                  (empty.scheduler_address, "has no worker (none joined within")]
         for address, words in cases:
             start = time.monotonic()
-            proc = _cli(*common, "--scheduler", address, cwd=tmp_path)
+            proc = fresh_cli(*common, "--scheduler", address, cwd=tmp_path)
             took = time.monotonic() - start
             lines = proc.stderr.strip().splitlines()
             assert proc.returncode == 1 and took < 60, (address, took, proc.stderr)
@@ -208,7 +209,7 @@ def test_workers_and_clients_that_cannot_work_are_refused(tmp_path):
     data.mkdir()
     _springpot_csv(data / "r.csv", n=20, q=0.3)
     many = (os.cpu_count() or 1) + 1
-    proc = _cli("batch", str(data), "--time", "time_s", "--input", "stress", "--output",
+    proc = fresh_cli("batch", str(data), "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--out", "out", "--scheduler", "local", "--workers", str(many),
                 cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr
@@ -272,7 +273,7 @@ def test_a_scheduler_that_dies_mid_run_leaves_a_folder_that_resumes(tmp_path):
         for proc in (scheduler, worker):
             proc.kill()
             proc.wait()
-    again = _cli(*args, cwd=tmp_path)
+    again = fresh_cli(*args, cwd=tmp_path)
     assert again.returncode == 0, again.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         assert [r["record"] for r in csv.DictReader(f)] == names

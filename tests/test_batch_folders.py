@@ -6,7 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import fresh_cli
+from .test_data_cli import _springpot_csv
 from .test_outputs import BASE
 
 
@@ -57,7 +58,7 @@ def test_a_batch_whose_out_is_its_input_folder_says_so(tmp_path):
     _springpot_csv(work / "in" / "a.csv", n=30)
     os.symlink("in", work / "link")
     for out in ("in", "link", "."):
-        proc = _cli("batch", "in", *BASE, "--out", out, cwd=work)
+        proc = fresh_cli("batch", "in", *BASE, "--out", out, cwd=work)
         assert proc.returncode == 1, proc.stderr
         assert f"the output folder '{out}' holds the input 'in/a.csv'" in proc.stderr
         assert proc.stderr.count("\n") == 1

@@ -17,7 +17,8 @@ import vojax
 from vojax._data import load_records
 from vojax._steps import say
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import fresh_cli
+from .test_data_cli import _springpot_csv
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 DT = 0.1
@@ -31,7 +32,7 @@ DT = 0.1
 )
 def test_cli_identify_end_to_end(tmp_path, method):
     _springpot_csv(tmp_path / "test.csv")
-    proc = _cli(
+    proc = fresh_cli(
         "identify",
         "test.csv",
         "--time",
@@ -158,7 +159,7 @@ def test_cli_identify_errors_are_one_sentence(tmp_path, args, message):
         for line in lines
     ) + "\n")
     base = ["--time", "time_s", "--input", "stress", "--output", "strain", "--out", "out"]
-    proc = _cli("identify", *args[:1], *base, *args[1:], cwd=tmp_path)
+    proc = fresh_cli("identify", *args[:1], *base, *args[1:], cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert message in proc.stderr and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
@@ -217,7 +218,7 @@ def test_parameters_option_sets_the_tracker_only(tmp_path):
     _springpot_csv(tmp_path / "test.csv")
     base = ["test.csv", "--time", "time_s", "--input", "stress", "--output", "strain"]
     for command, method in (("identify", "gradient"), ("batch", "refit")):
-        proc = _cli(command, *base, "--out", "o", "--method", method, "--parameters",
+        proc = fresh_cli(command, *base, "--out", "o", "--method", method, "--parameters",
                     "constant", cwd=tmp_path)
         assert proc.returncode == 1 and proc.stderr.count("\n") == 1, proc.stderr
         assert f"--parameters sets the tracker, which --method {method} does not run" in proc.stderr
@@ -244,11 +245,11 @@ def test_max_points_option_blocks_a_record_and_is_checked(tmp_path):
          "--max-points sets the tracker, which --method gradient does not run"),
         (["--max-points", "99"], "--max-points must be from 100 to 50,000, got 99"),
     ):
-        proc = _cli("identify", *base, "--out", "o", *extra, cwd=tmp_path)
+        proc = fresh_cli("identify", *base, "--out", "o", *extra, cwd=tmp_path)
         assert proc.returncode == 1 and proc.stderr.count("\n") == 1, proc.stderr
         assert text in proc.stderr
     assert not (tmp_path / "o").exists()
-    proc = _cli("identify", *base, "--out", "o", "--max-points", "100", cwd=tmp_path)
+    proc = fresh_cli("identify", *base, "--out", "o", "--max-points", "100", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "o" / "identification.csv") as f:
         assert len(list(csv.reader(f))) == 151
@@ -273,7 +274,7 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
     (data / "notes.txt").write_text("not data")
     (data / "sub").mkdir()
     _springpot_csv(data / "sub" / "deeper.csv", n=30)
-    proc = _cli("batch", "data", "--time", "time_s", "--input", "stress", "--output", "strain",
+    proc = fresh_cli("batch", "data", "--time", "time_s", "--input", "stress", "--output", "strain",
                 "--method", "refit", "--out", "out", "--quiet", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
@@ -283,7 +284,7 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
         assert r["folder"] == record_folder(r["record"])
         assert (tmp_path / "out" / r["folder"] / "summary.json").is_file()
     (tmp_path / "empty").mkdir()
-    proc = _cli("batch", "empty", "--time", "t", "--input", "u", "--output", "y",
+    proc = fresh_cli("batch", "empty", "--time", "t", "--input", "u", "--output", "y",
                 "--out", "o2", cwd=tmp_path)
     assert proc.returncode == 1 and "without CSV, NPZ or AFM files" in proc.stderr
 
@@ -300,7 +301,7 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
         with open(tmp_path / f"{name}.csv", "w") as f:
             f.write("time_s,stress,strain\n")
             f.writelines(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), stress.tolist(), y.tolist()))
-    proc = _cli("batch", "clean.csv", "noise.csv", "--time", "time_s", "--input", "stress",
+    proc = fresh_cli("batch", "clean.csv", "noise.csv", "--time", "time_s", "--input", "stress",
                 "--output", "strain", "--out", "out", "--quiet", "--parameters", "constant",
                 cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
@@ -318,12 +319,12 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
         assert r["next_steps"] == ";".join(summary["kalman"]["next_steps"])
     assert rows["noise"]["next_steps"] and not rows["clean"]["next_steps"]
     # a drift bound on the command line is the tracker's statement, in its summary
-    proc = _cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
+    proc = fresh_cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--out", "bounded", "--parameters", "0.2", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "bounded" / "summary.json").read_text())
     assert summary["kalman"]["parameter_model"] == 0.2
-    proc = _cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
+    proc = fresh_cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--out", "bad", "--parameters", "-1", cwd=tmp_path)
     assert proc.returncode != 0 and "--parameters" in proc.stderr
 

@@ -13,7 +13,8 @@ import vojax
 from vojax._cli import main
 from vojax._data import load_records
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import run_cli
+from .test_data_cli import _springpot_csv
 
 COLUMNS = ["--time", "t", "--input", "stress", "--output", "strain"]
 
@@ -187,10 +188,10 @@ def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_
     bounds = (0.5, 0.9)
     common = ("--time", "time_s", "--input", "stress", "--output", "strain",
               "--alpha-bounds", "0.5,0.9", "--gamma", "0.5")
-    proc = _cli("identify", "test.csv", *common, "--method", "gradient+refit", "--out", "o",
+    proc = run_cli("identify", "test.csv", *common, "--method", "gradient+refit", "--out", "o",
                 cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    batch = _cli("batch", "test.csv", *common, "--method", "gradient+refit", "--out", "b",
+    batch = run_cli("batch", "test.csv", *common, "--method", "gradient+refit", "--out", "b",
                  "--figures", "overview", "--quiet", cwd=tmp_path)
     assert batch.returncode == 0, batch.stderr
     law = vojax.identify(rec, method="gradient", gamma=0.5, alpha_bounds=bounds, warn=False)
@@ -206,7 +207,7 @@ def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_
         np.testing.assert_allclose(refit_alpha, np.asarray(fit.order), rtol=0, atol=1e-9)
         settings = json.loads((folder / "summary.json").read_text())["provenance"]["settings"]
         assert settings["alpha_bounds"] == [0.5, 0.9]
-    bad = _cli("identify", "test.csv", *common[:-4], "--alpha-bounds", "0.9,0.5", "--out", "p",
+    bad = run_cli("identify", "test.csv", *common[:-4], "--alpha-bounds", "0.9,0.5", "--out", "p",
                cwd=tmp_path)
     assert bad.returncode != 0 and "expected 0 < LO < HI < 1" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "p").exists()

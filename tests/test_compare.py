@@ -169,7 +169,7 @@ def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tm
     refused before anything is written."""
     import csv
 
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     stress, dt = _stress(160)
     strain = np.asarray(vojax.simulate(stress, 0.3, np.array([0.25]), dt))
@@ -180,7 +180,7 @@ def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tm
         w.writerows(zip(dt * np.arange(160), stress, strain))
     args = ["compare", "r.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
             "--models", "springpot,maxwell", "--out", "out"]
-    done = _cli(*args, cwd=tmp_path)
+    done = run_cli(*args, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "out" / "comparison.csv", newline="") as f:
         rows = list(csv.DictReader(f))
@@ -191,10 +191,10 @@ def test_the_command_writes_one_row_per_model_and_refuses_what_does_not_apply(tm
     assert sum(float(r["weight"]) for r in rows) == pytest.approx(1.0, rel=1e-12)
     assert rows[0]["verdict"] in done.stdout and rows[0]["model"] == "springpot"
     assert float(next(r for r in rows if r["model"] == "springpot")["order"]) == pytest.approx(0.3, abs=0.05)
-    refused = _cli(*args[:-1], "again", "--model", "zener", cwd=tmp_path)
+    refused = run_cli(*args[:-1], "again", "--model", "zener", cwd=tmp_path)
     assert refused.returncode == 1 and "--model does not apply to compare" in refused.stderr
     assert not (tmp_path / "again").exists()
-    one_knot = _cli(*args[:-1], "again", "--knots", "1", cwd=tmp_path)
+    one_knot = run_cli(*args[:-1], "again", "--knots", "1", cwd=tmp_path)
     assert one_knot.returncode == 1 and "--knots must be from 2 to 10" in one_knot.stderr
     assert not (tmp_path / "again").exists()
 
@@ -328,14 +328,14 @@ def test_the_command_refuses_a_degenerate_record_with_exit_1_and_no_nan_table(tm
     the record, and writes no comparison.csv (it used to exit 0 with NaN cells)."""
     import csv
 
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     stress, dt = _stress(40)
     with open(tmp_path / "flat.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time_s", "stress", "strain"])
         w.writerows(zip(dt * np.arange(40), 0 * stress, np.linspace(0, 1, 40)))
-    done = _cli("compare", "flat.csv", "--time", "time_s", "--input", "stress", "--output",
+    done = run_cli("compare", "flat.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--out", "out", cwd=tmp_path)
     assert done.returncode == 1, done.stderr
     assert done.stderr.strip().splitlines() == [

@@ -141,7 +141,7 @@ def test_the_command_passes_the_window_offset_and_origin_in_the_files_time(tmp_p
     count the offset as given."""
     import csv
 
-    from .test_data_cli import _cli
+    from .helpers import run_cli
 
     dt, n, q = 0.05, 160, 0.3
     t = dt * np.arange(n)
@@ -152,7 +152,7 @@ def test_the_command_passes_the_window_offset_and_origin_in_the_files_time(tmp_p
         w = csv.writer(f)
         w.writerow(["time_s", "stress", "strain"])
         w.writerows(zip(100.0 + t, stress, y))
-    done = _cli("compare", "r.csv", "--time", "time_s", "--input", "stress", "--output",
+    done = run_cli("compare", "r.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--models", "springpot", "--fit-from", "101.02", "--origin", "99.5",
                 "--x0", "0", "--relative", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -3,10 +3,7 @@ roles), and hostile files and cells, each failing alone with one sentence."""
 
 import csv
 import json
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +11,8 @@ import pytest
 
 import vojax
 from vojax._data import DataError, load_records
+
+from .helpers import run_cli
 
 DT = 0.1
 
@@ -32,13 +31,6 @@ def _springpot_csv(path, *, n=150, q=0.35, eta=4.0, extra_rows=(), time=None, co
         for row in extra_rows:
             w.writerow(row)
     return t, stress, strain
-
-
-def _cli(*args, cwd):
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    return subprocess.run(
-        [sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env
-    )
 
 
 def test_loader_reads_groups_trims_and_resamples(tmp_path):
@@ -143,7 +135,7 @@ def test_area_and_length_give_eta_in_the_users_units(tmp_path):
     strain = np.asarray(vojax.reference.fractional_integral(force / a, q, DT)) / eta
     with open(tmp_path / "fd.csv", "w") as f:
         f.write("time_s,F,d\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in zip(t.tolist(), force.tolist(), (ell * strain).tolist())))
-    proc = _cli(
+    proc = run_cli(
         "identify", "fd.csv", "--time", "time_s", "--input", "F", "--output", "d", "--out", "o",
         "--method", "refit", "--area", str(a), "--length", str(ell), cwd=tmp_path,
     )
@@ -218,7 +210,7 @@ def test_hostile_npz_files_fail_alone_with_one_sentence(tmp_path):
             load_records(tmp_path / f"{name}.npz", time="t", inputs=["F"], output="d")
         assert str(tmp_path / f"{name}.npz") in str(info.value) and "\n" not in str(info.value)
     files = sorted(p.name for p in tmp_path.glob("*.npz"))
-    proc = _cli(
+    proc = run_cli(
         "batch", *files, "--time", "t", "--input", "F", "--output", "d", "--method", "refit",
         "--out", "out", "--quiet", cwd=tmp_path,
     )
@@ -254,7 +246,7 @@ def test_semicolons_decimal_commas_and_a_hint_for_them(tmp_path):
         load_records(tmp_path / "tabs.csv", **cols)
     with pytest.raises(ValueError, match="a decimal comma needs another delimiter"):
         load_records(tmp_path / "plain.csv", **cols, decimal=",")
-    proc = _cli("identify", "euro.csv", "--time", "time_s", "--input", "stress", "--output",
+    proc = run_cli("identify", "euro.csv", "--time", "time_s", "--input", "stress", "--output",
                 "strain", "--delimiter", ";", "--decimal-comma", "--method", "refit",
                 "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
@@ -288,7 +280,7 @@ def test_each_column_has_one_role_and_a_lone_input_may_be_a_string(tmp_path):
     for args, words in [(["--input", "strain", "--output", "strain"], "both an input and"),
                         (["--input", "stress", "--input", "stress", "--output", "strain"],
                          "given twice as an input")]:
-        done = _cli("identify", "r.csv", "--time", "time_s", *args, "--out", "o", cwd=tmp_path)
+        done = run_cli("identify", "r.csv", "--time", "time_s", *args, "--out", "o", cwd=tmp_path)
         assert done.returncode == 1 and words in done.stderr, done.stderr
         assert len(done.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "o").exists()
@@ -328,7 +320,7 @@ def test_hostile_cells_clocks_and_silent_inputs_get_one_sentence(tmp_path):
         (["zero.csv", "--method", "refit"], "the input column 'stress' is 0 at every sample"),
         (["zero.csv"], "the input column 'stress' is 0 at every sample"),
     ]:
-        done = _cli("identify", args[0], *base, *args[1:], "--out", "o", cwd=tmp_path)
+        done = run_cli("identify", args[0], *base, *args[1:], "--out", "o", cwd=tmp_path)
         lines = done.stderr.strip().splitlines()
         assert done.returncode == 1 and len(lines) == 1 and words in lines[0], done.stderr
     with pytest.raises(ValueError, match="input 1 of `u` is 0 at every sample"):

@@ -9,7 +9,8 @@ import pytest
 
 import vojax
 
-from .test_offset import DT, _cli, _creep
+from .helpers import run_cli
+from .test_offset import DT, _creep
 
 NOISE = dict(order_drift=0.02, parameter_drift=1e-3)
 
@@ -31,7 +32,7 @@ def test_the_command_line_noise_is_in_the_files_unit(tmp_path):
     text = f"order_drift=0.02,parameter_drift=0.001,noise_std={std!r}"
     common = ("identify", "fd.csv", "--time", "time_s", "--input", "F", "--output", "d",
               "--area", str(a), "--length", str(ell))
-    proc = _cli(*common, "--noise", text, "--out", "o", cwd=tmp_path)
+    proc = run_cli(*common, "--noise", text, "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["provenance"]["settings"]["noise"] == dict(NOISE, noise_std=std)
@@ -59,7 +60,7 @@ def test_the_command_line_noise_is_in_the_files_unit(tmp_path):
         (("--noise", "order_drift=0.02,parameter_drift=0.001,noise_std=1e300"),
          "`noise['noise_std']` must be below 1e+150, got 1e+300."),
     ):
-        bad = _cli(*common, *extra, "--out", "p", cwd=tmp_path)
+        bad = run_cli(*common, *extra, "--out", "p", cwd=tmp_path)
         assert bad.returncode != 0 and said in bad.stderr, bad.stderr
         assert len(bad.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "p").exists()

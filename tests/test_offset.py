@@ -3,15 +3,14 @@ as a shift of the output, narrower bands where the offset traded off with the or
 
 import csv
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import vojax
 from vojax._tracker._start import least_squares
+
+from .helpers import run_cli
 
 DT, N = 0.1, 300
 
@@ -111,14 +110,6 @@ def test_a_known_offset_must_be_a_finite_number(x0, said):
             vojax.identify(u, y, DT, method=method, x0=x0)
 
 
-def _cli(*args, cwd):
-    # XLA's default loops, as in this process: the command's numbers equal identify's
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    env["VOJAX_FAST_CPU_LOOPS"] = "0"
-    return subprocess.run([sys.executable, "-m", "vojax", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True)
-
-
 def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
     """``--x0`` is the output column's reading at rest: with ``--length`` the tracker holds
     the strain's offset at x0/length, as `vojax.identify(x0=…)` on the strain does."""
@@ -130,7 +121,7 @@ def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
                                          for x, y, z in zip(t.tolist(), force.tolist(), d.tolist())))
     common = ("identify", "fd.csv", "--time", "time_s", "--input", "F", "--output", "d",
               "--area", str(a), "--length", str(ell), "--parameters", "constant")
-    proc = _cli(*common, "--x0", str(d0), "--out", "o", cwd=tmp_path)
+    proc = run_cli(*common, "--x0", str(d0), "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["kalman"]["offset_model"] == "known"
@@ -145,7 +136,7 @@ def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
     # the offset is the tracker's: refused with the law, and a non-number is refused
     for extra, said in ((("--method", "gradient"), "--x0 sets the tracker"),
                         ((), "argument --x0: expected a finite number")):
-        bad = _cli(*common[:-2], "--x0", "inf" if not extra else "0", *extra, "--out", "p",
+        bad = run_cli(*common[:-2], "--x0", "inf" if not extra else "0", *extra, "--out", "p",
                    cwd=tmp_path)
         assert bad.returncode != 0 and said in bad.stderr
         assert len(bad.stderr.strip().splitlines()) == 1

@@ -18,7 +18,8 @@ import pytest
 from vojax._data._paths import MAX_LEN, record_folder
 from vojax._data._tables import natural_key
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import run_cli
+from .test_data_cli import _springpot_csv
 
 HOSTILE = [
     "..",
@@ -73,7 +74,7 @@ def test_hostile_record_names_stay_inside_out(tmp_path):
     work.mkdir()
     _long_csv(work / "long.csv", names)
     before = {p for p in tmp_path.rglob("*")}
-    proc = _cli(
+    proc = run_cli(
         "batch", "long.csv", *BASE, "--group-by", "specimen", "--out", "out",
         "--method", "refit", cwd=work,
     )
@@ -99,7 +100,7 @@ def _strict(text):
 
 
 def _batch(work, *extra, method="gradient"):
-    return _cli(
+    return run_cli(
         "batch", *sorted(p.name for p in work.glob("*.csv")), *BASE, "--out", "out",
         *(["--gamma", "0.5"] if method == "gradient" else []), "--method", method, *extra,
         cwd=work,
@@ -262,7 +263,7 @@ def test_out_never_holds_the_inputs_and_follows_no_link(tmp_path):
     before = (work / "summary.csv").read_bytes()
     for command, out in (("identify", "."), ("batch", "."), ("identify", ".."),
                          ("batch", "summary.csv")):
-        proc = _cli(command, "summary.csv", *BASE[:-1], "--out", out, cwd=work)
+        proc = run_cli(command, "summary.csv", *BASE[:-1], "--out", out, cwd=work)
         assert proc.returncode == 1, (command, out, proc.stderr)
         assert "choose a new folder for --out" in proc.stderr
         assert proc.stderr.count("\n") == 1
@@ -323,7 +324,7 @@ def test_vojax_overwrites_only_what_it_wrote(tmp_path):
     (work / "out" / "notes.txt").write_text("mine\n")  # a file of the user's beside them
     (work / "single").mkdir()
     (work / "single" / "identification.csv").write_text("mine\n")
-    proc = _cli("identify", "a.csv", *BASE[:-1], "--method", "refit", "--out", "single", cwd=work)
+    proc = run_cli("identify", "a.csv", *BASE[:-1], "--method", "refit", "--out", "single", cwd=work)
     assert proc.returncode == 1 and "was not written by vojax" in proc.stderr, proc.stderr
     assert (work / "single" / "identification.csv").read_text() == "mine\n"
 
@@ -337,7 +338,7 @@ def test_failure_is_never_a_result(tmp_path):
     y = u[:, 0] * 1e-3 + np.cumsum(u[:, 1]) * 1e-6
     with open(path, "w") as f:
         f.write("t,a,b,y\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r},{float(d)!r}\n" for a, b, c, d in zip(t, u[:, 0], u[:, 1], y)))
-    proc = _cli(
+    proc = run_cli(
         "identify", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
         "--model", "linear", "--method", "gradient", "--gamma", "0.01", "--lam", "0.9",
         "--out", "o", cwd=tmp_path,
@@ -346,7 +347,7 @@ def test_failure_is_never_a_result(tmp_path):
     assert "diverged" in proc.stderr
     assert not (tmp_path / "o" / "summary.json").exists()
     # the batch: the record fails with its reason, exit 2, and no row in summary.csv
-    proc = _cli(
+    proc = run_cli(
         "batch", "slow.csv", "--time", "t", "--input", "a", "--input", "b", "--output", "y",
         "--model", "linear", "--method", "gradient", "--gamma", "0.01", "--lam", "0.9",
         "--out", "b", "--quiet", cwd=tmp_path,

@@ -13,7 +13,8 @@ import pytest
 import vojax
 from vojax._data import DataError, load_records
 
-from .test_offset import DT, N, _cli, _creep
+from .helpers import run_cli
+from .test_offset import DT, N, _creep
 
 L0 = 12.5  # mm, the specimen's rest length
 
@@ -54,7 +55,7 @@ def test_the_command_identifies_the_strain_of_a_length_column(tmp_path):
     t, u, length = _length_csv(tmp_path / "l.csv")
     common = ("identify", "l.csv", "--time", "time_s", "--input", "stress_kPa", "--output",
               "length_mm", "--parameters", "constant")
-    proc = _cli(*common, "--strain-from-length", str(L0), "--out", "o", cwd=tmp_path)
+    proc = run_cli(*common, "--strain-from-length", str(L0), "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["provenance"]["settings"]["strain_from_length"] == L0
@@ -63,16 +64,16 @@ def test_the_command_identifies_the_strain_of_a_length_column(tmp_path):
         alpha = np.array([float(r["alpha"]) for r in csv.DictReader(f)])
     ref = vojax.identify(u, (length - L0) / L0, DT, parameters="constant", warn=False)
     np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-9)
-    bad = _cli(*common, "--strain-from-length", str(L0), "--length", str(L0), "--out", "p",
+    bad = run_cli(*common, "--strain-from-length", str(L0), "--length", str(L0), "--out", "p",
                cwd=tmp_path)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1
     assert "--strain-from-length already gives a strain; leave out --length" in bad.stderr
     assert not (tmp_path / "p").exists()
-    batch = _cli("batch", *common[1:], "--strain-from-length", str(L0), "--length", "2",
+    batch = run_cli("batch", *common[1:], "--strain-from-length", str(L0), "--length", "2",
                  "--out", "p", cwd=tmp_path)
     assert batch.returncode == 1 and "leave out --length" in batch.stderr
     assert not (tmp_path / "p").exists()  # refused before the batch makes its folder
-    zero = _cli(*common, "--strain-from-length", "0", "--out", "p", cwd=tmp_path)
+    zero = run_cli(*common, "--strain-from-length", "0", "--out", "p", cwd=tmp_path)
     assert zero.returncode != 0 and "--strain-from-length" in zero.stderr
     assert not (tmp_path / "p").exists()
 
@@ -152,11 +153,11 @@ def test_the_batch_takes_each_specimens_gap_and_area_from_its_columns(tmp_path):
                             zip(r.time.tolist(), r.inputs[:, 0].tolist(), r.output.tolist())))
     common = ("--time", "time_s", "--group-by", "specimen", "--method", "refit", "--figures",
               "overview", "--quiet")
-    done = _cli("batch", "g.csv", *common, "--input", "force_N", "--output", "displacement_mm",
+    done = run_cli("batch", "g.csv", *common, "--input", "force_N", "--output", "displacement_mm",
                 "--length-column", "gap_mm", "--area-column", "area_mm2", "--out", "o",
                 cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    hand = _cli("batch", "by_hand.csv", *common, "--input", "stress", "--output", "strain",
+    hand = run_cli("batch", "by_hand.csv", *common, "--input", "stress", "--output", "strain",
                 "--out", "h", cwd=tmp_path)
     assert hand.returncode == 0, hand.stderr
     from vojax._data._paths import record_folder
@@ -167,7 +168,7 @@ def test_the_batch_takes_each_specimens_gap_and_area_from_its_columns(tmp_path):
         assert a["order"] == b["order"] and a["p"] == b["p"], (a, b)
     for extra, said in ((("--length", "2"), "--length-column already gives each record's length"),
                         (("--area", "2"), "--area-column already gives each record's area")):
-        bad = _cli("batch", "g.csv", *common, "--input", "force_N", "--output",
+        bad = run_cli("batch", "g.csv", *common, "--input", "force_N", "--output",
                    "displacement_mm", "--length-column", "gap_mm", "--area-column", "area_mm2",
                    *extra, "--out", "p", cwd=tmp_path)
         assert bad.returncode == 1 and said in bad.stderr, bad.stderr

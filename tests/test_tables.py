@@ -12,7 +12,8 @@ import pytest
 
 from vojax._data._tables import natural_key
 
-from .test_data_cli import _cli, _springpot_csv
+from .helpers import run_cli
+from .test_data_cli import _springpot_csv
 from .test_outputs import BASE, _strict
 
 
@@ -48,13 +49,13 @@ def test_json_is_strict_and_files_honour_the_umask(tmp_path):
 )
 def test_messages_name_the_option(tmp_path, args, message):
     _springpot_csv(tmp_path / "r.csv", n=40)
-    proc = _cli("identify", "r.csv", *BASE[:-1], "--out", "o", *args, cwd=tmp_path)
+    proc = run_cli("identify", "r.csv", *BASE[:-1], "--out", "o", *args, cwd=tmp_path)
     assert proc.returncode == 1 and message in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "o" / "summary.json").exists()
 
 
 def test_demo_refuses_settings_that_diverge(tmp_path):
-    proc = _cli("demo", "--lam", "1000", "--out", "d", cwd=tmp_path)
+    proc = run_cli("demo", "--lam", "1000", "--out", "d", cwd=tmp_path)
     assert proc.returncode == 1 and "diverged at sample" in proc.stderr
     assert not (tmp_path / "d" / "summary.json").exists()
 

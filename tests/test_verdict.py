@@ -177,9 +177,8 @@ def test_the_command_line_states_the_parameters_in_a_unit_of_time(tmp_path):
     record's span, which differs; a scale that is not positive, or one given to the law, is
     refused in one line and writes nothing."""
     import json
-    import os
-    import subprocess
-    import sys
+
+    from .helpers import run_cli
 
     dt, n = 0.05, 200
     t = dt * np.arange(n)
@@ -189,14 +188,10 @@ def test_the_command_line_states_the_parameters_in_a_unit_of_time(tmp_path):
     y = x + 0.01 * np.ptp(x) * np.random.default_rng(5).standard_normal(n)
     (tmp_path / "r.csv").write_text("time_ms,stress,strain\n" + "".join(
         f"{a!r},{b!r},{c!r}\n" for a, b, c in zip((1e3 * t).tolist(), u.tolist(), y.tolist())))
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    env["VOJAX_FAST_CPU_LOOPS"] = "0"
 
     def cli(*extra, out="o"):
-        return subprocess.run(
-            [sys.executable, "-m", "vojax", "identify", "r.csv", "--time", "time_ms", "--input",
-             "stress", "--output", "strain", *extra, "--out", out],
-            cwd=tmp_path, env=env, capture_output=True, text=True)
+        return run_cli("identify", "r.csv", "--time", "time_ms", "--input", "stress",
+                       "--output", "strain", *extra, "--out", out, cwd=tmp_path)
 
     proc = cli("--parameters", "constant", "--time-scale", "1000")
     assert proc.returncode == 0, proc.stderr
