@@ -69,7 +69,8 @@ def run_cli(*args, cwd):
     ``subprocess.run(..., capture_output=True, text=True)`` reports a command: its exit
     status (an argument refused by argparse included), its standard output and error. With
     XLA's default loops (this process has computed already), so its numbers equal
-    `identify`'s here; `fresh_cli` runs it in a fresh process."""
+    `identify`'s here; the environment the command sets for itself (its log level, its
+    warnings filter) is restored after it. `fresh_cli` runs it in a fresh process."""
     import contextlib
     import io
     import os
@@ -78,7 +79,7 @@ def run_cli(*args, cwd):
     from vojax._cli import main
 
     out, err = io.StringIO(), io.StringIO()
-    loops = os.environ.get("VOJAX_FAST_CPU_LOOPS")
+    environ = dict(os.environ)
     os.environ["VOJAX_FAST_CPU_LOOPS"] = "0"
     try:
         with contextlib.chdir(cwd), contextlib.redirect_stdout(out), \
@@ -88,10 +89,8 @@ def run_cli(*args, cwd):
             except SystemExit as e:  # argparse's refusal
                 code = e.code if isinstance(e.code, int) else int(e.code is not None)
     finally:
-        if loops is None:
-            os.environ.pop("VOJAX_FAST_CPU_LOOPS")
-        else:
-            os.environ["VOJAX_FAST_CPU_LOOPS"] = loops
+        os.environ.clear()
+        os.environ.update(environ)
     return subprocess.CompletedProcess(["vojax", *args], code, out.getvalue(), err.getvalue())
 
 
