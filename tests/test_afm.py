@@ -194,7 +194,7 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
         _damaged(folder / f"{name.split()[-1]}.jpk-force", channel, change)
     base = ["--time", "time_s", "--input", "force_N", "--output", "indentation_m"]
     done = run_cli("batch", "in", *base, "--method", "refit", "--quiet", "--out", "out",
-                cwd=tmp_path)
+                   cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     with open(tmp_path / "out" / "failures.csv", newline="") as f:
         failed = list(csv.DictReader(f))

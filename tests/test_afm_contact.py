@@ -188,7 +188,7 @@ def test_the_modulus_reaches_the_summary_the_table_and_the_line(tmp_path):
     assert float(row["afm_contact_time"]) == pytest.approx(afm["contact_time"])
     (tmp_path / "a.csv").write_text("t,u,y\n0,1,2\n1,1,2\n2,1,2\n")
     done = run_cli("identify", "a.csv", "--time", "t", "--input", "u", "--output", "y",
-                "--contact", "gradient_zero_crossing", "--out", "c", cwd=tmp_path)
+                   "--contact", "gradient_zero_crossing", "--out", "c", cwd=tmp_path)
     assert done.returncode != 0 and "the AFM options are for AFM files and CSV" in done.stderr
 
 
@@ -260,8 +260,8 @@ def test_a_force_map_gives_a_record_per_curve_and_maps_over_its_grid(tmp_path):
     folder.mkdir()
     (folder / QI.name).write_bytes(QI.read_bytes())
     done = run_cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
-                "contact_strain", "--tip", "sphere:5e-6", "--segments", "0", "--model",
-                "springpot", "--method", "refit", "--quiet", "--out", "out", cwd=tmp_path)
+                   "contact_strain", "--tip", "sphere:5e-6", "--segments", "0", "--model",
+                   "springpot", "--method", "refit", "--quiet", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "out" / "maps.png").stat().st_size > 0
     with open(tmp_path / "out" / "summary.csv", newline="") as f:

@@ -72,8 +72,8 @@ def test_the_batch_keeps_a_maps_other_curves_and_lists_the_failed_one(tmp_path):
     folder.mkdir()
     _write_map(folder / "map.h5", ["hertz", "flat", "hertz", "hertz"])
     done = run_cli("batch", "in", "--time", "time_s", "--input", "force_rise_N", "--output",
-                "contact_strain", "--tip", "sphere:5e-6", "--segments", "1", "--method",
-                "refit", "--quiet", "--out", "out", cwd=tmp_path)
+                   "contact_strain", "--tip", "sphere:5e-6", "--segments", "1", "--method",
+                   "refit", "--quiet", "--out", "out", cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         rows = {r["record"]: r for r in csv.DictReader(f)}
@@ -89,8 +89,8 @@ def test_the_batch_keeps_a_maps_other_curves_and_lists_the_failed_one(tmp_path):
 def test_identify_picks_a_maps_curve_and_says_which_others_failed(tmp_path):
     _write_map(tmp_path / "map.h5", ["hertz", "flat"])
     done = run_cli("identify", "map.h5", "--record", "map-0", "--time", "time_s", "--input",
-                "force_rise_N", "--output", "contact_strain", "--tip", "sphere:5e-6",
-                "--segments", "1", "--method", "refit", "--out", "out", cwd=tmp_path)
+                   "force_rise_N", "--output", "contact_strain", "--tip", "sphere:5e-6",
+                   "--segments", "1", "--method", "refit", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     warned = [line for line in done.stderr.splitlines()
               if line.startswith("vojax: warning: map.h5, curve")]

@@ -210,8 +210,8 @@ def test_workers_and_clients_that_cannot_work_are_refused(tmp_path):
     _springpot_csv(data / "r.csv", n=20, q=0.3)
     many = (os.cpu_count() or 1) + 1
     proc = fresh_cli("batch", str(data), "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--out", "out", "--scheduler", "local", "--workers", str(many),
-                cwd=tmp_path)
+                     "strain", "--out", "out", "--scheduler", "local", "--workers", str(many),
+                     cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert f"--workers is {many}, more than this machine's" in proc.stderr
     rec, = vojax.io.load_records(data / "r.csv", time="time_s", inputs=["stress"], output="strain")

@@ -219,7 +219,7 @@ def test_parameters_option_sets_the_tracker_only(tmp_path):
     base = ["test.csv", "--time", "time_s", "--input", "stress", "--output", "strain"]
     for command, method in (("identify", "gradient"), ("batch", "refit")):
         proc = fresh_cli(command, *base, "--out", "o", "--method", method, "--parameters",
-                    "constant", cwd=tmp_path)
+                         "constant", cwd=tmp_path)
         assert proc.returncode == 1 and proc.stderr.count("\n") == 1, proc.stderr
         assert f"--parameters sets the tracker, which --method {method} does not run" in proc.stderr
     assert not (tmp_path / "o").exists()
@@ -275,7 +275,7 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
     (data / "sub").mkdir()
     _springpot_csv(data / "sub" / "deeper.csv", n=30)
     proc = fresh_cli("batch", "data", "--time", "time_s", "--input", "stress", "--output", "strain",
-                "--method", "refit", "--out", "out", "--quiet", cwd=tmp_path)
+                     "--method", "refit", "--out", "out", "--quiet", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         rows = list(csv.DictReader(f))
@@ -285,7 +285,7 @@ def test_a_batch_takes_a_folder_and_names_each_record_folder(tmp_path):
         assert (tmp_path / "out" / r["folder"] / "summary.json").is_file()
     (tmp_path / "empty").mkdir()
     proc = fresh_cli("batch", "empty", "--time", "t", "--input", "u", "--output", "y",
-                "--out", "o2", cwd=tmp_path)
+                     "--out", "o2", cwd=tmp_path)
     assert proc.returncode == 1 and "without CSV, NPZ or AFM files" in proc.stderr
 
 
@@ -302,8 +302,8 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
             f.write("time_s,stress,strain\n")
             f.writelines(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), stress.tolist(), y.tolist()))
     proc = fresh_cli("batch", "clean.csv", "noise.csv", "--time", "time_s", "--input", "stress",
-                "--output", "strain", "--out", "out", "--quiet", "--parameters", "constant",
-                cwd=tmp_path)
+                     "--output", "strain", "--out", "out", "--quiet", "--parameters", "constant",
+                     cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "out" / "summary.csv", newline="") as f:
         rows = {r["record"]: r for r in csv.DictReader(f)}
@@ -320,12 +320,12 @@ def test_the_batch_counts_the_records_it_does_not_identify(tmp_path):
     assert rows["noise"]["next_steps"] and not rows["clean"]["next_steps"]
     # a drift bound on the command line is the tracker's statement, in its summary
     proc = fresh_cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--out", "bounded", "--parameters", "0.2", cwd=tmp_path)
+                     "strain", "--out", "bounded", "--parameters", "0.2", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "bounded" / "summary.json").read_text())
     assert summary["kalman"]["parameter_model"] == 0.2
     proc = fresh_cli("identify", "clean.csv", "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--out", "bad", "--parameters", "-1", cwd=tmp_path)
+                     "strain", "--out", "bad", "--parameters", "-1", cwd=tmp_path)
     assert proc.returncode != 0 and "--parameters" in proc.stderr
 
 

@@ -189,10 +189,10 @@ def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_
     common = ("--time", "time_s", "--input", "stress", "--output", "strain",
               "--alpha-bounds", "0.5,0.9", "--gamma", "0.5")
     proc = run_cli("identify", "test.csv", *common, "--method", "gradient+refit", "--out", "o",
-                cwd=tmp_path)
+                   cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     batch = run_cli("batch", "test.csv", *common, "--method", "gradient+refit", "--out", "b",
-                 "--figures", "overview", "--quiet", cwd=tmp_path)
+                    "--figures", "overview", "--quiet", cwd=tmp_path)
     assert batch.returncode == 0, batch.stderr
     law = vojax.identify(rec, method="gradient", gamma=0.5, alpha_bounds=bounds, warn=False)
     fit = vojax.refit(rec, order_bounds=bounds, p_signs=(1,), warn=False)
@@ -208,6 +208,6 @@ def test_alpha_bounds_bind_every_estimator_from_python_and_the_command_line(tmp_
         settings = json.loads((folder / "summary.json").read_text())["provenance"]["settings"]
         assert settings["alpha_bounds"] == [0.5, 0.9]
     bad = run_cli("identify", "test.csv", *common[:-4], "--alpha-bounds", "0.9,0.5", "--out", "p",
-               cwd=tmp_path)
+                  cwd=tmp_path)
     assert bad.returncode != 0 and "expected 0 < LO < HI < 1" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "p").exists()

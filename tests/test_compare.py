@@ -336,7 +336,7 @@ def test_the_command_refuses_a_degenerate_record_with_exit_1_and_no_nan_table(tm
         w.writerow(["time_s", "stress", "strain"])
         w.writerows(zip(dt * np.arange(40), 0 * stress, np.linspace(0, 1, 40)))
     done = run_cli("compare", "flat.csv", "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--out", "out", cwd=tmp_path)
+                   "strain", "--out", "out", cwd=tmp_path)
     assert done.returncode == 1, done.stderr
     assert done.stderr.strip().splitlines() == [
         "vojax: error: flat: `stress` is 0 at every sample: nothing drives the strain, so no "

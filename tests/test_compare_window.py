@@ -153,8 +153,8 @@ def test_the_command_passes_the_window_offset_and_origin_in_the_files_time(tmp_p
         w.writerow(["time_s", "stress", "strain"])
         w.writerows(zip(100.0 + t, stress, y))
     done = run_cli("compare", "r.csv", "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--models", "springpot", "--fit-from", "101.02", "--origin", "99.5",
-                "--x0", "0", "--relative", "--out", "out", cwd=tmp_path)
+                   "strain", "--models", "springpot", "--fit-from", "101.02", "--origin", "99.5",
+                   "--x0", "0", "--relative", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "out" / "comparison.csv", newline="") as f:
         (row,) = list(csv.DictReader(f))
@@ -194,30 +194,18 @@ def test_the_batch_compares_over_the_refits_window_in_the_files_time(tmp_path):
         next(r for r in whole.rows if r["model"] == "springpot")["log_evidence"], rel=1e-3)
 
 
-def test_a_window_that_ends_before_it_starts_is_refused_by_both_commands(tmp_path, capsys):
+def test_a_window_that_ends_before_it_starts_is_refused_by_both_commands(tmp_path):
     """``--fit-from 3 --fit-to 1``: the same one-line refusal from `vojax compare` and
     `vojax identify`, before anything is written."""
-    from vojax._cli import main
-
+    from .helpers import run_cli
     from .test_data_cli import _springpot_csv
 
     _springpot_csv(tmp_path / "r.csv", n=60)
     common = ["r.csv", "--time", "time_s", "--input", "stress", "--output", "strain",
               "--fit-from", "3", "--fit-to", "1"]
     for command, extra in (("compare", []), ("identify", ["--method", "refit"])):
-        done = _cli_in(main, tmp_path, [command, *common, *extra, "--out", "p"])
-        err = capsys.readouterr().err.strip()
-        assert done == 1 and err == ("vojax: error: --fit-from must be before --fit-to, got "
-                                     "3.0 and 1.0."), err
+        done = run_cli(command, *common, *extra, "--out", "p", cwd=tmp_path)
+        err = done.stderr.strip()
+        assert done.returncode == 1, err
+        assert err == "vojax: error: --fit-from must be before --fit-to, got 3.0 and 1.0.", err
         assert not (tmp_path / "p").exists()
-
-
-def _cli_in(main, where, argv):
-    import os
-
-    here = os.getcwd()
-    os.chdir(where)
-    try:
-        return main(argv)
-    finally:
-        os.chdir(here)

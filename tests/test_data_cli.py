@@ -247,8 +247,8 @@ def test_semicolons_decimal_commas_and_a_hint_for_them(tmp_path):
     with pytest.raises(ValueError, match="a decimal comma needs another delimiter"):
         load_records(tmp_path / "plain.csv", **cols, decimal=",")
     proc = run_cli("identify", "euro.csv", "--time", "time_s", "--input", "stress", "--output",
-                "strain", "--delimiter", ";", "--decimal-comma", "--method", "refit",
-                "--out", "o", cwd=tmp_path)
+                   "strain", "--delimiter", ";", "--decimal-comma", "--method", "refit",
+                   "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert abs(summary["refit"]["order"] - 0.35) < 1e-6

@@ -1,15 +1,14 @@
 """Notebooks and the command run end to end."""
 
 import json
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 import vojax
+
+from .helpers import fresh_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -114,17 +113,9 @@ def test_model_and_design_notebook_executes():
     assert len(drifts) == 3 and all(float(a) >= 2.0 * float(b) for a, b in drifts), text
 
 
-def _run(args, cwd):
-    env = dict(os.environ)
-    env.pop("XLA_FLAGS", None)
-    return subprocess.run(
-        [sys.executable, "-m", "vojax", *args], cwd=cwd, capture_output=True, text=True, env=env
-    )
-
-
 @pytest.mark.slow
 def test_demo_writes_figures_and_summary(tmp_path):
-    proc = _run(["demo", "--out", str(tmp_path / "out"), "--dt", "0.1"], tmp_path)
+    proc = fresh_cli("demo", "--out", str(tmp_path / "out"), "--dt", "0.1", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
     for name in ("fig2_order.png", "fig3_output.png", "fig4_parameters.png"):
@@ -184,7 +175,7 @@ def test_demo_writes_figures_and_summary(tmp_path):
     ],
 )
 def test_cli_errors_are_one_sentence(tmp_path, args, message):
-    proc = _run([*args, "--out", str(tmp_path / "o")], tmp_path)
+    proc = fresh_cli(*args, "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert proc.returncode != 0
     assert message in proc.stderr
     assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr

@@ -137,7 +137,7 @@ def test_the_command_line_offset_is_in_the_files_unit(tmp_path):
     for extra, said in ((("--method", "gradient"), "--x0 sets the tracker"),
                         ((), "argument --x0: expected a finite number")):
         bad = run_cli(*common[:-2], "--x0", "inf" if not extra else "0", *extra, "--out", "p",
-                   cwd=tmp_path)
+                      cwd=tmp_path)
         assert bad.returncode != 0 and said in bad.stderr
         assert len(bad.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "p").exists()

@@ -324,7 +324,8 @@ def test_vojax_overwrites_only_what_it_wrote(tmp_path):
     (work / "out" / "notes.txt").write_text("mine\n")  # a file of the user's beside them
     (work / "single").mkdir()
     (work / "single" / "identification.csv").write_text("mine\n")
-    proc = run_cli("identify", "a.csv", *BASE[:-1], "--method", "refit", "--out", "single", cwd=work)
+    proc = run_cli("identify", "a.csv", *BASE[:-1], "--method", "refit", "--out", "single",
+                   cwd=work)
     assert proc.returncode == 1 and "was not written by vojax" in proc.stderr, proc.stderr
     assert (work / "single" / "identification.csv").read_text() == "mine\n"
 

@@ -65,12 +65,12 @@ def test_the_command_identifies_the_strain_of_a_length_column(tmp_path):
     ref = vojax.identify(u, (length - L0) / L0, DT, parameters="constant", warn=False)
     np.testing.assert_allclose(alpha, np.asarray(ref.alpha), rtol=0, atol=1e-9)
     bad = run_cli(*common, "--strain-from-length", str(L0), "--length", str(L0), "--out", "p",
-               cwd=tmp_path)
+                  cwd=tmp_path)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1
     assert "--strain-from-length already gives a strain; leave out --length" in bad.stderr
     assert not (tmp_path / "p").exists()
     batch = run_cli("batch", *common[1:], "--strain-from-length", str(L0), "--length", "2",
-                 "--out", "p", cwd=tmp_path)
+                    "--out", "p", cwd=tmp_path)
     assert batch.returncode == 1 and "leave out --length" in batch.stderr
     assert not (tmp_path / "p").exists()  # refused before the batch makes its folder
     zero = run_cli(*common, "--strain-from-length", "0", "--out", "p", cwd=tmp_path)
@@ -154,11 +154,11 @@ def test_the_batch_takes_each_specimens_gap_and_area_from_its_columns(tmp_path):
     common = ("--time", "time_s", "--group-by", "specimen", "--method", "refit", "--figures",
               "overview", "--quiet")
     done = run_cli("batch", "g.csv", *common, "--input", "force_N", "--output", "displacement_mm",
-                "--length-column", "gap_mm", "--area-column", "area_mm2", "--out", "o",
-                cwd=tmp_path)
+                   "--length-column", "gap_mm", "--area-column", "area_mm2", "--out", "o",
+                   cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     hand = run_cli("batch", "by_hand.csv", *common, "--input", "stress", "--output", "strain",
-                "--out", "h", cwd=tmp_path)
+                   "--out", "h", cwd=tmp_path)
     assert hand.returncode == 0, hand.stderr
     from vojax._data._paths import record_folder
 
@@ -169,7 +169,7 @@ def test_the_batch_takes_each_specimens_gap_and_area_from_its_columns(tmp_path):
     for extra, said in ((("--length", "2"), "--length-column already gives each record's length"),
                         (("--area", "2"), "--area-column already gives each record's area")):
         bad = run_cli("batch", "g.csv", *common, "--input", "force_N", "--output",
-                   "displacement_mm", "--length-column", "gap_mm", "--area-column", "area_mm2",
-                   *extra, "--out", "p", cwd=tmp_path)
+                      "displacement_mm", "--length-column", "gap_mm", "--area-column", "area_mm2",
+                      *extra, "--out", "p", cwd=tmp_path)
         assert bad.returncode == 1 and said in bad.stderr, bad.stderr
         assert not (tmp_path / "p").exists()
