@@ -279,8 +279,23 @@ MUTATIONS = {
     ),
     "coloured noise never tried": (
         "vojax/_tracker/_coloured.py",
-        [("    if not r1 > correlation_limit(count):", "    if True:")],
+        [("    if not (r1 > correlation_limit(count) or absorbed):", "    if True:")],
         ["tests/test_first_pass.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
+    ),
+    "coloured noise tried where the white model's noise is above the data's, not below": (
+        "vojax/_tracker/_coloured.py",
+        [("absorbed = tuning.noise < s.coloured_absorbed", "absorbed = tuning.noise > s.coloured_absorbed")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas"],
+    ),
+    "the coloured model's gate compares with the second differences' noise": (
+        "vojax/_tracker/_fit.py",
+        [("                         st.noise_higher[0])", "                         st.noise_data)")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas"],
+    ),
+    "the coloured model's gate is never given the data's noise": (
+        "vojax/_tracker/_fit.py",
+        [("                         st.noise_higher[0])", "                         0.0)")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas"],
     ),
     "coloured climb's stop at the correlation time's edge never counts": (
         "vojax/_tracker/_tuning.py",

@@ -105,3 +105,52 @@ def test_whitener_gives_the_dense_quadratic_form_and_gls():
     np.testing.assert_allclose(coef, gls, rtol=1e-10)
     res = y[keep] - design @ gls
     assert chi2 == pytest.approx(res @ np.linalg.solve(cov, res), rel=1e-10)
+
+
+def test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas(
+        monkeypatch):
+    """The second way in to the coloured model: the white model's noise variance below
+    `coloured_absorbed` × the data's own (differences of order 4), its prediction errors'
+    correlation left out (held at 0 here). Just above the white model's ratio the coloured
+    model is tried, just below it is not; where it is tried on this AR(1) record (ρ = 0.9)
+    the evidence keeps it with ρ̂ near 0.9."""
+    import jax.numpy as jnp
+
+    import vojax
+    from vojax._integral import make_memory
+    from vojax._tracker import _coloured
+    from vojax._tracker._fit import fit_points
+
+    monkeypatch.setattr(_coloured, "prediction_error_correlation",
+                        lambda y, pred, fitted: (0.0, int(np.sum(fitted))))
+    tried = []
+    in_threads = _coloured.in_threads
+    monkeypatch.setattr(_coloured, "in_threads",
+                        lambda *a, **k: tried.append(1) or in_threads(*a, **k))
+    t = np.arange(400) * 0.05
+    u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
+    x = np.asarray(vojax.simulate(u, np.full(t.size, 0.45), np.array([1.0]), 0.05))
+    white = np.random.default_rng(3).standard_normal(t.size)
+    ar = np.zeros(t.size)
+    for k in range(1, t.size):
+        ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
+    y = jnp.asarray(x + 0.01 * np.ptp(x) * ar)
+    mem = make_memory("exponential", 0.05, t.size, rule="trapezoid", order_range=(0.01, 0.99))
+
+    def fit(ratio):
+        tried.clear()
+        settings = vojax.TrackerSettings(coloured_absorbed=ratio, level_ratios=())
+        res = fit_points(mem, jnp.asarray(u[:, None]), y, 0.05, (0.01, 0.99), settings,
+                         parameters="constant")
+        return res, bool(tried)
+
+    white_fit, was_tried = fit(0.0)
+    levels = white_fit.noise_levels
+    assert not was_tried and not levels["coloured"]
+    ratio = levels["tuned"] / levels["data4"]  # the white model's, as the gate compares them
+    assert ratio > 0  # (2.5 here: differences see an AR(1) noise's fast part alone)
+    below, was_tried = fit(0.99 * ratio)
+    assert not was_tried and not below.noise_levels["coloured"]
+    above, was_tried = fit(1.01 * ratio)
+    assert was_tried and above.noise_levels["coloured"]
+    assert 0.8 < above.tuning.noise_correlation < 0.97

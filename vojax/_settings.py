@@ -63,6 +63,11 @@ class TrackerSettings:
 
     # ---- coloured measurement noise (white plus AR(1), chosen by evidence)
     coloured_evidence: float = 2.0  # nats the coloured model must gain (two more intensities)
+    # the coloured model is also tried where the white model's noise variance is below this ×
+    # the data's own (differences of order 4): its drifting states absorbed a correlated noise,
+    # and its prediction errors look white (0: only where they are correlated; the suite's
+    # rows in docs/calibration.md: `coloured` draw 4's order error 0.10 → 0.011)
+    coloured_absorbed: float = 0.5
     noise_time_min: float = 0.3  # shortest correlation time searched, × the median step
     noise_time_max: float = 0.1  # longest, × the span: beyond it a drift, not noise
     rho_starts: tuple[float, ...] = (0.5, 0.7, 0.85, 0.95)  # starting correlations per sample
@@ -200,6 +205,7 @@ AT_LEAST_0 = (0.0, math.inf, False)
 FRACTION = ((0.0,), (1.0,), False)
 RANGES = {
     "noise_floor": AT_LEAST_0, "edge": AT_LEAST_0, "coloured_evidence": AT_LEAST_0,
+    "coloured_absorbed": AT_LEAST_0,
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
     "clock_evidence": AT_LEAST_0,
     "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "trade_chi2": AT_LEAST_0,

@@ -53,9 +53,12 @@ def ar_whitener(steps, mask, horizon, tuning):
     return whiten
 
 
-def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known=False):
+def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known=False,
+             noise_data=0.0):
     """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
-    white-noise model's prediction errors are correlated beyond `correlation_limit`; kept when
+    white-noise model's prediction errors are correlated beyond `correlation_limit`, or its
+    noise variance is below `coloured_absorbed` × the data's own `noise_data` (its drifting
+    states absorbed the noise, so its prediction errors look white); kept when
     its evidence is higher by more than `coloured_evidence` and its correlation time is not at
     the top of its range. Its start: the drifts of the white-noise smoothing `sm` (its
     intensities `tuning`), the noise split evenly between a white and an AR(1) part, each
@@ -67,7 +70,8 @@ def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known=False)
     s = problem.settings
     fitted = np.asarray(problem.mask) > 0
     r1, count = prediction_error_correlation(problem.y, sm.y_pred, fitted)
-    if not r1 > correlation_limit(count):
+    absorbed = tuning.noise < s.coloured_absorbed * noise_data
+    if not (r1 > correlation_limit(count) or absorbed):
         return None
     step = float(np.median(np.asarray(problem.steps)[fitted]))
     span = float(problem.horizon)

@@ -207,7 +207,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         hyper, sm, tuning = given_intensities(st, noise)
     whiten = None
     if smooth and tuning.tuned:
-        found = coloured(problem, sm, tuning, starts, st.noise_floor, hold, st.known)
+        found = coloured(problem, sm, tuning, starts, st.noise_floor, hold, st.known,
+                         st.noise_higher[0])
         if found is not None:
             problem, hyper, sm, tuning, starts = found
             whiten = ar_whitener(problem.steps, problem.mask, problem.horizon, tuning)
