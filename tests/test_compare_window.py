@@ -9,6 +9,8 @@ import pytest
 
 import vojax
 
+from .helpers import run_cli
+
 
 def _stress(n=240, dt=0.05):
     t = dt * np.arange(n)
@@ -141,7 +143,6 @@ def test_the_command_passes_the_window_offset_and_origin_in_the_files_time(tmp_p
     count the offset as given."""
     import csv
 
-    from .helpers import run_cli
 
     dt, n, q = 0.05, 160, 0.3
     t = dt * np.arange(n)
@@ -197,7 +198,6 @@ def test_the_batch_compares_over_the_refits_window_in_the_files_time(tmp_path):
 def test_a_window_that_ends_before_it_starts_is_refused_by_both_commands(tmp_path):
     """``--fit-from 3 --fit-to 1``: the same one-line refusal from `vojax compare` and
     `vojax identify`, before anything is written."""
-    from .helpers import run_cli
     from .test_data_cli import _springpot_csv
 
     _springpot_csv(tmp_path / "r.csv", n=60)

@@ -53,8 +53,7 @@ def ar_whitener(steps, mask, horizon, tuning):
     return whiten
 
 
-def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known=False,
-             noise_data=0.0):
+def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known, noise_data):
     """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
     white-noise model's prediction errors are correlated beyond `correlation_limit`, or its
     noise variance is below `coloured_absorbed` × the data's own `noise_data` (its drifting
