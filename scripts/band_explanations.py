@@ -14,7 +14,7 @@ breakdown drift exceeds the true drift).
 
     python scripts/band_explanations.py --dump DIR [--first 0] [--per-family 12]
         [--settings free constant constant-x0] [--families ...] [--workers 2] [--data DIR]
-    python scripts/band_explanations.py --evaluate DIR [DIR ...] [--out FILE]
+    python scripts/band_explanations.py --evaluate DIR [DIR ...] [--out FILE] [--rules WORD ...]
 """
 
 import argparse
@@ -54,6 +54,8 @@ def spy(into):
         out = original(*args, **kwargs)
         # the span's clock; the data's unit's (`weigh=False`) comes second
         into["result" if kwargs.get("weigh", True) else "other"] = out
+        if kwargs.get("weigh", True):
+            into["scale"] = kwargs.get("time_scale", 1.0)  # the span in the data's unit
         return out
 
     # `Tracker` calls it by its own name; the blocks import it when they run
@@ -118,7 +120,11 @@ def _record(family, index, setting, data):
         other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
         noise_levels=getattr(fit, "noise_levels", None),
         case_noise=float(np.var(case["y"] - case["x"])),
-        log_likelihood=fit.tuning.log_likelihood,
+        log_likelihood=fit.tuning.log_likelihood, clock_scale=_CAP.get("scale"),
+        # the band the call reported (the second clock weighed in), where every sample is a
+        # fitted point
+        final=None if size > 1 else dict(lower=_compact(res.alpha_lower),
+                                         upper=_compact(res.alpha_upper)),
         # the second clock's tuned smoothing (the data's unit of time), where it ran
         other=None if other is None else dict(
             alpha=_compact(other.alpha), lower=_compact(other.alpha_lower),
@@ -176,6 +182,8 @@ def main(argv=None):
     parser.add_argument("--settings", nargs="*", default=["free", "constant", "constant-x0"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None)
+    parser.add_argument("--rules", nargs="*", default=None,
+                        help="score only the rules whose names contain one of these words")
     parser.add_argument("--data", default=None, help="the recordings (default ../shared/data)")
     args = parser.parse_args(argv)
     import bench_calibration as bench
@@ -186,7 +194,7 @@ def main(argv=None):
     if args.evaluate:
         from band_scores import report
 
-        report(load(args.evaluate), args.out)
+        report(load(args.evaluate), args.out, args.rules)
 
 
 if __name__ == "__main__":

@@ -173,7 +173,9 @@ def union_fitting(r, kinds, k=1.0, delta=None):
     return band_from(np.asarray(t["beta"], float), mixture_var(r), r["bounds"], members, k=k)
 
 
-def report(rows, out=None):
+def report(rows, out=None, only=None):
+    """The table of every rule (or those whose name contains a word of `only`) and the
+    conditional answers' promises, printed and written to `out`."""
     families = sorted({r["family"] for r in rows})
     settings = sorted({r["setting"] for r in rows})
     rules = {
@@ -195,7 +197,13 @@ def report(rows, out=None):
         "library stated": library_rule("stated"),
         "library conditional": library_rule("conditional"),
         "library conditional k=1.5": library_rule("conditional", scale=1.5),
+        # the level profile's held scales weighed by a tempered likelihood ratio, without
+        # the floor at the degrees of freedom (docs/calibration.md: not adopted)
+        **{f"as reported, held scales by exp(−Δχ²/{2 * c:g})": tempered_levels(c)
+           for c in (1.0, 4.0, 10.0)},
     })
+    if only:
+        rules = {name: rule for name, rule in rules.items() if any(w in name for w in only)}
     lines = table(rows, rules, settings, families) + [""] + promises(rows)
     text = "\n".join(lines)
     print(text)
@@ -232,28 +240,84 @@ def as_reported(r, **kwargs):
     """The band as the tracker reports it, from the library's `bands` (with `kwargs`, e.g.
     `evidence_floor`) on the saved explanations: the stated band about the reported
     estimate, its σ at least a quarter of its width, widened to the second clock's tuned
-    smoothing where that order lies outside (`vojax._tracker._clock`); the fifth element
-    True (see `score`)."""
+    smoothing as `clock_union` says; the fifth element True (see `score`)."""
     from vojax import TrackerSettings
-    from vojax._tracker._band import outside, union
 
     s = TrackerSettings()
     n = len(r["truth"])
     kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
-                       half=n // 2, level_weights=s.level_weights), **kwargs)
+                       half=n // 2, level_weights=s.level_weights,
+                       evidence_floor=s.envelope_evidence), **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None
     alpha = np.asarray(r["alpha"], float)
     _, lower, upper, sd = (np.asarray(a, float)[:n] for a in b.stated)
     band = (alpha, lower, upper, np.maximum(sd, (upper - lower) / 4))
+    return (*clock_union(r, band), True)
+
+
+def clock_union(r, band):
+    """`band` widened to the second clock's tuned smoothing (the data's unit of time) as
+    `Tracker` weighs it (`vojax._tracker._clock.weigh_clock`): where that order lies outside
+    the band, the union, unless the statement excludes that account (parameters stated
+    constant, which drift on the span's clock beyond `drift_floor`) or the data do (the span's
+    fit ahead by more than `clock_evidence` nats per point, unless a drift bound is stated),
+    and covering it would leave no answer (a half-width beyond `identified_halfwidth`).
+    Dumps without the span's length in the data's unit (`clock_scale`) count a constant
+    statement's account as drifting."""
+    from vojax import TrackerSettings
+    from vojax._tracker._band import outside, union
+    from vojax._tracker._clock import clock_drift
+
     other = r.get("other")
-    if other is not None and other["converged"]:
-        o_alpha = np.asarray(other["alpha"], float)
-        if outside(o_alpha, (*band[:3], 0.0), n // 2):
-            band = union(band, (o_alpha, np.asarray(other["lower"], float),
-                                np.asarray(other["upper"], float), 0.0))
-    return (*band, True)
+    n = len(r["truth"])
+    half = n // 2
+    if other is None or not other["converged"]:
+        return band
+    o_alpha = np.asarray(other["alpha"], float)[:n]
+    if not outside(o_alpha, (*band[:3], 0.0), half):
+        return band
+    s = TrackerSettings()
+    scale = r.get("clock_scale")
+    constant = r["setting"] in ("constant", "constant-x0")
+    drifts = scale is None or clock_drift(o_alpha, scale) > s.drift_floor
+    apart = (r["log_likelihood"] - other["log_likelihood"]) / max(n, 1)
+    excluded = (constant and drifts) or (r["setting"] != "stated" and apart > s.clock_evidence)
+    widened = union(band, (o_alpha, np.asarray(other["lower"], float)[:n],
+                           np.asarray(other["upper"], float)[:n], 0.0))
+    if excluded and np.median(widened[2][half:] - widened[1][half:]) / 2 > s.identified_halfwidth:
+        return band
+    return widened
+
+
+def tempered_levels(c):
+    """`as_reported` with the level profile's held scales about the tuned smoothing weighed
+    by exp(−Δχ²/(2c)) from the best (the tuned run among them), no χ² raised to the degrees
+    of freedom: a likelihood ratio tempered by `c` instead of the library's rule that every
+    scale fitting within the noise weighs alike."""
+    def rule(r):
+        from vojax._tracker import _band
+
+        library = _band.level_spread
+
+        def spread(explanations, reference, level_weights="chi2", kind="level"):
+            levels = [e for e in explanations if e.kind == kind and e.converged]
+            if kind != "level" or not levels:
+                return library(explanations, reference, level_weights, kind)
+            members = [reference] + levels
+            chi2 = np.array([e.chi2 for e in members])
+            w = np.exp(-(chi2 - chi2.min()) / (2.0 * c))
+            w /= w.sum()
+            return sum(wi * (e.var + (e.beta - reference.beta) ** 2)
+                       for wi, e in zip(w, members)) - reference.var
+
+        _band.level_spread = spread
+        try:
+            return as_reported(r)
+        finally:
+            _band.level_spread = library
+    return rule
 
 
 def library_rule(which, **kwargs):
