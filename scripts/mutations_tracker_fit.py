@@ -279,8 +279,23 @@ MUTATIONS = {
     ),
     "coloured noise never tried": (
         "vojax/_tracker/_coloured.py",
-        [("    if not (r1 > correlation_limit(count) or absorbed):", "    if True:")],
+        [("    if not (r1 > limit or absorbed):", "    if True:")],
         ["tests/test_first_pass.py::test_correlated_prediction_errors_are_refused_and_coloured_noise_is_modelled"],
+    ),
+    "coloured noise tried at the refusal limit whatever coloured_lag says": (
+        "vojax/_tracker/_coloured.py",
+        [("else s.coloured_lag / np.sqrt(count)", "else correlation_limit(count)")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_lag1_passes_coloured_lag_over_root_n"],
+    ),
+    "coloured noise's lag-1 gate scaled by 1/n, not 1/√n": (
+        "vojax/_tracker/_coloured.py",
+        [("else s.coloured_lag / np.sqrt(count)", "else s.coloured_lag / count")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_lag1_passes_coloured_lag_over_root_n"],
+    ),
+    "coloured_lag 0 does not restore the refusal limit": (
+        "vojax/_tracker/_coloured.py",
+        [("if s.coloured_lag <= 0 else", "if s.coloured_lag < 0 else")],
+        ["tests/test_coloured.py::test_the_coloured_model_is_tried_where_the_lag1_passes_coloured_lag_over_root_n"],
     ),
     "coloured noise tried where the white model's noise is above the data's, not below": (
         "vojax/_tracker/_coloured.py",

@@ -107,26 +107,13 @@ def test_whitener_gives_the_dense_quadratic_form_and_gls():
     assert chi2 == pytest.approx(res @ np.linalg.solve(cov, res), rel=1e-10)
 
 
-def test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas(
-        monkeypatch):
-    """The second way in to the coloured model: the white model's noise variance below
-    `coloured_absorbed` × the data's own (differences of order 4), its prediction errors'
-    correlation left out (held at 0 here). Just above the white model's ratio the coloured
-    model is tried, just below it is not; where it is tried on this AR(1) record (ρ = 0.9)
-    the evidence keeps it with ρ̂ near 0.9."""
-    import jax.numpy as jnp
-
+def _ar_record():
+    """A 400-sample ramp with a slow sine, order 0.45, AR(1) noise (ρ = 0.9, 1 % of the
+    range): a function of `TrackerSettings` that fits it with the parameters constant."""
     import vojax
     from vojax._integral import make_memory
-    from vojax._tracker import _coloured
     from vojax._tracker._fit import fit_points
 
-    monkeypatch.setattr(_coloured, "prediction_error_correlation",
-                        lambda y, pred, fitted: (0.0, int(np.sum(fitted))))
-    tried = []
-    in_threads = _coloured.in_threads
-    monkeypatch.setattr(_coloured, "in_threads",
-                        lambda *a, **k: tried.append(1) or in_threads(*a, **k))
     t = np.arange(400) * 0.05
     u = np.where(t < 3.0, t / 3.0, 1.0) + 0.3 * np.sin(0.4 * t)
     x = np.asarray(vojax.simulate(u, np.full(t.size, 0.45), np.array([1.0]), 0.05))
@@ -136,12 +123,31 @@ def test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_d
         ar[k] = 0.9 * ar[k - 1] + np.sqrt(1 - 0.81) * white[k]
     y = jnp.asarray(x + 0.01 * np.ptp(x) * ar)
     mem = make_memory("exponential", 0.05, t.size, rule="trapezoid", order_range=(0.01, 0.99))
+    return lambda settings: fit_points(mem, jnp.asarray(u[:, None]), y, 0.05, (0.01, 0.99),
+                                       settings, parameters="constant")
+
+
+def test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_datas(
+        monkeypatch):
+    """The second way in to the coloured model: the white model's noise variance below
+    `coloured_absorbed` × the data's own (differences of order 4), its prediction errors'
+    correlation left out (held at 0 here). Just above the white model's ratio the coloured
+    model is tried, just below it is not; where it is tried on this AR(1) record (ρ = 0.9)
+    the evidence keeps it with ρ̂ near 0.9."""
+    import vojax
+    from vojax._tracker import _coloured
+
+    monkeypatch.setattr(_coloured, "prediction_error_correlation",
+                        lambda y, pred, fitted: (0.0, int(np.sum(fitted))))
+    tried = []
+    in_threads = _coloured.in_threads
+    monkeypatch.setattr(_coloured, "in_threads",
+                        lambda *a, **k: tried.append(1) or in_threads(*a, **k))
+    fit_record = _ar_record()
 
     def fit(ratio):
         tried.clear()
-        settings = vojax.TrackerSettings(coloured_absorbed=ratio, level_ratios=())
-        res = fit_points(mem, jnp.asarray(u[:, None]), y, 0.05, (0.01, 0.99), settings,
-                         parameters="constant")
+        res = fit_record(vojax.TrackerSettings(coloured_absorbed=ratio, level_ratios=()))
         return res, bool(tried)
 
     white_fit, was_tried = fit(0.0)
@@ -154,3 +160,40 @@ def test_the_coloured_model_is_tried_where_the_white_ones_noise_fell_below_the_d
     above, was_tried = fit(1.01 * ratio)
     assert was_tried and above.noise_levels["coloured"]
     assert 0.8 < above.tuning.noise_correlation < 0.97
+
+
+class _Tried(Exception):
+    """Raised where the coloured model's starts are smoothed: the gate let it in."""
+
+
+@pytest.mark.parametrize("lag", [2.0, 0.0])
+def test_the_coloured_model_is_tried_where_the_lag1_passes_coloured_lag_over_root_n(
+        monkeypatch, lag):
+    """The first way in to the coloured model: the white model's prediction errors' lag-1
+    above `coloured_lag`/√n for n errors (0: the refusal limit, `correlation_limit`), the
+    second way (`coloured_absorbed`) shut. The lag-1 is set just above and just below the
+    limit: the coloured model is tried above it only."""
+    import vojax
+    from vojax._tracker import _coloured
+
+    counts, r1 = [], [0.0]
+
+    def correlation(y, pred, fitted):
+        counts.append(int(np.sum(fitted)))
+        return r1[0], counts[-1]
+
+    def tried(*args, **kwargs):
+        raise _Tried
+
+    monkeypatch.setattr(_coloured, "prediction_error_correlation", correlation)
+    monkeypatch.setattr(_coloured, "in_threads", tried)
+    fit_record = _ar_record()
+    settings = vojax.TrackerSettings(coloured_absorbed=0.0, coloured_lag=lag, level_ratios=())
+    fit_record(settings)  # a lag-1 of 0: white noise kept, and the count of errors seen
+    n = counts[0]
+    limit = lag / np.sqrt(n) if lag else min(max(3 / np.sqrt(n), 0.1), 0.25)
+    r1[0] = 0.99 * limit
+    assert not fit_record(settings).noise_levels["coloured"]
+    r1[0] = 1.01 * limit
+    with pytest.raises(_Tried):
+        fit_record(settings)

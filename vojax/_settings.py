@@ -68,6 +68,11 @@ class TrackerSettings:
     # and its prediction errors look white (0: only where they are correlated; the suite's
     # rows in docs/calibration.md: `coloured` draw 4's order error 0.10 → 0.011)
     coloured_absorbed: float = 0.5
+    # the coloured model is tried where the white model's prediction errors' lag-1 is above
+    # this / √n (n errors; 2: two standard errors of a white sequence's, below the refusal
+    # limit 3/√n within 0.1–0.25, which 0 restores; `informative` draw 3, lag-1 0.16 against
+    # the limit 0.17: order error 0.12 → 0.0012, the rows in docs/calibration.md)
+    coloured_lag: float = 2.0
     noise_time_min: float = 0.3  # shortest correlation time searched, × the median step
     noise_time_max: float = 0.1  # longest, × the span: beyond it a drift, not noise
     rho_starts: tuple[float, ...] = (0.5, 0.7, 0.85, 0.95)  # starting correlations per sample
@@ -205,7 +210,7 @@ AT_LEAST_0 = (0.0, math.inf, False)
 FRACTION = ((0.0,), (1.0,), False)
 RANGES = {
     "noise_floor": AT_LEAST_0, "edge": AT_LEAST_0, "coloured_evidence": AT_LEAST_0,
-    "coloured_absorbed": AT_LEAST_0,
+    "coloured_absorbed": AT_LEAST_0, "coloured_lag": AT_LEAST_0,
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
     "clock_evidence": AT_LEAST_0,
     "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "trade_chi2": AT_LEAST_0,

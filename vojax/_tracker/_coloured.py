@@ -55,7 +55,7 @@ def ar_whitener(steps, mask, horizon, tuning):
 
 def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known, noise_data):
     """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
-    white-noise model's prediction errors are correlated beyond `correlation_limit`, or its
+    white-noise model's prediction errors' lag-1 is above `coloured_lag`/√n, or its
     noise variance is below `coloured_absorbed` × the data's own `noise_data` (its drifting
     states absorbed the noise, so its prediction errors look white); kept when
     its evidence is higher by more than `coloured_evidence` and its correlation time is not at
@@ -70,7 +70,8 @@ def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known, noise
     fitted = np.asarray(problem.mask) > 0
     r1, count = prediction_error_correlation(problem.y, sm.y_pred, fitted)
     absorbed = tuning.noise < s.coloured_absorbed * noise_data
-    if not (r1 > correlation_limit(count) or absorbed):
+    limit = correlation_limit(count) if s.coloured_lag <= 0 else s.coloured_lag / np.sqrt(count)
+    if not (r1 > limit or absorbed):
         return None
     step = float(np.median(np.asarray(problem.steps)[fitted]))
     span = float(problem.horizon)
