@@ -307,10 +307,8 @@ def tempered_levels(c):
                 return library(explanations, reference, level_weights, kind)
             members = [reference] + levels
             chi2 = np.array([e.chi2 for e in members])
-            w = np.exp(-(chi2 - chi2.min()) / (2.0 * c))
-            w /= w.sum()
-            return sum(wi * (e.var + (e.beta - reference.beta) ** 2)
-                       for wi, e in zip(w, members)) - reference.var
+            return _band.mixture_spread(members, np.exp(-(chi2 - chi2.min()) / (2.0 * c)),
+                                        reference)
 
         _band.level_spread = spread
         try:

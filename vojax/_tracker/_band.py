@@ -104,7 +104,14 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level"):
     else:
         chi2 = np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])
         w = np.exp(-(chi2 - chi2.min()) / 2)
-    w /= w.sum()
+    return mixture_spread(members, w, reference)
+
+
+def mixture_spread(members, weights, reference):
+    """What a mixture of `members` (explanations, the `reference` among them) in proportion
+    to `weights` adds to the variance of β (N,) of the `reference`: the mixture's variance
+    about the reference's β less the reference's own."""
+    w = np.asarray(weights, float) / np.sum(weights)
     spread = sum(wi * (e.var + (e.beta - reference.beta) ** 2) for wi, e in zip(w, members))
     return spread - reference.var
 
