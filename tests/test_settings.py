@@ -44,6 +44,9 @@ from vojax import TrackerSettings
     (dict(level_pin="evidence"), "level_pin must be a finite number > 0, got 'evidence'"),
     (dict(held_ratio=True), "held_ratio must be a finite number ≥ 0, got True"),
     (dict(misfit_ratio=-1.0), "misfit_ratio must be a finite number ≥ 0, got -1.0"),
+    # a negative lag-1 gate means nothing (0 restores the refusal limit); a NaN would shut it
+    (dict(coloured_lag=-1.0), "coloured_lag must be a finite number ≥ 0, got -1.0"),
+    (dict(coloured_lag=float("nan")), "coloured_lag must be a finite number ≥ 0, got nan"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
