@@ -55,7 +55,8 @@ def ar_whitener(steps, mask, horizon, tuning):
 
 def coloured(problem, sm, tuning, starts, noise_floor, hold, offset_known, noise_data):
     """The tracker with a coloured measurement noise (an AR(1) state, see `Hyper`), where the
-    white-noise model's prediction errors' lag-1 is above `coloured_lag`/√n, or its
+    white-noise model's prediction errors' lag-1 is above `coloured_lag`/√n (at 0, above
+    `correlation_limit`), or its
     noise variance is below `coloured_absorbed` × the data's own `noise_data` (its drifting
     states absorbed the noise, so its prediction errors look white); kept when
     its evidence is higher by more than `coloured_evidence` and its correlation time is not at
