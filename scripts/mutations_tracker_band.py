@@ -137,8 +137,8 @@ MUTATIONS = {
     "the free band covers integrated smoothings the evidence excludes": (
         'vojax/_tracker/_band.py',
         [
-            ('                  if e.kind in INTEGRATED and e.holds and plausible(e) and not (',
-             '                  if e.kind in INTEGRATED and e.holds and not ('),
+            ('                  if e.kind in INTEGRATED and e.holds and plausible(e)]',
+             '                  if e.kind in INTEGRATED and e.holds]'),
         ],
         ['tests/test_band.py::test_no_smoothing_far_below_the_tuned_evidence_widens_the_free_band'],
     ),

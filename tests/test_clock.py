@@ -280,13 +280,10 @@ def test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them
     default's answer is the span's stated alone, to the last bit, and identified with the
     truth inside its band; that account's order is still reported (`clock_order`). Where the evidence may not decide
     (a threshold no record reaches, or under a drift bound), the band covers it and the
-    reason is `clock`. An answer is taken as ±0.08 here: the union of both accounts is
-    ±0.097, and within ±0.1 the band covers even an account the data exclude
-    (`weigh_clock`)."""
+    reason is `clock`."""
     n, span, dt, u, y, alpha = _span_clock_record()
-    answer = vojax.TrackerSettings(identified_halfwidth=0.08)
-    default = vojax.identify(u, y, dt, warn=False, settings=answer)
-    spans = vojax.identify(u, y, dt, warn=False, time_scale=span, settings=answer)
+    default = vojax.identify(u, y, dt, warn=False)
+    spans = vojax.identify(u, y, dt, warn=False, time_scale=span)
     for name in ("alpha", "alpha_lower", "alpha_upper", "alpha_std", "p"):
         np.testing.assert_array_equal(np.asarray(getattr(default, name)),
                                       np.asarray(getattr(spans, name)))
@@ -296,12 +293,12 @@ def test_the_data_exclude_the_data_units_account_where_an_oscillation_tells_them
     inside = (alpha >= np.asarray(default.alpha_lower)) & (alpha <= np.asarray(default.alpha_upper))
     assert np.mean(inside[half]) > 0.9
     assert d.clock_order < np.median(alpha[half]) - 0.05  # that account, reported: off
-    blind = vojax.identify(u, y, dt, warn=False, settings=vojax.TrackerSettings(
-        clock_evidence=1e6, identified_halfwidth=0.08))
+    blind = vojax.identify(u, y, dt, warn=False,
+                           settings=vojax.TrackerSettings(clock_evidence=1e6))
     assert "clock" in blind.diagnostics.reasons and not blind.diagnostics.identified
     # a drift bound that the data unit's account keeps (its drift on the span's clock is
     # below 30 %) leaves the evidence out: the union, as before
-    bounded = vojax.identify(u, y, dt, warn=False, parameters=0.3, settings=answer)
+    bounded = vojax.identify(u, y, dt, warn=False, parameters=0.3)
     assert "clock" in bounded.diagnostics.reasons
 
 
