@@ -194,10 +194,6 @@ def report(rows, out=None, only=None):
         # smoothing, at the default and nearer (docs/calibration.md)
         **{f"as reported, floor {e:g} nats": (lambda e: lambda r: as_reported(
             r, evidence_floor=e))(e) for e in (200.0, 120.0, 5.0)},
-        # the tuned run's own alternatives unioned with the free band only within this many
-        # nats of its evidence (`TrackerSettings.union_evidence`; docs/calibration.md)
-        **{f"as reported, union_evidence {e:g}": (lambda e: lambda r: as_reported(
-            r, union_evidence=e))(e) for e in (5.0, 10.0, 20.0, 40.0, np.inf)},
         "library stated": library_rule("stated"),
         "library conditional": library_rule("conditional"),
         "library conditional k=1.5": library_rule("conditional", scale=1.5),

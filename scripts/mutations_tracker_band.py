@@ -340,12 +340,6 @@ MUTATIONS = {
         [("and e.evidence < tuned.evidence - union_evidence)]", "and False)]")],
         ["tests/test_band.py::test_with_the_parameters_free_an_alternative_far_below_the_tuned_evidence_is_only_weighed"],
     ),
-    "the free band leaves out held scales far below the tuned evidence": (
-        "vojax/_tracker/_band.py",
-        [("                      e.kind in BY_EVIDENCE and np.isfinite(tuned.evidence)",
-          "                      np.isfinite(tuned.evidence)")],
-        ["tests/test_band.py::test_with_the_parameters_free_an_alternative_far_below_the_tuned_evidence_is_only_weighed"],
-    ),
     "the free band holds the tuned run at its own width where the held one answers": (
         "vojax/_tracker/_band.py",
         [("member(e) if e is not tuned else _orders(", "member(e) if True else _orders(")],

@@ -97,9 +97,9 @@ class TrackerSettings:
     # nothing: the data exclude it (a run freer than they need fits below the noise)
     envelope_evidence: float = 200.0
     # … and where the parameters are free, nats below it beyond which the tuned smoothing's
-    # other starts and order drifts are weighed in by their evidence, not covered at their
-    # own width (`drift` draw 19: its truth covered only by an order drift 9 nats below;
-    # the held scales, covered wherever they fit: `drift` draw 11, by one 131 nats below)
+    # own alternatives (starts, order drifts, held scales) are weighed in by their evidence,
+    # not covered at their own width (held out: informative 12 → 14 of 24 identified,
+    # `drift` draw 19 covered only by an order drift 9 nats below; docs/calibration.md)
     union_evidence: float = 20.0
     # the trade-off profile: constant orders with the parameters drifting on hat functions
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)

@@ -25,9 +25,6 @@ from ._smoother import mix_modes
 # the alternatives that share the reference's assumption about the parameters: weighed into
 # its variance (by evidence, or the level profile's χ²), never unioned with it
 INTEGRATED = ("start", "order_drift", "level")
-# the tuned smoothing's alternatives its mixture weighs by evidence (`mix_modes`): with more
-# drift allowed than the reference's, covered at their own width only near its evidence
-BY_EVIDENCE = ("start", "order_drift")
 # the held smoothing's own held scales: weighed into its variance where it is the reference,
 # never unioned with a band nor a rung of the ladder (where the tuned smoothing is the
 # reference, they were run about another smoothing)
@@ -162,10 +159,9 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     fits below the noise, its χ² no test of it); `half`: where the second half of the
     fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
     `reference_variance`; `union_evidence`: where the statement allows more drift than the
-    reference's, another start or order drift of the tuned smoothing (`BY_EVIDENCE`) whose
-    evidence lies more than this many nats below the tuned one's is weighed into its band by
-    that evidence, not covered at its own width (the level profile's held scales, weighed
-    by χ², are covered wherever they fit)."""
+    reference's, an alternative of the tuned smoothing's own (another start, order drift or
+    held scale: `INTEGRATED`) whose evidence lies more than this many nats below the tuned
+    one's is weighed into its band by that evidence, not covered at its own width."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
     plausible = lambda e: not (  # noqa: E731
@@ -213,15 +209,15 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     # in); with a drift bound below the breakdown drift, the conditional band (the promise
     # the conditional answer makes for every drift below it); with more drift allowed, every
     # explanation that fits within it, one input cannot say which holds: the tuned smoothing
-    # with its alternatives weighed in, and each covered at its own width too, a start or an
-    # order drift only where its evidence is not far below the tuned one's (`union_evidence`)
+    # with its alternatives weighed in, and those whose evidence is not far below its own
+    # (`union_evidence`) covered at their own width too
     stated, drifting = ref_band, False
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
         others = [e for e in explanations
                   if e.kind in INTEGRATED and e.holds and plausible(e) and not (
-                      e.kind in BY_EVIDENCE and np.isfinite(tuned.evidence)
+                      np.isfinite(tuned.evidence)
                       and e.evidence < tuned.evidence - union_evidence)]
         for e in [*others, *ladder]:  # the tuned smoothing is a rung where the held answers
             if e.kind not in REACH_ONLY and (
