@@ -247,8 +247,7 @@ def as_reported(r, **kwargs):
     n = len(r["truth"])
     kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
                        half=n // 2, level_weights=s.level_weights,
-                       evidence_floor=s.envelope_evidence,
-                       union_evidence=s.union_evidence), **kwargs)
+                       evidence_floor=s.envelope_evidence), **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None

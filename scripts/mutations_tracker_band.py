@@ -335,21 +335,6 @@ MUTATIONS = {
         [("        cols = profile.whiten(cols)", "        pass")],
         ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
     ),
-    "the free band covers the tuned run's alternatives however far below its evidence": (
-        "vojax/_tracker/_band.py",
-        [("and e.evidence < tuned.evidence - union_evidence)]", "and False)]")],
-        ["tests/test_band.py::test_with_the_parameters_free_an_alternative_far_below_the_tuned_evidence_is_only_weighed"],
-    ),
-    "the free band holds the tuned run at its own width where the held one answers": (
-        "vojax/_tracker/_band.py",
-        [("member(e) if e is not tuned else _orders(", "member(e) if True else _orders(")],
-        ["tests/test_band.py::test_where_the_held_smoothing_answers_the_free_band_holds_the_tuned_one_weighed"],
-    ),
-    "the tracker's band built without its union_evidence": (
-        "vojax/_tracker/_fit.py",
-        [("                         union_evidence=s.union_evidence)", "                         )")],
-        ["tests/test_settings.py::test_the_tracker_builds_its_band_with_the_settings_given"],
-    ),
     "the memory's slope in the order off by a factor": (
         "vojax/_tracker/_moving.py",
         [("    return out, np.where(held[:, None], 0.0, slope / h)",

@@ -226,69 +226,6 @@ def test_integrated_alternatives_are_weighed_not_unioned():
     np.testing.assert_allclose(reference_variance([above, level], above, N, "evidence"), want)
 
 
-@pytest.mark.parametrize("kind", ["start", "order_drift", "level"])
-def test_with_the_parameters_free_an_alternative_far_below_the_tuned_evidence_is_only_weighed(
-        kind):
-    """With the parameters free, an alternative of the tuned smoothing's own (another start,
-    order drift or held scale) more than `union_evidence` nats below the tuned evidence joins
-    the band only through its weight in the tuned smoothing's mixture: the band is the
-    reference's, to rounding (`reference_variance`: a start or order drift weighed by its
-    evidence, a held scale by its χ²). One less far below is covered at its own width, as is one
-    whose evidence is unknown; the drifting-parameter rungs are covered whatever
-    `union_evidence` says (the evidence floor decides for them)."""
-    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0)
-    alone = bands([tuned], BOUNDS, N, np.inf).stated
-    far = ex(kind, 3.0, evidence=-25.0)
-    b = bands([tuned, far], BOUNDS, N, np.inf, union_evidence=20.0)
-    ref = _orders_of(reference_variance([tuned, far], tuned, N), tuned.beta)
-    for got, want in zip(b.stated, ref):
-        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
-    if kind != "level":  # weighed by evidence, e^−25 adds nothing (a held scale: by χ²)
-        assert halfwidth(b.stated) < halfwidth(alone) * 1.01
-    for near in (ex(kind, 3.0, evidence=-15.0), ex(kind, 3.0, evidence=np.nan)):
-        b = bands([tuned, near], BOUNDS, N, np.inf, union_evidence=20.0)
-        covered(b, kind, near, tuned)
-    # without the limit (the default of `bands`), the far one is covered too
-    covered(bands([tuned, far], BOUNDS, N, np.inf), kind, far, tuned)
-    rung = ex("param_drift", 3.0, drift=0.2, evidence=-25.0)
-    b = bands([tuned, rung], BOUNDS, N, np.inf, union_evidence=20.0, evidence_floor=200.0)
-    np.testing.assert_allclose(b.stated[2], order_of_np(3.2, BOUNDS)[0])
-
-
-def test_where_the_held_smoothing_answers_the_free_band_holds_the_tuned_one_weighed():
-    """The held smoothing answers (the tuned parameters drift by 20 %); with the parameters
-    free the band covers the tuned smoothing with its alternatives weighed in: a start at a
-    quarter of the weight, β 1 against 0, spreads it to σ² = 0.01 + ¼·1 on both sides (the
-    start's own ±2σ covers only its side)."""
-    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, drift=0.2)
-    start = ex("start", 1.0, var=0.01, evidence=-np.log(3.0))
-    held = ex("held", 0.1, var=0.01)
-    b = bands([tuned, start, held], BOUNDS, N, np.inf, union_evidence=20.0)
-    assert b.reference_drift == 0.0
-    np.testing.assert_allclose(b.stated[1], order_of_np(-2 * np.sqrt(0.26), BOUNDS)[0])
-    np.testing.assert_allclose(b.stated[2], order_of_np(1.2, BOUNDS)[0])
-    # the conditional band holds the tuned smoothing at its own width (β −0.2 at the least)
-    np.testing.assert_allclose(b.conditional[1], order_of_np(-0.2, BOUNDS)[0])
-
-
-def covered(b, kind, member, tuned):
-    """`b`'s free band covers `member` at its own width (β 3 ± 0.2): exactly where it was
-    weighed by evidence (a weight of at most e^−15, nothing), at least where a held scale
-    weighed half by χ² spreads the reference's band past it."""
-    upper = b.stated[2]
-    if kind == "level":
-        ref = _orders_of(reference_variance([tuned, member], tuned, N), tuned.beta)[2]
-        np.testing.assert_allclose(upper, np.maximum(ref, order_of_np(3.2, BOUNDS)[0]))
-    else:
-        np.testing.assert_allclose(upper, order_of_np(3.2, BOUNDS)[0])
-
-
-def _orders_of(var, beta):
-    return (order_of_np(beta, BOUNDS)[0], order_of_np(beta - 2 * np.sqrt(var), BOUNDS)[0],
-            order_of_np(beta + 2 * np.sqrt(var), BOUNDS)[0],
-            order_of_np(beta, BOUNDS)[1] * np.sqrt(var))
-
-
 def test_a_held_scale_weighs_by_its_evidence_not_by_a_fit_below_the_noise():
     """By evidence (``level_weights="evidence"``), a held scale that fits below the noise as
     the tuned run does still weighs by the evidence between them: 3 nats, 1 : e^−3, where the

@@ -47,9 +47,6 @@ from vojax import TrackerSettings
     # a negative lag-1 gate means nothing (0 restores the refusal limit); a NaN would shut it
     (dict(coloured_lag=-1.0), "coloured_lag must be a finite number ≥ 0, got -1.0"),
     (dict(coloured_lag=float("nan")), "coloured_lag must be a finite number ≥ 0, got nan"),
-    # a negative evidence gap means nothing (0 weighs in every alternative of the tuned run)
-    (dict(union_evidence=-1.0), "union_evidence must be a finite number ≥ 0, got -1.0"),
-    (dict(union_evidence=float("nan")), "union_evidence must be a finite number ≥ 0, got nan"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
@@ -87,33 +84,10 @@ def test_the_tracker_answers_at_the_least_settings_it_takes():
         bound_fraction=0.0, start_orders=(0.5,), rho_starts=(0.5,), grid_order=(1.0,),
         held_order_drift=(1.0,), alt_order_drift=(), alt_param_drift=(), moving_offsets=(),
         level_ratios=(), noise_floor=0.0, edge=0.0, coloured_evidence=0.0, band_floor=0.0,
-        drift_floor=0.0, clock_evidence=0.0, union_evidence=0.0)
+        drift_floor=0.0, clock_evidence=0.0)
     given = dict(noise_std=1e-3, order_drift=1.0, parameter_drift=1e-6)
     for kwargs in ({}, dict(noise=given)):
         r = vojax.identify(u, y, dt, settings=least, warn=False, **kwargs)
         alpha = np.asarray(r.alpha)
         assert alpha.shape == (n,) and np.all((alpha > 0.01) & (alpha < 0.99))
         assert r.diagnostics.verdict in ("identified", "conditional", "not identified")
-
-
-def test_the_tracker_builds_its_band_with_the_settings_given(monkeypatch):
-    """`identify` hands the band (`vojax._tracker._band.bands`) the evidence limits, the
-    floors and the scale of the `TrackerSettings` given, each once per band built (a
-    200-sample springpot, order 0.4, the parameters free)."""
-    from vojax._tracker import _fit
-
-    seen, original = [], _fit.bands
-    monkeypatch.setattr(_fit, "bands", lambda *a, **k: seen.append((a, k)) or original(*a, **k))
-    n, dt = 200, 0.01
-    t = dt * np.arange(n)
-    u = np.sin(2 * np.pi * t) + 1.0
-    y = np.asarray(vojax.simulate(u, 0.4, [1.0], dt))
-    y = y + 1e-3 * np.random.default_rng(0).standard_normal(n)
-    s = TrackerSettings(union_evidence=7.5, envelope_evidence=150.0, band_floor=0.003,
-                        band_scale=1.25, level_weights="evidence")
-    vojax.identify(u, y, dt, settings=s, warn=False)
-    assert seen
-    for args, kwargs in seen:
-        assert args[3] == np.inf and args[4] == 1.25  # the parameters free; the scale
-        assert kwargs["union_evidence"] == 7.5 and kwargs["evidence_floor"] == 150.0
-        assert kwargs["floor"] == 0.003 and kwargs["level_weights"] == "evidence"

@@ -96,11 +96,6 @@ class TrackerSettings:
     # nats below the tuned smoothing beyond which an alternative smoothing that fits covers
     # nothing: the data exclude it (a run freer than they need fits below the noise)
     envelope_evidence: float = 200.0
-    # … and where the parameters are free, nats below it beyond which the tuned smoothing's
-    # own alternatives (starts, order drifts, held scales) are weighed in by their evidence,
-    # not covered at their own width (held out: informative 12 → 14 of 24 identified,
-    # `drift` draw 19 covered only by an order drift 9 nats below; docs/calibration.md)
-    union_evidence: float = 20.0
     # the trade-off profile: constant orders with the parameters drifting on hat functions
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
     trade_orders: int = 25  # constant orders profiled, evenly across the bounds
@@ -218,8 +213,7 @@ RANGES = {
     "coloured_absorbed": AT_LEAST_0, "coloured_lag": AT_LEAST_0,
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
     "clock_evidence": AT_LEAST_0,
-    "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "union_evidence": AT_LEAST_0,
-    "trade_chi2": AT_LEAST_0,
+    "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "trade_chi2": AT_LEAST_0,
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),
     "bound_tol": (0.0, (0.5,), False), "bound_fraction": (0.0, 1.0, False),

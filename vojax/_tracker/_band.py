@@ -145,8 +145,7 @@ def union(band, member):
 
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
-          floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
-          union_evidence=np.inf):
+          floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2"):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -158,10 +157,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     drift, however well it fits: the data exclude it (a smoothing freer than the data need
     fits below the noise, its χ² no test of it); `half`: where the second half of the
     fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
-    `reference_variance`; `union_evidence`: where the statement allows more drift than the
-    reference's, an alternative of the tuned smoothing's own (another start, order drift or
-    held scale: `INTEGRATED`) whose evidence lies more than this many nats below the tuned
-    one's is weighed into its band by that evidence, not covered at its own width."""
+    `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
     plausible = lambda e: not (  # noqa: E731
@@ -208,22 +204,17 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     # the stated band: with the parameters held, the reference's (its alternatives weighed
     # in); with a drift bound below the breakdown drift, the conditional band (the promise
     # the conditional answer makes for every drift below it); with more drift allowed, every
-    # explanation that fits within it, one input cannot say which holds: the tuned smoothing
-    # with its alternatives weighed in, and those whose evidence is not far below its own
-    # (`union_evidence`) covered at their own width too
+    # explanation that fits within it, the reference's alternatives included: one input
+    # cannot say which holds
     stated, drifting = ref_band, False
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
         others = [e for e in explanations
-                  if e.kind in INTEGRATED and e.holds and plausible(e) and not (
-                      np.isfinite(tuned.evidence)
-                      and e.evidence < tuned.evidence - union_evidence)]
-        for e in [*others, *ladder]:  # the tuned smoothing is a rung where the held answers
+                  if e.kind in INTEGRATED and e.holds and plausible(e)]
+        for e in [*others, *ladder]:
             if e.kind not in REACH_ONLY and (
                     e.drift <= max(stated_drift, reference.drift) + drift_floor):
-                stated = union(stated, member(e) if e is not tuned else _orders(
-                    tuned.beta, reference_variance(explanations, tuned, span, level_weights),
-                    bounds, scale, floor))
+                stated = union(stated, member(e))
                 drifting |= e.drift > reference.drift + drift_floor
     return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting)

@@ -252,8 +252,7 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
             return bands(explanations, problem.bounds, problem.span,
                          0.0 if hold else stated_drift(parameters), s.band_scale,
                          s.drift_floor, floor=s.band_floor, evidence_floor=s.envelope_evidence,
-                         half=half, level_weights=s.level_weights,
-                         union_evidence=s.union_evidence)
+                         half=half, level_weights=s.level_weights)
 
         found = band_of(explanations)
         # a constant order outside the band fits with some drift: a moving one may need less
