@@ -6,8 +6,9 @@ order shapes).
 Per family and pooled, over the second half of each record: coverage of the ±2σ band
 (pooled over samples of the records each method calls identified), RMS of the standardised
 error (α̂ − α)/σ, the median order RMS, the fraction identified, and the **confidently wrong**
-rate: identified, yet the truth outside the band at more than half of the samples. Every
-draw is seeded from its family and index.
+rate: identified, yet the truth outside the band at more than half of the samples; and the
+identified records whose own coverage falls short of 0.85 (`calibration_tables` scores and
+tabulates). Every draw is seeded from its family and index.
 
 Methods: ``tracker`` (`identify`'s default: the parameters may drift), ``tracker-constant``
 (``parameters="constant"``: the user states that they do not; false on the drift families,
@@ -35,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 from calibration_suite import DATA, FAMILIES, draw_case, real_signals  # the suite's draws
+from calibration_tables import score, summarise  # its scores and tables
 
 # ---------------------------------------------------------------- the methods
 
@@ -127,64 +129,9 @@ def _refit_method(case, grid):
             full(fit.order_upper[0]), False, "", extra)
 
 
-def _refit_table(rows, families):
-    """Per family and pooled, the refit on the records it models: their count, the pooled
-    coverage of its 95 % interval, the median z RMS, the median order RMS and error
-    inflation."""
-    lines = ["| method | family | cases | coverage (pooled) | z RMS (median) | order RMS "
-             "(median) | error inflation (median) |", "|---|---|---|---|---|---|---|"]
-    for family in [*families, "pooled"]:
-        sel = [r for r in rows if r["method"] == "refit" and r["count"]
-               and (family == "pooled" or r["family"] == family)]
-        if not sel:
-            continue
-        cov = sum(r["inside"] for r in sel) / sum(r["count"] for r in sel)
-        lines.append(
-            f"| refit | {family} | {len(sel)} | {cov:.2f} | "
-            f"{np.median([r['z_rms'] for r in sel]):.2f} | "
-            f"{np.median([r['rms'] for r in sel]):.4f} | "
-            f"{np.median([r['error_inflation'] for r in sel]):.2f} |")
-    return lines
-
-
 def _lag1(e):
     e = np.asarray(e)[1:] - np.mean(np.asarray(e)[1:])
     return float(np.sum(e[1:] * e[:-1]) / max(np.sum(e * e), 1e-300))
-
-
-def score(case, out):
-    alpha, std, lower, upper, identified, message, extra = out
-    truth = case["alpha"]
-    half = case["t"] > case["t"][-1] / 2
-    inside = (truth >= lower) & (truth <= upper)
-    z = (alpha - truth) / np.maximum(std, 1e-300)
-    extra = dict(extra)
-    conditional = extra.pop("conditional", None)
-    if conditional is not None:  # the conditional answer's own scores
-        c_alpha, c_std, c_lower, c_upper = conditional
-        c_inside = (truth >= c_lower) & (truth <= c_upper)
-        c_z = (c_alpha - truth) / np.maximum(c_std, 1e-300)
-        extra.update(
-            c_coverage=float(np.mean(c_inside[half])), c_inside=int(np.sum(c_inside[half])),
-            c_z_rms=float(np.sqrt(np.mean(c_z[half] ** 2))),
-            c_rms=float(np.sqrt(np.mean((c_alpha - truth)[half] ** 2))),
-            # a false promise: the conditional band misses the truth at most samples while its
-            # breakdown drift exceeds the true drift
-            false_promise=bool(extra.get("verdict") == "conditional"
-                               and np.mean(c_inside[half]) < 0.5
-                               and extra.get("breakdown_drift", 0) > case["true_drift"]),
-        )
-    return dict(
-        coverage=float(np.mean(inside[half])),
-        inside=int(np.sum(inside[half])),
-        count=int(np.sum(half)),
-        z_rms=float(np.sqrt(np.mean(z[half] ** 2))),
-        rms=float(np.sqrt(np.mean((alpha - truth)[half] ** 2))),
-        identified=identified,
-        wrong=bool(identified and np.mean(inside[half]) < 0.5),
-        message=message,
-        **extra,
-    )
 
 
 def _worker(job):
@@ -230,73 +177,6 @@ def _worker(job):
 
 
 _SIGNALS: dict = {}
-
-
-def summarise(rows, methods, families):
-    """Per family and pooled, for each method: the table's lines; then the conditional
-    answers' table."""
-    refit = [""] + _refit_table(rows, families) if "refit" in methods else []
-    methods = [m for m in methods if m != "refit"]
-    return _stated_table(rows, methods, families) + [""] + _conditional_table(
-        rows, methods, families) + refit
-
-
-def _conditional_table(rows, methods, families):
-    """Per family and pooled, for each tracker: the records whose verdict is "conditional",
-    the conditional band's pooled coverage and median z RMS over them, its confidently wrong,
-    the false promises (the band misses the truth while the breakdown drift exceeds the true
-    drift) and the median breakdown drift."""
-    lines = [
-        "| method | family | conditional | coverage (conditional, pooled) | z RMS "
-        "(conditional, median) | confidently wrong | false promises | breakdown drift "
-        "(median) |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for method in methods:
-        for family in [*families, "pooled"]:
-            sel = [r for r in rows if r["method"] == method and "c_coverage" in r
-                   and (family == "pooled" or r["family"] == family)]
-            if not sel:
-                continue
-            cond = [r for r in sel if r.get("verdict") == "conditional"]
-            cov = (sum(r["c_inside"] for r in cond) / max(1, sum(r["count"] for r in cond))
-                   if cond else float("nan"))
-            z = np.median([r["c_z_rms"] for r in cond]) if cond else float("nan")
-            wrong = sum(r["c_coverage"] < 0.5 for r in cond)
-            false = sum(r["false_promise"] for r in cond)
-            drift = np.median([r["breakdown_drift"] for r in cond]) if cond else float("nan")
-            lines.append(f"| {method} | {family} | {len(cond)}/{len(sel)} | {cov:.2f} | {z:.2f} "
-                         f"| {wrong}/{len(cond)} | {false}/{len(cond)} | {drift:.2g} |")
-    return lines
-
-
-def _stated_table(rows, methods, families):
-    lines = [
-        "| method | family | cases | identified | coverage (identified, pooled) | coverage "
-        "(all, pooled) | z RMS (identified, median) | order RMS (median) | confidently wrong "
-        "(of identified) |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for method in methods:
-        for family in [*families, "pooled"]:
-            sel = [r for r in rows if r["method"] == method
-                   and (family == "pooled" or r["family"] == family)]
-            if not sel:
-                continue
-            ident = [r for r in sel if r["identified"]]
-            cov_id = (sum(r["inside"] for r in ident) / max(1, sum(r["count"] for r in ident))
-                      if ident else float("nan"))
-            ran = [r for r in sel if r["count"]]
-            cov_all = sum(r["inside"] for r in ran) / max(1, sum(r["count"] for r in ran))
-            z = np.median([r["z_rms"] for r in ident]) if ident else float("nan")
-            rms = np.median([r["rms"] for r in ran]) if ran else float("nan")
-            wrong = sum(r["wrong"] for r in ident)
-            lines.append(
-                f"| {method} | {family} | {len(sel)} | {len(ident)}/{len(sel)} "
-                f"({len(ident) / len(sel):.2f}) | {cov_id:.2f} | {cov_all:.2f} | {z:.2f} | "
-                f"{rms:.4f} | {wrong}/{len(ident)} |"
-            )
-    return lines
 
 
 def main(argv=None):

@@ -341,4 +341,21 @@ MUTATIONS = {
           "    return out, np.where(held[:, None], 0.0, slope / h * 1.001)")],
         ["tests/test_moving.py::test_the_columns_slopes_are_the_interpolants_derivatives"],
     ),
+    "the suite counts a record at exactly 0.85 coverage as short of it": (
+        "scripts/calibration_tables.py",
+        [('short = sum(r["coverage"] < SHORT_OF for r in ident)',
+          'short = sum(r["coverage"] <= SHORT_OF for r in ident)')],
+        ["tests/test_calibration_tables.py"],
+    ),
+    "the suite counts records short of 0.85 among the refused too": (
+        "scripts/calibration_tables.py",
+        [('short = sum(r["coverage"] < SHORT_OF for r in ident)',
+          'short = sum(r["coverage"] < SHORT_OF for r in sel)')],
+        ["tests/test_calibration_tables.py"],
+    ),
+    "the suite's z RMS is the mean square": (
+        "scripts/calibration_tables.py",
+        [("z_rms=float(np.sqrt(np.mean(z[half] ** 2)))", "z_rms=float(np.mean(z[half] ** 2))")],
+        ["tests/test_calibration_tables.py"],
+    ),
 }
