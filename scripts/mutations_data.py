@@ -1,4 +1,5 @@
-"""Planted bugs of `mutation_check.py`: recorded datasets, the command line, the batch, its outputs and figures."""
+"""Planted bugs of `mutation_check.py`: recorded datasets, the command line, the batch and its
+outputs (its figures: `mutations_figures.py`)."""
 
 # name: (file, [(old, new), ...], tests that should fail)
 MUTATIONS = {
@@ -50,17 +51,6 @@ MUTATIONS = {
           "(best[i] + sizes[j - 1] * sum(counts[i:j]), i)")],
         ["tests/test_batch.py::test_plan_buckets_is_the_cheapest_cut_of_the_sorted_lengths"],
     ),
-    "reused record figure keeps the colour cycle": (
-        "vojax/_plotting_record.py",
-        [("        ax.set_prop_cycle(None)  # colours from C0 again\n", "")],
-        ["tests/test_figures.py::test_a_reused_record_figure_equals_a_fresh_one_pixel_for_pixel"],
-    ),
-    "figure queue drops what this process draws": (
-        "vojax/_data/_figures.py",
-        [("        else:\n            self.ready.append((key, None))\n\n    def _hand_over",
-          "\n    def _hand_over")],
-        ["tests/test_figures.py::test_the_figure_queue_reports_every_record_once_with_its_error"],
-    ),
     "identification.csv loses the NaN blanks": (
         "vojax/_data/_outputs.py",
         [("[repr(v) if ok else \"\" for v, ok in zip(row, oks)]", "[repr(v) for v in row]")],
@@ -96,17 +86,6 @@ MUTATIONS = {
         [("    if not (1.0 / BIG <= value <= BIG):", "    if not value > 0:")],
         ["tests/test_notebooks_cli.py::test_cli_errors_are_one_sentence"],
     ),
-    "a killed figure worker fails its records": (
-        "vojax/_data/_figures.py",
-        [("                except concurrent.futures.BrokenExecutor:\n                    # a worker was killed",
-          "                except ZeroDivisionError:\n                    # a worker was killed")],
-        ["tests/test_figures.py::test_a_killed_figure_worker_costs_no_record"],
-    ),
-    "figure workers outlive a killed batch": (
-        "vojax/_data/_figures.py",
-        [("initializer=_figure_worker_init, initargs=(os.getpid(),),", "")],
-        ["tests/test_outputs.py::test_a_killed_batch_leaves_no_process_behind"],
-    ),
     "a summary.json holding NaN taken as current": (
         "vojax/_data/_batch.py",
         [("        old = strict_json(summary.read_text())", "        old = json.loads(summary.read_text())")],
@@ -127,12 +106,6 @@ MUTATIONS = {
         [('values.append(float(text.replace(",", ".") if decimal == "," else text))',
           'values.append(float(text.replace(",", "") if decimal == "," else text))')],
         ["tests/test_data_cli.py::test_semicolons_decimal_commas_and_a_hint_for_them"],
-    ),
-    "the overview hides what was not identified": (
-        "vojax/_plotting.py",
-        [('        known = np.array([str(r.get(f"{tracker}_identified")) == "True" for r in rows])',
-          '        known = np.array([True for r in rows])')],
-        ["tests/test_figures.py::test_the_overview_marks_what_was_not_identified_and_what_failed"],
     ),
     "an undetermined physical parameter fails the record": (
         "vojax/_data/_outputs.py",
@@ -211,12 +184,6 @@ MUTATIONS = {
           "        if False:")],
         ["tests/test_outputs.py::test_vojax_overwrites_only_what_it_wrote"],
     ),
-    "time left paced from the start": (
-        "vojax/_progress.py",
-        [("    return (elapsed - first) / (done - 1) * (total - done)",
-          "    return elapsed / done * (total - done)")],
-        ["tests/test_batch_progress.py::test_time_left_is_paced_after_the_first_record"],
-    ),
     "the command line's offset not in the model's output unit": (
         "vojax/_data/_pipeline.py",
         [('extra["x0"] = float(settings["x0"]) / output_scale(model, length)',
@@ -283,17 +250,6 @@ MUTATIONS = {
         [("    params[key].set(value=size, min=0.0, max=math.inf)", "    params[key].set(value=size)")],
         ["tests/test_afm_contact.py::test_the_hertz_fit_recovers_the_modulus_the_contact_and_the_strain"],
     ),
-    "AFM map image transposed": (
-        "vojax/_plotting_maps.py",
-        [("            image[iy - y0, ix - x0] = [value(r) for r in curves]",
-          "            image[ix - x0, iy - y0] = [value(r) for r in curves]")],
-        ["tests/test_afm_contact.py::test_a_force_map_gives_a_record_per_curve_and_maps_over_its_grid"],
-    ),
-    "AFM map not cut to the part measured": (
-        "vojax/_plotting_maps.py",
-        [("        x0, y0 = ix.min(), iy.min()", "        x0, y0 = 0, 0")],
-        ["tests/test_afm_contact.py::test_a_force_map_gives_a_record_per_curve_and_maps_over_its_grid"],
-    ),
     "AFM export's height: the piezo's before the measured": (
         "vojax/_data/_afm_records.py",
         [('EXPORT_HEIGHTS = ("height_measured_m", "height_piezo_m")',
@@ -323,11 +279,6 @@ MUTATIONS = {
         "vojax/_data/_afm.py",
         [("        if not lo <= size <= hi:", "        if not 0 < size < math.inf:")],
         ["tests/test_afm.py::test_records_from_contact_by_segment"],
-    ),
-    "progress bar's time left re-stamped at every update": (
-        "vojax/_progress.py",
-        [("(self.first or now) - self.started", "now - self.started")],
-        ["tests/test_batch_progress.py::test_the_bars_time_left_is_paced_on_the_records_after_the_first"],
     ),
     "reserved device names with an extension not hashed": (
         "vojax/_data/_paths.py",
@@ -406,64 +357,6 @@ MUTATIONS = {
         [('            if decimal != "," and _is_number(text.replace(",", ".")):',
           '            if decimal != ",":')],
         ["tests/test_data_cli.py::test_a_decimal_comma_is_named_where_it_would_read"],
-    ),
-    "the record figure's residuals are the fit, not measured − fit": (
-        "vojax/_plotting_parts.py",
-        [("        r = y - np.asarray(fit, dtype=float)", "        r = np.asarray(fit, dtype=float)")],
-        ["tests/test_figure_content.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
-    ),
-    "the caption cuts the reason to its first clause": (
-        "vojax/_plotting_parts.py",
-        [('            lines.append("Why: " + finding.rstrip(".") + ".")',
-          '            lines.append("Why: " + finding.split(":")[0] + ".")')],
-        ["tests/test_figure_content.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
-    ),
-    "the caption's lines are not wrapped": (
-        "vojax/_plotting_parts.py",
-        [("int(CAPTION_CHARS * width)", "10_000")],
-        ["tests/test_figure_content.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
-    ),
-    "the caption forgets the stated assumptions": (
-        "vojax/_plotting_parts.py",
-        [('(f" ({assumed})." if assumed else ".")', '"."')],
-        ["tests/test_figure_content.py::test_the_record_figure_shows_the_fit_its_residuals_and_the_verdict_uncut"],
-    ),
-    "eta's unit without the time to the order": (
-        "vojax/_plotting_parts.py",
-        [('unit = f"{stress}·{tau}{per}" if name == "eta" else f"{stress}{per}"',
-          'unit = f"{stress}{per}"')],
-        ["tests/test_figure_content.py::test_parameters_carry_their_units"],
-    ),
-    "a log-spaced clock on a linear axis": (
-        "vojax/_plotting_parts.py",
-        [("    return bool(np.median(steps[-quarter:]) > LOG_CLOCK * np.median(steps[:quarter]))",
-          "    return False")],
-        ["tests/test_figure_content.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
-    ),
-    "a reused figure keeps the last record's log axis": (
-        "vojax/_plotting_record.py",
-        [('        ax.set_xscale("linear")\n', '')],
-        ["tests/test_figure_content.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
-    ),
-    "a constant input zoomed on its jitter": (
-        "vojax/_plotting_parts.py",
-        [("    flat = level > 0 and hi - lo < FLAT * level", "    flat = False")],
-        ["tests/test_figure_content.py::test_a_log_spaced_clock_gets_a_log_axis_and_a_constant_no_offset"],
-    ),
-    "the overview says nothing where drift absorbs the fit": (
-        "vojax/_plotting.py",
-        [("    note = _absorbed_note(rows, tracker)", '    note = ""')],
-        ["tests/test_figure_content.py::test_the_overview_counts_in_whole_records_and_says_when_drift_absorbs_the_fit"],
-    ),
-    "the overview's counts on fractional ticks": (
-        "vojax/_plotting.py",
-        [("        ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts of records", "        pass")],
-        ["tests/test_figure_content.py::test_the_overview_counts_in_whole_records_and_says_when_drift_absorbs_the_fit"],
-    ),
-    "the study's Fig. 4 clips the law's excursions": (
-        "vojax/_plotting.py",
-        [("        _robust_limits(ax, series, percentiles=(0, 100))", "        _robust_limits(ax, series)")],
-        ["tests/test_figure_content.py::test_the_studys_figures_hide_no_data_and_clip_no_estimate"],
     ),
     "the tilt of an AFM baseline not removed": (
         "vojax/_data/_contact.py",
