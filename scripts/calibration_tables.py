@@ -15,6 +15,7 @@ wrong count (coverage below one half) does not see.
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -159,7 +160,8 @@ def _refit_table(rows, families):
 def retable(path):
     """Writes the tables of a results file `path` (``--out``'s FILE.txt) again from its rows
     (FILE.json), in the order of its methods and of `FAMILIES`, its lines outside the tables
-    kept; returns the new text."""
+    kept; returns the new text. The file is replaced at once (written beside it, then
+    renamed): a run stopped halfway leaves the old one."""
     path = Path(path)
     rows = json.loads(path.with_suffix(".json").read_text())
     lines = path.read_text().splitlines()
@@ -172,7 +174,9 @@ def retable(path):
     families = [f for f in FAMILIES if any(r["family"] == f for r in rows)]
     text = "\n".join([*lines[:at[0]], *summarise(rows, methods, families),
                       *lines[at[-1] + 1:]]) + "\n"
-    path.write_text(text)
+    fresh = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fresh.write_text(text)
+    os.replace(fresh, path)
     return text
 
 
