@@ -358,4 +358,15 @@ MUTATIONS = {
         [("z_rms=float(np.sqrt(np.mean(z[half] ** 2)))", "z_rms=float(np.mean(z[half] ** 2))")],
         ["tests/test_calibration_tables.py"],
     ),
+    "the offline far-alternative rule takes the faster order drifts for the slower": (
+        "scripts/band_scores.py",
+        [('pick = {"starts": [], "slower": drifts[:slower], "faster": drifts[slower:],',
+          'pick = {"starts": [], "slower": drifts[slower:], "faster": drifts[:slower],')],
+        ["tests/test_band_scores.py"],
+    ),
+    "the offline far-alternative rule leaves out alternatives near the tuned evidence too": (
+        "scripts/band_scores.py",
+        [('if e["evidence"] < ref["evidence"] - limit', 'if e["evidence"] < ref["evidence"] + limit')],
+        ["tests/test_band_scores.py"],
+    ),
 }

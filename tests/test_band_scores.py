@@ -1,0 +1,72 @@
+"""The offline band rules of `scripts/band_scores.py` that weigh the tuned run's far
+alternatives: on explanations made by hand, each rule leaves out of the union exactly the
+alternatives it names, and only those far below the tuned run's evidence."""
+
+import numpy as np
+import pytest
+
+from .helpers import load_script
+
+N = 40
+BOUNDS = (0.01, 0.99)
+
+
+@pytest.fixture(scope="module")
+def scores():
+    return load_script("band_scores")
+
+
+def _beta(order):
+    s = (order - BOUNDS[0]) / (BOUNDS[1] - BOUNDS[0])
+    return np.full(N, np.log(s / (1 - s)))
+
+
+def _ex(kind, order, evidence, var=1e-4, chi2=38.0):
+    return dict(kind=kind, beta=_beta(order), var=np.full(N, var), chi2=chi2, dof=40.0,
+                evidence=evidence, drift=0.0, accepted=None)
+
+
+def _record(evidences):
+    """The tuned run at 0.50 (evidence 0); a start at 0.30 and the four order drifts
+    (0.01×, 0.1×, 10×, 100× the tuned one's) at 0.40, 0.45, 0.60 and 0.70, with the
+    evidences given (start first), each one fitting."""
+    orders = (0.30, 0.40, 0.45, 0.60, 0.70)
+    kinds = ("start", "order_drift", "order_drift", "order_drift", "order_drift")
+    ex = [_ex("tuned", 0.50, 0.0)] + [_ex(k, a, e) for k, a, e in zip(kinds, orders, evidences)]
+    return dict(explanations=ex, truth=np.full(N, 0.5), alpha=np.full(N, 0.5), bounds=BOUNDS,
+                setting="free", other=None, other_reasons=())
+
+
+def _edges(band):
+    lower, upper = (float(np.median(np.asarray(a)[N // 2:])) for a in band[1:3])
+    return lower, upper
+
+
+@pytest.mark.parametrize("which, far_below, expected", [
+    # every alternative 30 nats below: the rule's own ones leave the union
+    ("starts", 30.0, (0.40, 0.70)), ("slower", 30.0, (0.49, 0.70)),
+    ("faster", 30.0, (0.30, 0.51)), ("all", 30.0, (0.49, 0.51)),
+    # 10 nats below, within the limit of 20: every one is covered, whatever the rule
+    ("all", 10.0, (0.30, 0.70)),
+])
+def test_each_rule_leaves_out_only_the_far_alternatives_it_names(scores, which, far_below,
+                                                                 expected):
+    r = _record([-far_below] * 5)
+    full = _edges(scores.as_reported(r))
+    assert full[0] < 0.30 and full[1] > 0.70  # as reported: every one covered at ±2σ
+    lower, upper = _edges(scores.far_alternatives_weighed(which)(r))
+    # the edges of the members still covered, each at its own ±2σ (σ of β 0.01: the order
+    # moves by less than 0.01 over 2σ at these orders)
+    assert lower == pytest.approx(expected[0], abs=0.011)
+    assert upper == pytest.approx(expected[1], abs=0.011)
+
+
+def test_a_record_whose_order_drifts_did_not_all_run_is_scored_as_reported(scores):
+    """With three order drifts of four, which is slower is not known: the band as
+    reported."""
+    r = _record([-30.0] * 5)
+    r["explanations"] = r["explanations"][:-1]
+    for which in ("slower", "faster"):
+        got = scores.far_alternatives_weighed(which)(r)
+        want = scores.as_reported(r)
+        assert all(np.array_equal(a, b) for a, b in zip(got[:4], want[:4]))
