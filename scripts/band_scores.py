@@ -4,6 +4,7 @@ the fitted clock, the median z RMS of the identified, the median order RMS, the 
 wrong (identified, the truth outside the band at most samples)."""
 
 import numpy as np
+from calibration_tables import SHORT_OF  # the coverage an identified record owes
 
 HALFWIDTH = 0.1
 SMOOTHED = ("tuned", "start", "order_drift", "param_drift", "held_order")
@@ -80,8 +81,9 @@ def score(r, band):
 
 def table(rows, rules, settings, families):
     lines = ["| setting | rule | family | identified | coverage (identified) | z RMS "
-             "(identified, median) | z RMS (all, median) | order RMS | confidently wrong |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "(identified, median) | z RMS (all, median) | order RMS | confidently wrong | "
+             f"coverage short of {SHORT_OF} (of identified) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for setting in settings:
         for name, rule in rules.items():
             for family in [*families, "pooled"]:
@@ -105,7 +107,8 @@ def table(rows, rules, settings, families):
                     f"| {setting} | {name} | {family} | {len(ident)}/{len(scored)} | "
                     f"{cov:.2f} | {zi:.2f} | {za:.2f} | "
                     f"{np.median([s['rms'] for s in scored]):.4f} | "
-                    f"{sum(s['wrong'] for s in ident)}/{len(ident)} |")
+                    f"{sum(s['wrong'] for s in ident)}/{len(ident)} | "
+                    f"{sum(s['coverage'] < SHORT_OF for s in ident)}/{len(ident)} |")
     return lines
 
 
