@@ -70,3 +70,16 @@ def test_a_record_whose_order_drifts_did_not_all_run_is_scored_as_reported(score
         got = scores.far_alternatives_weighed(which)(r)
         want = scores.as_reported(r)
         assert all(np.array_equal(a, b) for a, b in zip(got[:4], want[:4]))
+
+
+def test_a_record_scored_from_a_given_point_is_scored_there(scores):
+    """The demo's records are scored after t = 50 (``scored_from``), the suite's over the
+    second half: a band that holds the truth only from point 30 of 40 covers half of the
+    second half and all of the points from 30."""
+    truth = np.full(N, 0.5)
+    lower = np.where(np.arange(N) >= 30, 0.45, 0.55)
+    band = (truth, lower, np.full(N, 0.6), np.full(N, 0.05))
+    r = dict(truth=truth, other_reasons=())
+    assert scores.score(r, band)["coverage"] == pytest.approx(0.5)
+    assert scores.score(dict(r, scored_from=30), band)["coverage"] == 1.0
+    assert scores.score(dict(r, scored_from=30), band)["count"] == 10
