@@ -329,12 +329,13 @@ def far_alternatives_weighed(which, limit=20.0):
     """`as_reported` with some of the tuned run's own alternatives more than `limit` nats
     below its evidence left out of the union (their weight in its mixture is below e^−limit,
     so leaving them out of the list is leaving them to that weight): ``"starts"``, its other
-    starts; ``"slower"``, those and its slower order drifts (`alt_order_drift` below 1);
-    ``"faster"``, its faster order drifts alone; ``"all"``, every start and order drift (the
+    starts; ``"slower"``, those and its order drifts at the factors of `alt_order_drift` below
+    1 (× the tuned drift, or `order_drift_base` where that is larger); ``"faster"``, its
+    order drifts at the factors above 1 alone; ``"all"``, every start and order drift (the
     rule measured and withdrawn before, less its change where the held smoothing answers)."""
     from vojax import TrackerSettings
 
-    slower = sum(m < 1 for m in TrackerSettings().alt_order_drift)
+    factors = TrackerSettings().alt_order_drift
 
     def rule(r):
         ex = r["explanations"]
@@ -342,10 +343,11 @@ def far_alternatives_weighed(which, limit=20.0):
         if ref is None or not np.isfinite(ref["evidence"]):
             return as_reported(r)
         drifts = [i for i, e in enumerate(ex) if e["kind"] == "order_drift"]
-        if len(drifts) != len(TrackerSettings().alt_order_drift):
+        if len(drifts) != len(factors):
             return as_reported(r)  # some did not run: which is which is not known
-        pick = {"starts": [], "slower": drifts[:slower], "faster": drifts[slower:],
-                "all": drifts}[which]
+        pick = {"starts": [], "all": drifts,
+                "slower": [i for i, m in zip(drifts, factors) if m < 1],
+                "faster": [i for i, m in zip(drifts, factors) if m > 1]}[which]
         dropped = {i for i, e in enumerate(ex)
                    if e["evidence"] < ref["evidence"] - limit
                    and ((e["kind"] == "start" and which != "faster") or i in pick)}

@@ -360,8 +360,8 @@ MUTATIONS = {
     ),
     "the offline far-alternative rule takes the faster order drifts for the slower": (
         "scripts/band_scores.py",
-        [('pick = {"starts": [], "slower": drifts[:slower], "faster": drifts[slower:],',
-          'pick = {"starts": [], "slower": drifts[slower:], "faster": drifts[:slower],')],
+        [('"slower": [i for i, m in zip(drifts, factors) if m < 1],',
+          '"slower": [i for i, m in zip(drifts, factors) if m > 1],')],
         ["tests/test_band_scores.py"],
     ),
     "the offline far-alternative rule leaves out alternatives near the tuned evidence too": (
