@@ -207,7 +207,7 @@ def report(rows, out=None, only=None):
         # the tuned run's alternatives far below its evidence weighed, not covered
         # (CHANGELOG: measured and not adopted)
         **{f"as reported, far ({20:g} nats) {w} weighed": far_alternatives_weighed(w)
-           for w in ("starts", "slower", "faster", "all")},
+           for w in ("starts", "slower", "faster", "fastest", "all")},
     })
     if only:
         rules = {name: rule for name, rule in rules.items() if any(w in name for w in only)}
@@ -331,7 +331,8 @@ def far_alternatives_weighed(which, limit=20.0):
     so leaving them out of the list is leaving them to that weight): ``"starts"``, its other
     starts; ``"slower"``, those and its order drifts at the factors of `alt_order_drift` below
     1 (× the tuned drift, or `order_drift_base` where that is larger); ``"faster"``, its
-    order drifts at the factors above 1 alone; ``"all"``, every start and order drift (the
+    order drifts at the factors above 1 alone; ``"fastest"``, its order drift at the largest
+    factor alone; ``"all"``, every start and order drift (the
     rule measured and withdrawn before, less its change where the held smoothing answers)."""
     from vojax import TrackerSettings
 
@@ -347,10 +348,12 @@ def far_alternatives_weighed(which, limit=20.0):
             return as_reported(r)  # some did not run: which is which is not known
         pick = {"starts": [], "all": drifts,
                 "slower": [i for i, m in zip(drifts, factors) if m < 1],
-                "faster": [i for i, m in zip(drifts, factors) if m > 1]}[which]
+                "faster": [i for i, m in zip(drifts, factors) if m > 1],
+                "fastest": [i for i, m in zip(drifts, factors) if m == max(factors)]}[which]
         dropped = {i for i, e in enumerate(ex)
                    if e["evidence"] < ref["evidence"] - limit
-                   and ((e["kind"] == "start" and which != "faster") or i in pick)}
+                   and ((e["kind"] == "start" and which in ("starts", "slower", "all"))
+                        or i in pick)}
         return as_reported(dict(r, explanations=[e for i, e in enumerate(ex)
                                                  if i not in dropped]))
     return rule

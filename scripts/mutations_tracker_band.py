@@ -369,4 +369,10 @@ MUTATIONS = {
         [('if e["evidence"] < ref["evidence"] - limit', 'if e["evidence"] < ref["evidence"] + limit')],
         ["tests/test_band_scores.py"],
     ),
+    "the offline far-alternative rule's fastest takes every faster order drift": (
+        "scripts/band_scores.py",
+        [('"fastest": [i for i, m in zip(drifts, factors) if m == max(factors)]}[which]',
+          '"fastest": [i for i, m in zip(drifts, factors) if m > 1]}[which]')],
+        ["tests/test_band_scores.py"],
+    ),
 }

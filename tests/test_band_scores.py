@@ -45,7 +45,8 @@ def _edges(band):
 @pytest.mark.parametrize("which, far_below, expected", [
     # every alternative 30 nats below: the rule's own ones leave the union
     ("starts", 30.0, (0.40, 0.70)), ("slower", 30.0, (0.49, 0.70)),
-    ("faster", 30.0, (0.30, 0.51)), ("all", 30.0, (0.49, 0.51)),
+    ("faster", 30.0, (0.30, 0.51)), ("fastest", 30.0, (0.30, 0.61)),
+    ("all", 30.0, (0.49, 0.51)),
     # 10 nats below, within the limit of 20: every one is covered, whatever the rule
     ("all", 10.0, (0.30, 0.70)),
 ])
