@@ -73,6 +73,52 @@ def _compact(a):
     return a.astype(np.float32) if a.dtype == np.float64 and a.ndim >= 1 else a
 
 
+def _watch():
+    """The spy on `fit_points` (`spy`), installed once per process."""
+    if "watching" not in _CAP:
+        spy(_CAP)
+        _CAP["watching"] = True
+
+
+def _saved(res, t, alpha, seconds):
+    """What a record keeps of the tracker's call `res` on the times `t` (the truth `alpha`
+    on them), `seconds` long, with `_CAP` holding what the spy saw: the fit on the fitted
+    points (block means of a long record), its explanations and the truth there, the band
+    the call reported, the second clock's tuned smoothing where it ran. Returns the fields
+    and the fitted points' times."""
+    import vojax
+    from vojax._tracker._blocks import block_average, block_size
+
+    fit, other = _CAP["result"], _CAP.get("other")
+    t = np.asarray(t, float)
+    size = block_size(t.size, vojax.TrackerSettings().max_points)
+    t_fit = t if size == 1 else block_average(t, size)
+    d = res.diagnostics
+    return dict(
+        block=size, seconds=seconds, identified=bool(d.identified), reasons=tuple(d.reasons),
+        verdict=getattr(d, "verdict", None),
+        breakdown_drift=getattr(d, "breakdown_drift", None),
+        truth=_compact(np.interp(t_fit, t, alpha)), alpha=_compact(fit.alpha),
+        lower=_compact(fit.alpha_lower), upper=_compact(fit.alpha_upper),
+        std=_compact(fit.alpha_std), bounds=tuple(res.alpha_bounds),
+        explanations=[dict(kind=e.kind, beta=_compact(e.beta), var=_compact(e.var),
+                           chi2=e.chi2, dof=e.dof, evidence=e.evidence, drift=e.drift,
+                           accepted=e.accepted) for e in fit.explanations],
+        other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
+        noise_levels=getattr(fit, "noise_levels", None),
+        log_likelihood=fit.tuning.log_likelihood, clock_scale=_CAP.get("scale"),
+        # the band the call reported (the second clock weighed in), where every sample is a
+        # fitted point
+        final=None if size > 1 else dict(lower=_compact(res.alpha_lower),
+                                         upper=_compact(res.alpha_upper)),
+        # the second clock's tuned smoothing (the data's unit of time), where it ran
+        other=None if other is None else dict(
+            alpha=_compact(other.alpha), lower=_compact(other.alpha_lower),
+            upper=_compact(other.alpha_upper), log_likelihood=other.tuning.log_likelihood,
+            converged=bool(other.converged)),
+    ), t_fit
+
+
 def _record(family, index, setting, data):
     import jax
 
@@ -80,11 +126,10 @@ def _record(family, index, setting, data):
     import bench_calibration as bench
 
     import vojax
-    from vojax._tracker._blocks import block_average, block_size
 
     if "signals" not in _CAP:
         _CAP["signals"] = bench.real_signals(Path(data))
-        spy(_CAP)
+    _watch()
     case = bench.draw_case(family, index, _CAP["signals"])
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
     kwargs = dict(SETTINGS.get(setting, {}))
@@ -98,40 +143,12 @@ def _record(family, index, setting, data):
             res = vojax.identify(case["u"], case["y"], warn=False, **grid, **kwargs)
         except ValueError as e:
             return dict(family=family, index=index, setting=setting, error=str(e))
-    seconds = time.perf_counter() - started
-    fit, other = _CAP["result"], _CAP.get("other")
-    t = np.asarray(case["t"], float)
-    size = block_size(t.size, vojax.TrackerSettings().max_points)
-    t_fit = t if size == 1 else block_average(t, size)
-    truth = np.interp(t_fit, t, case["alpha"])
-    d = res.diagnostics
+    fields, _ = _saved(res, case["t"], case["alpha"], time.perf_counter() - started)
     return dict(
-        family=family, index=index, setting=setting, samples=case["samples"], block=size,
-        shape=case["shape"], seconds=seconds, true_drift=case["true_drift"],
-        stated=case.get("stated"), drift=case["drift"], noise=case["noise"], rho=case["rho"],
-        identified=bool(d.identified), reasons=tuple(d.reasons),
-        verdict=getattr(d, "verdict", None),
-        breakdown_drift=getattr(d, "breakdown_drift", None),
-        truth=_compact(truth), alpha=_compact(fit.alpha), lower=_compact(fit.alpha_lower),
-        upper=_compact(fit.alpha_upper), std=_compact(fit.alpha_std),
-        bounds=tuple(res.alpha_bounds),
-        explanations=[dict(kind=e.kind, beta=_compact(e.beta), var=_compact(e.var),
-                           chi2=e.chi2, dof=e.dof, evidence=e.evidence, drift=e.drift,
-                           accepted=e.accepted) for e in fit.explanations],
-        other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
-        noise_levels=getattr(fit, "noise_levels", None),
-        case_noise=float(np.var(case["y"] - case["x"])),
-        log_likelihood=fit.tuning.log_likelihood, clock_scale=_CAP.get("scale"),
-        # the band the call reported (the second clock weighed in), where every sample is a
-        # fitted point
-        final=None if size > 1 else dict(lower=_compact(res.alpha_lower),
-                                         upper=_compact(res.alpha_upper)),
-        # the second clock's tuned smoothing (the data's unit of time), where it ran
-        other=None if other is None else dict(
-            alpha=_compact(other.alpha), lower=_compact(other.alpha_lower),
-            upper=_compact(other.alpha_upper), log_likelihood=other.tuning.log_likelihood,
-            converged=bool(other.converged)),
-    )
+        family=family, index=index, setting=setting, samples=case["samples"],
+        shape=case["shape"], true_drift=case["true_drift"], stated=case.get("stated"),
+        drift=case["drift"], noise=case["noise"], rho=case["rho"],
+        case_noise=float(np.var(case["y"] - case["x"])), **fields)
 
 
 def _demo_record(seed):
@@ -144,36 +161,16 @@ def _demo_record(seed):
     jax.config.update("jax_enable_x64", True)
     import vojax
     from vojax._study import STUDY_DT, simulate_study
-    from vojax._tracker._blocks import block_average, block_size
 
-    spy(_CAP)
+    _watch()
     data = simulate_study(STUDY_DT, seed)
     started = time.perf_counter()
+    _CAP.pop("other", None)
     res = vojax.identify(data["u"], data["y"], STUDY_DT, warn=False)
-    seconds = time.perf_counter() - started
-    fit, other = _CAP["result"], _CAP.get("other")
-    t = np.asarray(data["t"], float)
-    size = block_size(t.size, vojax.TrackerSettings().max_points)
-    t_fit = t if size == 1 else block_average(t, size)
-    d = res.diagnostics
-    return dict(
-        family="demo", index=seed, setting="free", samples=t.size, block=size, shape="paper",
-        seconds=seconds, true_drift=0.0, stated=None, drift=0.0, noise=None, rho=0.0,
-        identified=bool(d.identified), reasons=tuple(d.reasons), verdict=d.verdict,
-        breakdown_drift=d.breakdown_drift, scored_from=int(np.searchsorted(t_fit, 50.0, "right")),
-        truth=_compact(np.interp(t_fit, t, data["alpha"])), alpha=_compact(fit.alpha),
-        lower=_compact(fit.alpha_lower), upper=_compact(fit.alpha_upper),
-        std=_compact(fit.alpha_std), bounds=tuple(res.alpha_bounds),
-        explanations=[dict(kind=e.kind, beta=_compact(e.beta), var=_compact(e.var),
-                           chi2=e.chi2, dof=e.dof, evidence=e.evidence, drift=e.drift,
-                           accepted=e.accepted) for e in fit.explanations],
-        other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
-        log_likelihood=fit.tuning.log_likelihood, clock_scale=_CAP.get("scale"),
-        other=None if other is None else dict(
-            alpha=_compact(other.alpha), lower=_compact(other.alpha_lower),
-            upper=_compact(other.alpha_upper), log_likelihood=other.tuning.log_likelihood,
-            converged=bool(other.converged)),
-    )
+    fields, t_fit = _saved(res, data["t"], data["alpha"], time.perf_counter() - started)
+    return dict(family="demo", index=seed, setting="free", samples=np.asarray(data["t"]).size,
+                shape="paper", true_drift=0.0, stated=None, drift=0.0, noise=None, rho=0.0,
+                scored_from=int(np.searchsorted(t_fit, 50.0, "right")), **fields)
 
 
 def _job(args):

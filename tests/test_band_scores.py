@@ -5,6 +5,8 @@ alternatives it names, and only those far below the tuned run's evidence."""
 import numpy as np
 import pytest
 
+from vojax._tracker._model import beta_of_np
+
 from .helpers import load_script
 
 N = 40
@@ -17,8 +19,7 @@ def scores():
 
 
 def _beta(order):
-    s = (order - BOUNDS[0]) / (BOUNDS[1] - BOUNDS[0])
-    return np.full(N, np.log(s / (1 - s)))
+    return beta_of_np(np.full(N, order), BOUNDS)
 
 
 def _ex(kind, order, evidence, var=1e-4, chi2=38.0):
