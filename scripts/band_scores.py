@@ -228,7 +228,8 @@ def as_explanations(r):
 
     return [Explanation(e["kind"], np.asarray(e["beta"], float),
                         np.maximum(np.asarray(e["var"], float), 0), float(e["chi2"]),
-                        float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"])
+                        float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"],
+                        e.get("factor"))
             for e in r["explanations"]]
 
 
@@ -254,7 +255,8 @@ def as_reported(r, **kwargs):
     n = len(r["truth"])
     kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
                        half=n // 2, level_weights=s.level_weights,
-                       evidence_floor=s.envelope_evidence), **kwargs)
+                       evidence_floor=s.envelope_evidence,
+                       fastest_evidence=s.fastest_evidence), **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None

@@ -341,38 +341,32 @@ MUTATIONS = {
           "    return out, np.where(held[:, None], 0.0, slope / h * 1.001)")],
         ["tests/test_moving.py::test_the_columns_slopes_are_the_interpolants_derivatives"],
     ),
-    "the suite counts a record at exactly 0.85 coverage as short of it": (
-        "scripts/calibration_tables.py",
-        [('short = sum(r["coverage"] < SHORT_OF for r in ident)',
-          'short = sum(r["coverage"] <= SHORT_OF for r in ident)')],
-        ["tests/test_calibration_tables.py"],
+    "the band leaves out the fastest order drift however near the tuned evidence": (
+        "vojax/_tracker/_band.py",
+        [("e.kind == \"order_drift\" and e.factor == top and e.evidence < tuned.evidence - limit)]",
+          "e.kind == \"order_drift\" and e.factor == top)]")],
+        ["tests/test_band_fastest.py::test_the_fastest_far_below_leaves_the_free_band_and_the_slower_stay"],
     ),
-    "the suite counts records short of 0.85 among the refused too": (
-        "scripts/calibration_tables.py",
-        [('short = sum(r["coverage"] < SHORT_OF for r in ident)',
-          'short = sum(r["coverage"] < SHORT_OF for r in sel)')],
-        ["tests/test_calibration_tables.py"],
+    "the band leaves out every far order drift, not the fastest alone": (
+        "vojax/_tracker/_band.py",
+        [("e.kind == \"order_drift\" and e.factor == top and e.evidence",
+          "e.kind == \"order_drift\" and e.evidence")],
+        ["tests/test_band_fastest.py::test_the_fastest_far_below_leaves_the_free_band_and_the_slower_stay"],
     ),
-    "the suite's z RMS is the mean square": (
-        "scripts/calibration_tables.py",
-        [("z_rms=float(np.sqrt(np.mean(z[half] ** 2)))", "z_rms=float(np.mean(z[half] ** 2))")],
-        ["tests/test_calibration_tables.py"],
+    "the band takes the last order drift listed for the fastest": (
+        "vojax/_tracker/_band.py",
+        [("    top = max(factors)\n", "    top = factors[-1]\n")],
+        ["tests/test_band_fastest.py::test_only_the_largest_factor_is_weighed_whatever_the_order_of_the_list"],
     ),
-    "the offline far-alternative rule takes the faster order drifts for the slower": (
-        "scripts/band_scores.py",
-        [('"slower": [i for i, m in zip(drifts, factors) if m < 1],',
-          '"slower": [i for i, m in zip(drifts, factors) if m > 1],')],
-        ["tests/test_band_scores.py"],
+    "the tracker leaves the fastest order drift in however far below": (
+        "vojax/_tracker/_fit.py",
+        [("                         fastest_evidence=s.fastest_evidence)", "                         )")],
+        ["tests/test_band_fastest.py::test_the_tracker_passes_its_setting_to_the_band"],
     ),
-    "the offline far-alternative rule leaves out alternatives near the tuned evidence too": (
-        "scripts/band_scores.py",
-        [('if e["evidence"] < ref["evidence"] - limit', 'if e["evidence"] < ref["evidence"] + limit')],
-        ["tests/test_band_scores.py"],
-    ),
-    "the offline far-alternative rule's fastest takes every faster order drift": (
-        "scripts/band_scores.py",
-        [('"fastest": [i for i, m in zip(drifts, factors) if m == max(factors)]}[which]',
-          '"fastest": [i for i, m in zip(drifts, factors) if m > 1]}[which]')],
-        ["tests/test_band_scores.py"],
+    "the order drifts' factors attached in reverse": (
+        "vojax/_tracker/_mixture.py",
+        [("        factors = iter(problem.settings.alt_order_drift)",
+          "        factors = iter(problem.settings.alt_order_drift[::-1])")],
+        ["tests/test_envelope.py::test_each_order_drift_carries_the_factor_its_run_was_given"],
     ),
 }

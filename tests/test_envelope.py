@@ -175,3 +175,19 @@ def test_the_mixtures_runs_are_explanations_of_their_kinds(monkeypatch):
         assert e.evidence == -k
         assert e.drift == pytest.approx(0.01 * k / (1 + 0.005 * k))  # (max − min)/|mean|
     assert explanations[0].drift == 0.0 and explanations[0].chi2 == 0.0  # fits exactly
+
+
+def test_each_order_drift_carries_the_factor_its_run_was_given(monkeypatch):
+    """The order drifts' explanations carry their factor of `alt_order_drift` (the band leaves
+    the largest out where it lies far below the tuned evidence): each factor × the tuned
+    order drift (0.1 here, above `order_drift_base`) is the order drift of the row its run was
+    given, and no other kind carries one."""
+    settings = TrackerSettings()
+    explanations, rows = _mixture(monkeypatch, lambda k: np.full(N, 0.1),
+                                  lambda c: np.zeros(c))
+    drifts = [(e, row) for e, row in zip(explanations[1:], rows) if e.kind == "order_drift"]
+    assert [e.factor for e, _ in drifts] == list(settings.alt_order_drift)
+    lowest, highest = settings.order_drift_range
+    for e, row in drifts:
+        assert row[0] == pytest.approx(np.clip(0.1 * e.factor, lowest, highest), rel=1e-12)
+    assert all(e.factor is None for e in explanations if e.kind != "order_drift")

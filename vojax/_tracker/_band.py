@@ -144,8 +144,22 @@ def union(band, member):
         upper, hi) - np.minimum(lower, lo)) / 4)
 
 
+def fastest_far(explanations, tuned, limit):
+    """The `explanations` less the freest order drift tried (the largest `factor` among the
+    order drifts) where its evidence lies more than `limit` nats below the `tuned` one's: its
+    weight in the tuned run's mixture is below e^−limit, and leaving it out of the band is
+    leaving it to that weight."""
+    factors = [e.factor for e in explanations if e.kind == "order_drift" and e.factor is not None]
+    if not factors or not np.isfinite(tuned.evidence):
+        return list(explanations)
+    top = max(factors)
+    return [e for e in explanations if not (
+        e.kind == "order_drift" and e.factor == top and e.evidence < tuned.evidence - limit)]
+
+
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
-          floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2"):
+          floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
+          fastest_evidence=np.inf):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -157,8 +171,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     drift, however well it fits: the data exclude it (a smoothing freer than the data need
     fits below the noise, its χ² no test of it); `half`: where the second half of the
     fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
-    `reference_variance`."""
+    `reference_variance`; `fastest_evidence`: the freest order drift tried lying more than
+    this many nats below the tuned one is left to its mixture weight (`fastest_far`)."""
     tuned = next(e for e in explanations if e.kind == "tuned")
+    explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
     plausible = lambda e: not (  # noqa: E731
         e.kind in SMOOTHINGS and np.isfinite(tuned.evidence)

@@ -30,7 +30,8 @@ class Explanation:
     did not converge), the relative `drift` of its parameters over the fitted span ((max −
     min)/|mean|, the largest over the inputs), and its `kind` (see `KINDS`); `accepted`:
     where its own rule decides whether it fits (the trade-off's profile), that rule's
-    answer, else None."""
+    answer, else None; `factor`: an order drift's factor of `alt_order_drift` on the tuned
+    drift, else None."""
 
     kind: str
     beta: np.ndarray
@@ -40,6 +41,7 @@ class Explanation:
     evidence: float
     drift: float
     accepted: bool | None = None
+    factor: float | None = None
 
     @property
     def fits(self) -> bool:

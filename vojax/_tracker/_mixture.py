@@ -1,6 +1,8 @@
 """The alternatives to the tuned smoothing: other modes and other drift levels, mixed by
 evidence, and those that explain the data as well (a χ² test) as members of the band."""
 
+import dataclasses
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -174,4 +176,7 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
         explanations = smoothing_explanations(
             ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
             np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten)
+        factors = iter(problem.settings.alt_order_drift)  # the order drifts' rows, in order
+        explanations = [dataclasses.replace(e, factor=float(next(factors)))
+                        if e.kind == "order_drift" else e for e in explanations]
     return variance, weights, explanations
