@@ -3,8 +3,9 @@ parameters, the conditional answer (the band the data give while the parameters 
 than its breakdown drift), and that breakdown drift.
 
 Each explanation that fits the data (`Explanation.fits`), a smoothing only where its
-evidence is not far below the tuned one's (`bands`' `evidence_floor`), is an account the
-band must cover when the statement allows its drift. The reference is the fitting smoothing
+evidence is not far below the tuned one's (`bands`' `evidence_floor`; the freest order
+drift tried, `fastest_evidence`), is an account the band must cover when the statement
+allows its drift. The reference is the fitting smoothing
 whose parameters drift least (the tuned smoothing where none fits); its band is the
 evidence-weighted mixture of the tuned intensities' modes and order drifts, with the
 parameters' scale integrated over the level profile where they are held. Going up in drift,
