@@ -365,8 +365,8 @@ MUTATIONS = {
     ),
     "the order drifts' factors attached in reverse": (
         "vojax/_tracker/_mixture.py",
-        [("        factors = iter(problem.settings.alt_order_drift)",
-          "        factors = iter(problem.settings.alt_order_drift[::-1])")],
+        [("    factors = [None] * len(kinds) + [float(f) for f in s.alt_order_drift]",
+          "    factors = [None] * len(kinds) + [float(f) for f in s.alt_order_drift[::-1]]")],
         ["tests/test_envelope.py::test_each_order_drift_carries_the_factor_its_run_was_given"],
     ),
 }

@@ -83,13 +83,15 @@ def chi2_of(residuals, mask, fit_noise, whiten=None):
 
 
 def smoothing_explanations(kinds, betas, variances, scores, residuals, params, problem,
-                           fit_noise, whiten=None):
-    """`Explanation`s of smoothing runs (`smoother_modes`' outputs), one per row of `kinds`."""
+                           fit_noise, whiten=None, factors=None):
+    """`Explanation`s of smoothing runs (`smoother_modes`' outputs), one per row of `kinds`
+    (with its order drift's factor from `factors`, where given)."""
     w = np.asarray(problem.mask)
     dof = max(float(np.sum(w)) - problem.n - 2, 1.0)
     chi2 = chi2_of(residuals, w, fit_noise, whiten)
     return [
         Explanation(kind, np.asarray(b), np.maximum(np.asarray(v), 0.0), float(c), dof,
-                    float(s), relative_drift(p, problem.span))
-        for kind, b, v, s, c, p in zip(kinds, betas, variances, scores, chi2, params)
+                    float(s), relative_drift(p, problem.span), factor=f)
+        for kind, b, v, s, c, p, f in zip(kinds, betas, variances, scores, chi2, params,
+                                          factors or [None] * len(kinds))
     ]

@@ -1,8 +1,6 @@
 """The alternatives to the tuned smoothing: other modes and other drift levels, mixed by
 evidence, and those that explain the data as well (a χ² test) as members of the band."""
 
-import dataclasses
-
 import jax.numpy as jnp
 import numpy as np
 
@@ -123,12 +121,12 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
 
 
 def alternative_rows(settings, tuning, starts, hold):
-    """The intensities of the mixture's runs after the tuned one, and how many of them have
-    the parameters drifting (they follow the starts): the tuned intensities from every
-    start; unless `hold`, the parameters' drift set to each of `alt_param_drift`, then the
+    """The intensities of the mixture's runs after the tuned one: the tuned intensities from
+    every start; unless `hold`, the parameters' drift set to each of `alt_param_drift`, then the
     order held with the parameters drifting at those levels; the order's drift scaled by each
-    of `alt_order_drift` (from at least `order_drift_base`). Returns ``(rows, count, kinds)``
-    with each row's kind of `Explanation`."""
+    of `alt_order_drift` (from at least `order_drift_base`). Returns ``(rows, kinds,
+    factors)``: each row's kind of `Explanation` and, for an order drift, its factor (else
+    None)."""
     s = settings
     qo, qp, *rest = tuning.values
     # the order drift's range as the search box holds it (logs, and back)
@@ -145,8 +143,9 @@ def alternative_rows(settings, tuning, starts, hold):
     kinds = ["start"] * len(starts)
     if not hold:
         kinds += ["param_drift"] * len(s.alt_param_drift) + ["held_order"] * len(s.alt_param_drift)
+    factors = [None] * len(kinds) + [float(f) for f in s.alt_order_drift]
     kinds += ["order_drift"] * len(drifts)
-    return rows, 0 if hold else 2 * len(s.alt_param_drift), kinds
+    return rows, kinds, factors
 
 
 def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None):
@@ -158,7 +157,7 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
     without it)."""
     span = problem.span
     mean = np.mean(np.asarray(sm.theta)[:span], axis=0)
-    rows, _, kinds = alternative_rows(problem.settings, tuning, starts, hold)
+    rows, kinds, factors = alternative_rows(problem.settings, tuning, starts, hold)
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
@@ -175,8 +174,6 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
         tuned = np.asarray(problem.y) - model_output(theta, np.asarray(sm.phi), n)
         explanations = smoothing_explanations(
             ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
-            np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten)
-        factors = iter(problem.settings.alt_order_drift)  # the order drifts' rows, in order
-        explanations = [dataclasses.replace(e, factor=float(next(factors)))
-                        if e.kind == "order_drift" else e for e in explanations]
+            np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten,
+            [None, *factors])
     return variance, weights, explanations
