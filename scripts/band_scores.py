@@ -256,7 +256,8 @@ def as_reported(r, **kwargs):
     kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
                        half=n // 2, level_weights=s.level_weights,
                        evidence_floor=s.envelope_evidence,
-                       fastest_evidence=s.fastest_evidence), **kwargs)
+                       fastest_evidence=s.fastest_evidence,
+                       near_evidence=s.near_evidence), **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None

@@ -101,6 +101,12 @@ class TrackerSettings:
     # records its freedom fitted the noise (3 more identified, none wrong); the slower ones
     # stay covered (a moving order's lag needs its ×10 drift, 114–126 nats below)
     fastest_evidence: float = 20.0
+    # nats below the tuned smoothing within which, with the parameters stated constant, its
+    # own alternatives (other starts, order drifts) that fit are covered, not only weighed:
+    # one order drift cannot follow a fast and a slow part of a record alike, and the
+    # evidence does not exclude one so near (held-out white 23: the ×10 drift 4.5 nats below
+    # covers the truth the tuned band misses; no record of 0–23 identified less)
+    near_evidence: float = 5.0
     # the trade-off profile: constant orders with the parameters drifting on hat functions
     trade_knots: int = 8  # knots of the drifting parameter (and their midpoints where it pays)
     trade_orders: int = 25  # constant orders profiled, evenly across the bounds
@@ -219,6 +225,7 @@ RANGES = {
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
     "clock_evidence": AT_LEAST_0,
     "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "fastest_evidence": AT_LEAST_0,
+    "near_evidence": AT_LEAST_0,
     "trade_chi2": AT_LEAST_0,
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),

@@ -158,9 +158,22 @@ def fastest_far(explanations, tuned, limit):
         e.kind == "order_drift" and e.factor == top and e.evidence < tuned.evidence - limit)]
 
 
+def near_alternatives(explanations, tuned, limit):
+    """The `tuned` run's own alternatives (its other starts and order drifts: the same
+    parameters, other intensities or starting orders) that stand for the data (`holds`) with
+    a Laplace evidence at most `limit` nats below its own. Their weight in the tuned run's
+    mixture is at least e^−limit; an evidence that near does not exclude them, for a
+    random-walk order whose one intensity cannot follow both a fast and a slow part of the
+    record."""
+    if not np.isfinite(tuned.evidence):
+        return []
+    return [e for e in explanations if e.kind in ("start", "order_drift") and e.holds
+            and e.evidence >= tuned.evidence - limit]
+
+
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
           floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
-          fastest_evidence=np.inf):
+          fastest_evidence=np.inf, near_evidence=None):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -173,7 +186,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     fits below the noise, its χ² no test of it); `half`: where the second half of the
     fitted samples begins (None: ``span // 2``, every sample fitted); `level_weights`: see
     `reference_variance`; `fastest_evidence`: the freest order drift tried lying more than
-    this many nats below the tuned one is left to its mixture weight (`fastest_far`)."""
+    this many nats below the tuned one is left to its mixture weight (`fastest_far`);
+    `near_evidence`: with the parameters stated constant, the tuned run's own alternatives
+    (`near_alternatives`) within this many nats of its evidence are covered, not only
+    weighed (None: weighed only)."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
@@ -219,11 +235,14 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         conditional_drifts |= e.drift > reference.drift + drift_floor
     conditional = tuple(np.concatenate([a, b[span:]]) for a, b in zip(band, ref_band))
     # the stated band: with the parameters held, the reference's (its alternatives weighed
-    # in); with a drift bound below the breakdown drift, the conditional band (the promise
+    # in, those near its evidence covered too); with a drift bound below the breakdown drift, the conditional band (the promise
     # the conditional answer makes for every drift below it); with more drift allowed, every
     # explanation that fits within it, the reference's alternatives included: one input
     # cannot say which holds
     stated, drifting = ref_band, False
+    if stated_drift == 0 and near_evidence is not None and reference is tuned:
+        for e in near_alternatives(explanations, tuned, near_evidence):
+            stated = union(stated, member(e))
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
