@@ -45,8 +45,8 @@ MUTATIONS = {
     ),
     "the held smoothing's scales unioned with the free band": (
         "vojax/_tracker/_band.py",
-        [('INTEGRATED = ("start", "order_drift", "level")\n',
-          'INTEGRATED = ("start", "order_drift", "level", "held_level")\n')],
+        [('INTEGRATED = (*OWN, "level")\n',
+          'INTEGRATED = (*OWN, "level", "held_level")\n')],
         ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
     "the least drift's constant parameters judged by the penalised ladder only": (
@@ -360,7 +360,7 @@ MUTATIONS = {
     ),
     "the tracker leaves the fastest order drift in however far below": (
         "vojax/_tracker/_fit.py",
-        [("                         fastest_evidence=s.fastest_evidence)", "                         )")],
+        [("fastest_evidence=s.fastest_evidence, near_evidence", "near_evidence")],
         ["tests/test_band_fastest.py::test_the_tracker_passes_its_setting_to_the_band"],
     ),
     "the order drifts' factors attached in reverse": (
@@ -368,5 +368,25 @@ MUTATIONS = {
         [("    factors = [None] * len(kinds) + [float(f) for f in s.alt_order_drift]",
           "    factors = [None] * len(kinds) + [float(f) for f in s.alt_order_drift[::-1]]")],
         ["tests/test_envelope.py::test_each_order_drift_carries_the_factor_its_run_was_given"],
+    ),
+    "the constant band covers its near alternatives however far below": (
+        "vojax/_tracker/_band.py",
+        [("            and e.evidence >= tuned.evidence - limit]", "            ]")],
+        ["tests/test_band_near.py::test_a_near_alternative_widens_the_constant_band_to_its_own"],
+    ),
+    "the near alternatives' limit measured from 0, not from the tuned evidence": (
+        "vojax/_tracker/_band.py",
+        [("            and e.evidence >= tuned.evidence - limit]", "            and e.evidence >= -limit]")],
+        ["tests/test_band_near.py::test_the_limit_is_measured_from_the_tuned_evidence"],
+    ),
+    "the constant band covers the level profile's near scales and misfits": (
+        "vojax/_tracker/_band.py",
+        [("e.kind in OWN and e.holds", "e.kind in INTEGRATED")],
+        ["tests/test_band_near.py::test_only_the_tuned_runs_own_alternatives_that_hold"],
+    ),
+    "the tracker weighs the near alternatives only": (
+        "vojax/_tracker/_fit.py",
+        [(", near_evidence=s.near_evidence)", ")")],
+        ["tests/test_band_near.py::test_the_tracker_passes_its_setting_to_the_band"],
     ),
 }

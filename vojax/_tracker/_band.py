@@ -23,9 +23,12 @@ import numpy as np
 from ._model import order_of_np
 from ._smoother import mix_modes
 
+# the tuned run's own alternatives: its intensities from other starting orders, its order
+# drift scaled (the same parameters' drift)
+OWN = ("start", "order_drift")
 # the alternatives that share the reference's assumption about the parameters: weighed into
 # its variance (by evidence, or the level profile's χ²), never unioned with it
-INTEGRATED = ("start", "order_drift", "level")
+INTEGRATED = (*OWN, "level")
 # the held smoothing's own held scales: weighed into its variance where it is the reference,
 # never unioned with a band nor a rung of the ladder (where the tuned smoothing is the
 # reference, they were run about another smoothing)
@@ -80,7 +83,7 @@ def reference_variance(explanations, tuned, span, level_weights="chi2"):
     (a run that fits below the noise has fitted noise, and that earns it no weight over a held
     scale that fits as well as the noise allows); ``"evidence"``, by its Laplace evidence
     (where every member's is finite; else by χ²)."""
-    mixed = [tuned] + [e for e in explanations if e.kind in ("start", "order_drift")]
+    mixed = [tuned] + [e for e in explanations if e.kind in OWN]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
     return var + level_spread(explanations, tuned, level_weights)
@@ -167,7 +170,7 @@ def near_alternatives(explanations, tuned, limit):
     record."""
     if not np.isfinite(tuned.evidence):
         return []
-    return [e for e in explanations if e.kind in ("start", "order_drift") and e.holds
+    return [e for e in explanations if e.kind in OWN and e.holds
             and e.evidence >= tuned.evidence - limit]
 
 
