@@ -257,6 +257,27 @@ def test_constant_parameters_band_covers_the_level_another_scale_allows(suite):
     assert row["rms"] > 0.1
 
 
+@pytest.mark.parametrize("family, index", [("white", 23), ("coloured", 15)])
+def test_a_true_constant_statement_covers_the_tuned_runs_near_alternatives(suite, monkeypatch,
+                                                                          family, index):
+    """White draw 23 (the order falling from 0.61 to 0.50 in the first 50 of 600 samples) and
+    coloured draw 15 (a constant order under AR(1) noise), the parameters constant and stated
+    so: each identified, with the truth inside the band at most samples of the second half;
+    with the tuned run's near alternatives only weighed (`near_alternatives` empty), each is
+    identified with the truth outside at most of them (confidently wrong), the estimate the
+    same: the rule widens the band, it does not move the order."""
+    from vojax._tracker import _band
+
+    module, signals = suite
+    case = module.draw_case(family, index, signals)
+    on = module.score(case, module.run_method("tracker-constant", case))
+    monkeypatch.setattr(_band, "near_alternatives", lambda *args: [])
+    off = module.score(case, module.run_method("tracker-constant", case))
+    assert on["identified"] and on["coverage"] > 0.85
+    assert off["identified"] and off["wrong"]
+    assert on["rms"] == pytest.approx(off["rms"], rel=1e-9)
+
+
 @pytest.fixture(scope="module")
 def long_draw(suite):
     """Long draw 1 (20,000 samples; its truth takes a few seconds), drawn once."""
