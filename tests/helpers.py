@@ -179,3 +179,21 @@ def gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3, width=0.15):
     sd = noise * np.ptp(x)
     y = x + 0.2 + sd * np.random.default_rng(seed).standard_normal(n)
     return t, u, y, dt, sd
+
+
+def band_calls(monkeypatch, **options):
+    """The calls the tracker makes to its band (`vojax._tracker._fit.bands`) while
+    `identify` fits `ramp_case(n=300)`'s first input with `options`: a list of
+    ``(explanations, args, kwargs)``."""
+    from vojax._tracker import _band, _fit
+
+    seen = []
+
+    def spy(explanations, *args, **kwargs):
+        seen.append((explanations, args, kwargs))
+        return _band.bands(explanations, *args, **kwargs)
+
+    monkeypatch.setattr(_fit, "bands", spy)
+    _, u, y, _, _, dt = ramp_case(n=300)
+    vojax.identify(u[:, :1], y, dt, method="kalman", warn=False, **options)
+    return seen

@@ -11,6 +11,8 @@ from vojax._tracker._band import bands, fastest_far
 from vojax._tracker._explanations import Explanation
 from vojax._tracker._model import order_of_np
 
+from .helpers import band_calls
+
 N = 60
 BOUNDS = (0.0, 1.0)
 SD = 0.1  # every stand-in's σ of β
@@ -103,23 +105,10 @@ def test_the_setting_is_checked():
 def test_the_tracker_passes_its_setting_to_the_band(monkeypatch):
     """`identify` hands `TrackerSettings.fastest_evidence` (and the band's other settings) to
     `bands`, with the order drifts' factors on their explanations."""
-    import vojax
-    from vojax._tracker import _fit
-
-    from .helpers import ramp_case
-
-    seen = []
-
-    def spy(explanations, *args, **kwargs):
-        seen.append((explanations, kwargs))
-        return bands(explanations, *args, **kwargs)
-
-    monkeypatch.setattr(_fit, "bands", spy)
-    _, u, y, _, _, dt = ramp_case(n=300)
     settings = TrackerSettings(fastest_evidence=7.0)
-    vojax.identify(u[:, :1], y, dt, method="kalman", warn=False, settings=settings)
+    seen = band_calls(monkeypatch, settings=settings)
     assert seen
-    for explanations, kwargs in seen:
+    for explanations, _, kwargs in seen:
         assert kwargs["fastest_evidence"] == 7.0
         assert kwargs["evidence_floor"] == settings.envelope_evidence
         factors = [e.factor for e in explanations if e.kind == "order_drift"]

@@ -12,6 +12,8 @@ from vojax._tracker._band import bands, near_alternatives
 from vojax._tracker._explanations import Explanation
 from vojax._tracker._model import order_of_np
 
+from .helpers import band_calls
+
 N = 60
 BOUNDS = (0.0, 1.0)
 SD, SD_DRIFT, BETA_DRIFT = 0.1, 0.2, 0.5  # the tuned run's σ of β; the ×10 drift's σ and β
@@ -107,22 +109,9 @@ def test_the_setting_is_checked():
 
 def test_the_tracker_passes_its_setting_to_the_band(monkeypatch):
     """`identify(parameters="constant")` hands `TrackerSettings.near_evidence` to `bands`."""
-    import vojax
-    from vojax._tracker import _fit
-
-    from .helpers import ramp_case
-
-    seen = []
-
-    def spy(explanations, *args, **kwargs):
-        seen.append((args, kwargs))
-        return bands(explanations, *args, **kwargs)
-
-    monkeypatch.setattr(_fit, "bands", spy)
-    _, u, y, _, _, dt = ramp_case(n=300)
-    vojax.identify(u[:, :1], y, dt, method="kalman", warn=False, parameters="constant",
-                   settings=TrackerSettings(near_evidence=7.0))
+    seen = band_calls(monkeypatch, parameters="constant",
+                      settings=TrackerSettings(near_evidence=7.0))
     assert seen
-    for args, kwargs in seen:
+    for _, args, kwargs in seen:
         assert kwargs["near_evidence"] == 7.0
         assert args[2] == 0.0  # the constant statement
