@@ -8,7 +8,9 @@ drift tried, `fastest_evidence`), is an account the band must cover when the sta
 allows its drift. The reference is the fitting smoothing
 whose parameters drift least (the tuned smoothing where none fits); its band is the
 evidence-weighted mixture of the tuned intensities' modes and order drifts, with the
-parameters' scale integrated over the level profile where they are held. Going up in drift,
+parameters' scale integrated over the level profile where they are held; with the
+parameters stated constant, its modes and order drifts whose evidence lies within
+`near_evidence` nats of the tuned one's are covered as well. Going up in drift,
 each fitting explanation inside the band so far joins it; the first one outside it sets the
 breakdown drift: with that much drift an order outside the band explains the data as well,
 and no test of this record tells them apart. Moving orders (`vojax._tracker._moving`) join
@@ -238,10 +240,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         conditional_drifts |= e.drift > reference.drift + drift_floor
     conditional = tuple(np.concatenate([a, b[span:]]) for a, b in zip(band, ref_band))
     # the stated band: with the parameters held, the reference's (its alternatives weighed
-    # in, those near its evidence covered too); with a drift bound below the breakdown drift, the conditional band (the promise
-    # the conditional answer makes for every drift below it); with more drift allowed, every
-    # explanation that fits within it, the reference's alternatives included: one input
-    # cannot say which holds
+    # in, those near its evidence covered too); with a drift bound below the breakdown
+    # drift, the conditional band (the promise the conditional answer makes for every drift
+    # below it); with more drift allowed, every explanation that fits within it, the
+    # reference's alternatives included: one input cannot say which holds
     stated, drifting = ref_band, False
     if stated_drift == 0 and near_evidence is not None and reference is tuned:
         for e in near_alternatives(explanations, tuned, near_evidence):
