@@ -270,10 +270,11 @@ def as_reported(r, **kwargs):
 def clock_union(r, band):
     """`band` widened to the second clock's tuned smoothing (the data's unit of time) as
     `Tracker` weighs it (`vojax._tracker._clock.weigh_clock`): where that order lies outside
-    the band, the union, unless the statement excludes that account (parameters stated
-    constant, which drift on the span's clock beyond `drift_floor`) or the data do (the span's
-    fit ahead by more than `clock_evidence` nats per point, unless a drift bound is stated),
-    and covering it would leave no answer (a half-width beyond `identified_halfwidth`).
+    the band, the union, unless the data exclude that account (the span's fit ahead by more
+    than `clock_evidence` nats per point, unless a drift bound is stated), or the statement
+    does (parameters stated constant, which drift on the span's clock beyond `drift_floor`)
+    and either the span's fit is ahead or covering it would leave no answer (a half-width
+    beyond `identified_halfwidth`).
     Dumps without the span's length in the data's unit (`clock_scale`) count a constant
     statement's account as drifting."""
     from vojax import TrackerSettings
@@ -293,10 +294,13 @@ def clock_union(r, band):
     constant = r["setting"] in ("constant", "constant-x0")
     drifts = scale is None or clock_drift(o_alpha, scale) > s.drift_floor
     apart = (r["log_likelihood"] - other["log_likelihood"]) / max(n, 1)
-    excluded = (constant and drifts) or (r["setting"] != "stated" and apart > s.clock_evidence)
+    if r["setting"] != "stated" and apart > s.clock_evidence:
+        return band
+    excluded = constant and drifts
     widened = union(band, (o_alpha, np.asarray(other["lower"], float)[:n],
                            np.asarray(other["upper"], float)[:n], 0.0))
-    if excluded and np.median(widened[2][half:] - widened[1][half:]) / 2 > s.identified_halfwidth:
+    if excluded and (apart > 0.0 or np.median(widened[2][half:] - widened[1][half:]) / 2
+                     > s.identified_halfwidth):
         return band
     return widened
 

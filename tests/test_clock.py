@@ -221,6 +221,28 @@ def test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps
     assert weigh_clock(res, fit, other, other_fit, bound=0.1, scale=100.0)[2] is None
 
 
+def test_a_statements_excluded_account_is_covered_only_where_the_data_favour_it_as_much():
+    """An account the statement excludes (its drift on the span's clock beyond the bound),
+    whose union is still an answer: covered where the data unit's fit explains the data at
+    least as well as the span's (its log-likelihood not below), not where the span's is
+    ahead by any margin, however small against the evidence that excludes an account
+    outright; with the parameters free the lead below that evidence changes nothing."""
+    span = np.linspace(0.3, 0.4, N)
+    for lead, covered in ((-0.05, True), (0.0, True), (1e-3, False), (0.1, False)):
+        res, fit = _fit(span, 0.05, log_likelihood=100.0 + lead * N)
+        other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=100.0)  # union ±0.165
+        new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=0.01, scale=100.0,
+                                          answer=0.2, evidence=0.2)
+        if covered:
+            np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+            np.testing.assert_array_equal(np.asarray(new_fit["upper"]), other.alpha_upper)
+            assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
+        else:
+            assert new is res and new_fit is fit and clock is None
+        free, _, _ = weigh_clock(res, fit, other, other_fit, answer=0.2, evidence=0.2)
+        np.testing.assert_array_equal(np.asarray(free.alpha_upper), other.alpha_upper)
+
+
 def test_the_evidence_per_fitted_point_between_the_two_clocks():
     """The log-likelihoods' difference over the fitted points: a masked point does not count."""
     res, fit = _fit(np.full(N, 0.4), 0.05, log_likelihood=130.0)
@@ -233,24 +255,30 @@ def test_the_evidence_per_fitted_point_between_the_two_clocks():
 
 def test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement():
     """Where the span's fit explains the data better than the data unit's by more than
-    `evidence` nats per fitted point, that account is excluded as a statement excludes it:
-    the band stays the span's unless the union is still an answer, and a conditional answer
-    it lies outside of is kept. At or below it, and where the data unit's fit is the better,
-    the union as before."""
+    `evidence` nats per fitted point, the data exclude that account: the band stays the
+    span's even where the union would still be an answer (unlike an account the statement
+    alone excludes), under any statement, and a conditional answer it lies outside of is
+    kept. At or below it, and where the data unit's fit is the better, the union as
+    before."""
     span = np.linspace(0.3, 0.4, N)
     res, fit = _fit(span, 0.05, log_likelihood=100.0 + 0.3 * N)
     for ll, excluded in ((100.0, True), (100.0 + 0.1 * N, False), (100.0 + 0.5 * N, False)):
         other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=ll)  # union ±0.165
-        new, new_fit, clock = weigh_clock(res, fit, other, other_fit, answer=0.1,
-                                          evidence=0.2)
-        if excluded:
-            assert new is res and new_fit is fit and clock is None
-        else:
-            np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
-            assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
-        # covered where the union is still an answer (±0.2), whatever the evidence
-        new, _, _ = weigh_clock(res, fit, other, other_fit, answer=0.2, evidence=0.2)
-        np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+        for answer, bound in ((0.1, None), (0.2, None), (0.2, 1.0)):
+            # free, or a statement the account keeps (its drift on the clock is 0.46)
+            new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=bound,
+                                              scale=100.0, answer=answer, evidence=0.2)
+            if excluded:
+                assert new is res and new_fit is fit and clock is None
+            else:
+                np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
+                assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
+    # the statement excludes it too (a bound below its drift): still not covered, however
+    # affordable the union
+    other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=100.0)
+    new, _, clock = weigh_clock(res, fit, other, other_fit, bound=0.01, scale=100.0,
+                                answer=0.2, evidence=0.2)
+    assert new is res and clock is None
     # inside the band but outside the conditional band: an excluded account withdraws nothing
     res, fit = _fit(np.full(N, 0.4), 0.2, log_likelihood=100.0 + 0.3 * N)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)

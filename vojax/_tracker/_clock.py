@@ -11,11 +11,12 @@ true one), and the band covers both; where it lies inside, the band is the span'
 but a conditional answer (a bound on the drift on the span's clock) is withdrawn where that
 order lies outside the conditional band. `parameters="constant"` is a statement on the
 span's clock: where the data unit's account drifts there (`clock_drift`), it is excluded,
-and covered only where the union is still an answer. With the parameters free or stated
-constant, an account the data exclude is excluded alike (a drift bound keeps the union):
-where the span's fit explains them better by more than `TrackerSettings.clock_evidence`
-nats per fitted point (`evidence_apart`; an input with an oscillation superposed can tell
-the clocks apart, a staircase alone cannot, and there the evidence stays below it).
+and covered only where the data favour it at least as much as the span's account and the
+union is still an answer. With the parameters free or stated constant, an account the data
+exclude is not covered at all (a drift bound keeps the union): where the span's fit
+explains them better by more than `TrackerSettings.clock_evidence` nats per fitted point
+(`evidence_apart`; an input with an oscillation superposed can tell the clocks apart, a
+staircase alone cannot, and there the evidence stays below it).
 """
 
 import dataclasses
@@ -83,10 +84,12 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     `bound`: the relative drift of the parameters the call states (None: free). Where that
     fit's parameters, constant in the data's unit, drift beyond it on the span's clock
     (`clock_drift`, over the record's span of `scale` data units), the statement excludes
-    that account: the band covers it only where the union's half-width (median over the
-    second half) stays within `answer`, and the conditional answer is kept. The same holds,
-    whatever the statement, where the span's fit explains the data better by more than
-    `evidence` nats per fitted point (`evidence_apart`): the data exclude that account."""
+    that account: the band covers it only where the data favour it at least as much as the
+    span's fit (`evidence_apart` ≤ 0) and the union's half-width (median over the second
+    half) stays within `answer`, and the conditional answer is kept. Where the span's
+    fit explains the data better by more than `evidence` nats per fitted point
+    (`evidence_apart`), whatever the statement, the data exclude that account: the band is
+    the span's and the conditional answer is kept."""
     span = fit["span"]
     half, o_points = _other_points(fit, other, other_fit)
     if o_points is None:
@@ -94,17 +97,21 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     points = tuple(np.asarray(fit[k])[:span] for k in ("alpha", "lower", "upper"))
     o_alpha = o_points[0]
     clock = float(np.median(o_alpha[half:]))
+    # an account the data exclude: the span's fit explains them better by a clear margin
+    apart = evidence_apart(res, fit, other)
+    if apart > evidence:
+        return res, fit, None
     # a drift on the span's clock beyond the stated bound: an account the statement excludes
-    excluded = (bound is not None and clock_drift(o_alpha, scale) > bound) or (
-        evidence_apart(res, fit, other) > evidence)
+    excluded = bound is not None and clock_drift(o_alpha, scale) > bound
     if not outside(o_alpha, (*points, 0.0), half):
         cond = fit.get("conditional")
         beyond = cond is not None and outside(
             o_alpha, (None, *(np.asarray(a)[:span] for a in cond[1:3]), None), half)
         return res, fit, clock if beyond and not excluded else None
     _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))
-    if excluded and np.median(hi[half:] - lo[half:]) / 2 > answer:
-        return res, fit, None  # covered only where covering it leaves an answer
+    if excluded and (apart > 0.0 or np.median(hi[half:] - lo[half:]) / 2 > answer):
+        # covered only where the data favour it as much and covering it leaves an answer
+        return res, fit, None
     fit = dict(fit, lower=np.concatenate([lo, np.asarray(fit["lower"])[span:]]),
                upper=np.concatenate([hi, np.asarray(fit["upper"])[span:]]))
     fields = ("alpha", "alpha_lower", "alpha_upper", "alpha_std")
