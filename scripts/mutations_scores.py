@@ -37,4 +37,16 @@ MUTATIONS = {
           '"fastest": [i for i, m in zip(drifts, factors) if m > 1]}[which]')],
         ["tests/test_band_scores.py"],
     ),
+    "the clock replay covers a statement's excluded account where the span's fit is ahead": (
+        "scripts/band_scores.py",
+        [("    if excluded and (apart > 0.0 or np.median(widened[2][half:] - widened[1][half:]) / 2",
+          "    if excluded and (False or np.median(widened[2][half:] - widened[1][half:]) / 2")],
+        ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
+    ),
+    "the clock replay covers an account the evidence excludes": (
+        "scripts/band_scores.py",
+        [('    if r["setting"] != "stated" and apart > s.clock_evidence:\n        return band',
+          '    if False:\n        return band')],
+        ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
+    ),
 }

@@ -1,10 +1,15 @@
-"""The offline band rules of `scripts/band_scores.py` that weigh the tuned run's far
-alternatives: on explanations made by hand, each rule leaves out of the union exactly the
-alternatives it names, and only those far below the tuned run's evidence."""
+"""The offline band rules of `scripts/band_scores.py`: on explanations made by hand, each
+rule that weighs the tuned run's far alternatives leaves out of the union exactly the
+alternatives it names, and only those far below the tuned run's evidence; the second
+clock's replay widens a band exactly where the tracker does."""
+
+import dataclasses
 
 import numpy as np
 import pytest
 
+from vojax import TrackerSettings
+from vojax._tracker._clock import weigh_clock
 from vojax._tracker._model import beta_of_np
 
 from .helpers import load_script
@@ -85,3 +90,50 @@ def test_a_record_scored_from_a_given_point_is_scored_there(scores):
     assert scores.score(r, band)["coverage"] == pytest.approx(0.5)
     assert scores.score(dict(r, scored_from=30), band)["coverage"] == 1.0
     assert scores.score(dict(r, scored_from=30), band)["count"] == 10
+
+
+
+@dataclasses.dataclass(frozen=True)
+class _Res:
+    """A stand-in for the tracker's result: the fields `weigh_clock` reads."""
+
+    alpha: np.ndarray
+    alpha_lower: np.ndarray
+    alpha_upper: np.ndarray
+    alpha_std: np.ndarray
+    converged: bool
+    tuning: object
+
+
+def _res(alpha, half, log_likelihood):
+    tuning = type("Tuning", (), dict(log_likelihood=float(log_likelihood)))
+    return _Res(alpha, alpha - half, alpha + half, np.full(N, half / 2), True, tuning)
+
+
+@pytest.mark.parametrize("setting, lead", [
+    (s, lead) for s in ("free", "constant") for lead in (-0.05, 0.0, 1e-3, 0.1, 0.3)])
+def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, setting, lead):
+    """`clock_union` replays `weigh_clock` on a saved record: the span's band 0.30–0.40
+    (±0.05), the data unit's order 0.1 above (±0.03; parameters constant in it drift 46 %
+    on a span of 100 units), the span's fit ahead by `lead` nats per point. The union
+    (±0.09) is still an answer, so where the tracker covers it the replay does, and where
+    the tracker leaves the band (the evidence, or a constant statement with the span's fit
+    ahead) so does the replay, to the last bit."""
+    s = TrackerSettings()
+    span = np.linspace(0.3, 0.4, N)
+    mine, other = _res(span, 0.05, 10.0 + lead * N), _res(span + 0.1, 0.03, 10.0)
+    fit = dict(alpha=span, lower=mine.alpha_lower, upper=mine.alpha_upper, span=N)
+    other_fit = dict(alpha=other.alpha, lower=other.alpha_lower, upper=other.alpha_upper)
+    bound = s.drift_floor if setting == "constant" else None
+    new, _, _ = weigh_clock(mine, fit, other, other_fit, bound=bound, scale=100.0,
+                            answer=s.identified_halfwidth, evidence=s.clock_evidence)
+    record = dict(truth=span, setting=setting, clock_scale=100.0,
+                  log_likelihood=10.0 + lead * N,
+                  other=dict(converged=True, alpha=other.alpha, lower=other.alpha_lower,
+                             upper=other.alpha_upper, log_likelihood=10.0))
+    band = (span, mine.alpha_lower, mine.alpha_upper, mine.alpha_std)
+    replay = scores.clock_union(record, band)
+    np.testing.assert_array_equal(replay[1], np.asarray(new.alpha_lower))
+    np.testing.assert_array_equal(replay[2], np.asarray(new.alpha_upper))
+    widened = not np.array_equal(replay[2], band[2])
+    assert widened == (lead <= 0.0 if setting == "constant" else lead <= s.clock_evidence)
