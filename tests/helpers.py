@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import jax.numpy as jnp
@@ -197,3 +198,26 @@ def band_calls(monkeypatch, **options):
     _, u, y, _, _, dt = ramp_case(n=300)
     vojax.identify(u[:, :1], y, dt, method="kalman", warn=False, **options)
     return seen
+
+
+@dataclasses.dataclass(frozen=True)
+class ClockResult:
+    """A stand-in for the tracker's result: the fields `weigh_clock` reads and writes."""
+
+    alpha: np.ndarray
+    alpha_lower: np.ndarray
+    alpha_upper: np.ndarray
+    alpha_std: np.ndarray
+    converged: bool = True
+    tuning: object = None  # `log_likelihood` only
+
+
+def clock_fit(alpha, half_width, converged=True, log_likelihood=0.0):
+    """A stand-in result with the band ``alpha ± half_width`` (σ a quarter of its width) and
+    a tuning of that log-likelihood, and its fitted points (every sample fitted), as
+    `vojax._tracker._clock.weigh_clock` reads them."""
+    alpha = np.asarray(alpha, float)
+    lo, hi = alpha - half_width, alpha + half_width
+    tuning = type("Tuning", (), dict(log_likelihood=float(log_likelihood)))()
+    res = ClockResult(alpha, lo, hi, np.full(alpha.size, half_width / 2), converged, tuning)
+    return res, dict(alpha=alpha, lower=lo, upper=hi, span=alpha.size)

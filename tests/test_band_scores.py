@@ -3,8 +3,6 @@ rule that weighs the tuned run's far alternatives leaves out of the union exactl
 alternatives it names, and only those far below the tuned run's evidence; the second
 clock's replay widens a band exactly where the tracker does."""
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -12,7 +10,7 @@ from vojax import TrackerSettings
 from vojax._tracker._clock import weigh_clock
 from vojax._tracker._model import beta_of_np
 
-from .helpers import load_script
+from .helpers import clock_fit, load_script
 
 N = 40
 BOUNDS = (0.01, 0.99)
@@ -93,23 +91,6 @@ def test_a_record_scored_from_a_given_point_is_scored_there(scores):
 
 
 
-@dataclasses.dataclass(frozen=True)
-class _Res:
-    """A stand-in for the tracker's result: the fields `weigh_clock` reads."""
-
-    alpha: np.ndarray
-    alpha_lower: np.ndarray
-    alpha_upper: np.ndarray
-    alpha_std: np.ndarray
-    converged: bool
-    tuning: object
-
-
-def _res(alpha, half, log_likelihood):
-    tuning = type("Tuning", (), dict(log_likelihood=float(log_likelihood)))
-    return _Res(alpha, alpha - half, alpha + half, np.full(N, half / 2), True, tuning)
-
-
 @pytest.mark.parametrize("setting, lead", [
     (s, lead) for s in ("free", "constant") for lead in (-0.05, 0.0, 1e-3, 0.1, 0.3)])
 def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, setting, lead):
@@ -121,9 +102,8 @@ def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, 
     ahead) so does the replay, to the last bit."""
     s = TrackerSettings()
     span = np.linspace(0.3, 0.4, N)
-    mine, other = _res(span, 0.05, 10.0 + lead * N), _res(span + 0.1, 0.03, 10.0)
-    fit = dict(alpha=span, lower=mine.alpha_lower, upper=mine.alpha_upper, span=N)
-    other_fit = dict(alpha=other.alpha, lower=other.alpha_lower, upper=other.alpha_upper)
+    mine, fit = clock_fit(span, 0.05, log_likelihood=10.0 + lead * N)
+    other, other_fit = clock_fit(span + 0.1, 0.03, log_likelihood=10.0)
     bound = s.drift_floor if setting == "constant" else None
     new, _, _ = weigh_clock(mine, fit, other, other_fit, bound=bound, scale=100.0,
                             answer=s.identified_halfwidth, evidence=s.clock_evidence)

@@ -13,32 +13,12 @@ from vojax._diagnostics import diagnose
 from vojax._tracker._band import outside
 from vojax._tracker._clock import clock_drift, evidence_apart, second_clock, weigh_clock
 
+from .helpers import clock_fit
+
 N = 100
 HALF = np.arange(N) >= N // 2
 
 
-@dataclasses.dataclass(frozen=True)
-class _Res:
-    """A stand-in for the tracker's result: the fields `weigh_clock` reads and writes."""
-
-    alpha: np.ndarray
-    alpha_lower: np.ndarray
-    alpha_upper: np.ndarray
-    alpha_std: np.ndarray
-    converged: bool = True
-    tuning: object = None  # `log_likelihood` only (`_tuned`)
-
-
-def _tuned(log_likelihood):
-    """A stand-in for the tuning, with its log-likelihood."""
-    return type("Tuning", (), dict(log_likelihood=float(log_likelihood)))()
-
-
-def _fit(alpha, half_width, converged=True, log_likelihood=0.0):
-    alpha = np.asarray(alpha, float)
-    lo, hi = alpha - half_width, alpha + half_width
-    res = _Res(alpha, lo, hi, np.full(N, half_width / 2), converged, _tuned(log_likelihood))
-    return res, dict(alpha=alpha, lower=lo, upper=hi, span=N)
 
 
 def test_the_second_clock_is_fitted_unless_the_span_is_one_unit_within_five_percent():
@@ -59,8 +39,8 @@ def test_an_order_is_outside_a_band_at_most_samples_of_the_second_half():
 
 def test_an_order_outside_the_band_widens_it_to_the_union_of_both_bands():
     span = np.linspace(0.3, 0.4, N)
-    res, fit = _fit(span, 0.05)
-    other, other_fit = _fit(span + 0.2, 0.08)
+    res, fit = clock_fit(span, 0.05)
+    other, other_fit = clock_fit(span + 0.2, 0.08)
     new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
     # the lower edge the span's band's, the upper edge the other's
     for band in ((new.alpha_lower, new.alpha_upper), (new_fit["lower"], new_fit["upper"])):
@@ -74,9 +54,9 @@ def test_an_order_outside_the_band_widens_it_to_the_union_of_both_bands():
 
 @pytest.mark.parametrize("case", ["inside", "not converged", "not finite"])
 def test_an_order_inside_the_band_or_from_a_failed_fit_changes_nothing(case):
-    res, fit = _fit(np.full(N, 0.4), 0.05)
+    res, fit = clock_fit(np.full(N, 0.4), 0.05)
     shift = 0.04 if case == "inside" else 0.2
-    other, other_fit = _fit(np.full(N, 0.4 + shift), 0.05, converged=case != "not converged")
+    other, other_fit = clock_fit(np.full(N, 0.4 + shift), 0.05, converged=case != "not converged")
     if case == "not finite":
         other_fit["upper"] = np.where(HALF, np.nan, other_fit["upper"])
     new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
@@ -84,9 +64,9 @@ def test_an_order_inside_the_band_or_from_a_failed_fit_changes_nothing(case):
 
 
 def test_an_order_inside_the_band_but_outside_the_conditional_band_is_named_not_unioned():
-    res, fit = _fit(np.full(N, 0.4), 0.2)
+    res, fit = clock_fit(np.full(N, 0.4), 0.2)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
-    other, other_fit = _fit(np.full(N, 0.5), 0.05)
+    other, other_fit = clock_fit(np.full(N, 0.5), 0.05)
     new, new_fit, clock = weigh_clock(res, fit, other, other_fit)
     assert new is res and new_fit is fit and clock == pytest.approx(0.5)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.2, fit["alpha"] + 0.2, None)
@@ -194,8 +174,8 @@ def test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps
     one whose parameters drift on the span's clock by `clock_drift`: beyond the bound the
     statement excludes it, and the band covers it only where the union stays an answer."""
     span = np.linspace(0.3, 0.4, N)
-    res, fit = _fit(span, 0.05)
-    other, other_fit = _fit(span + 0.2, 0.08)  # the union: ±0.165 about its middle
+    res, fit = clock_fit(span, 0.05)
+    other, other_fit = clock_fit(span + 0.2, 0.08)  # the union: ±0.165 about its middle
     drift = clock_drift(span + 0.2, 100.0)  # 100^(±0.05) about the mean: about 0.46
     assert 0.45 < drift < 0.47
     for bound in (None, 1.01 * drift):  # free, or a bound it keeps: the union, as ever
@@ -213,9 +193,9 @@ def test_a_stated_bound_excludes_the_data_units_account_unless_covering_it_keeps
                                 answer=0.2)
     np.testing.assert_array_equal(np.asarray(new.alpha_upper), other.alpha_upper)
     # inside the band but outside the conditional band: the conditional answer is kept
-    res, fit = _fit(np.full(N, 0.4), 0.2)
+    res, fit = clock_fit(np.full(N, 0.4), 0.2)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
-    other, other_fit = _fit(np.linspace(0.45, 0.55, N), 0.05)
+    other, other_fit = clock_fit(np.linspace(0.45, 0.55, N), 0.05)
     assert weigh_clock(res, fit, other, other_fit, scale=100.0)[2] == pytest.approx(
         float(np.median(np.linspace(0.45, 0.55, N)[HALF])))
     assert weigh_clock(res, fit, other, other_fit, bound=0.1, scale=100.0)[2] is None
@@ -229,8 +209,8 @@ def test_a_statements_excluded_account_is_covered_only_where_the_data_favour_it_
     outright; with the parameters free the lead below that evidence changes nothing."""
     span = np.linspace(0.3, 0.4, N)
     for lead, covered in ((-0.05, True), (0.0, True), (1e-3, False), (0.1, False)):
-        res, fit = _fit(span, 0.05, log_likelihood=100.0 + lead * N)
-        other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=100.0)  # union ±0.165
+        res, fit = clock_fit(span, 0.05, log_likelihood=100.0 + lead * N)
+        other, other_fit = clock_fit(span + 0.2, 0.08, log_likelihood=100.0)  # union ±0.165
         new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=0.01, scale=100.0,
                                           answer=0.2, evidence=0.2)
         if covered:
@@ -245,8 +225,8 @@ def test_a_statements_excluded_account_is_covered_only_where_the_data_favour_it_
 
 def test_the_evidence_per_fitted_point_between_the_two_clocks():
     """The log-likelihoods' difference over the fitted points: a masked point does not count."""
-    res, fit = _fit(np.full(N, 0.4), 0.05, log_likelihood=130.0)
-    other, _ = _fit(np.full(N, 0.4), 0.05, log_likelihood=100.0)
+    res, fit = clock_fit(np.full(N, 0.4), 0.05, log_likelihood=130.0)
+    other, _ = clock_fit(np.full(N, 0.4), 0.05, log_likelihood=100.0)
     assert evidence_apart(res, fit, other) == pytest.approx(0.3, rel=1e-12)
     mask = np.r_[np.ones(N // 4), np.zeros(N - N // 4)]
     assert evidence_apart(res, dict(fit, mask=mask), other) == pytest.approx(1.2, rel=1e-12)
@@ -261,9 +241,9 @@ def test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement(
     kept. At or below it, and where the data unit's fit is the better, the union as
     before."""
     span = np.linspace(0.3, 0.4, N)
-    res, fit = _fit(span, 0.05, log_likelihood=100.0 + 0.3 * N)
+    res, fit = clock_fit(span, 0.05, log_likelihood=100.0 + 0.3 * N)
     for ll, excluded in ((100.0, True), (100.0 + 0.1 * N, False), (100.0 + 0.5 * N, False)):
-        other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=ll)  # union ±0.165
+        other, other_fit = clock_fit(span + 0.2, 0.08, log_likelihood=ll)  # union ±0.165
         for answer, bound in ((0.1, None), (0.2, None), (0.2, 1.0)):
             # free, or a statement the account keeps (its drift on the clock is 0.46)
             new, new_fit, clock = weigh_clock(res, fit, other, other_fit, bound=bound,
@@ -275,14 +255,14 @@ def test_an_account_the_evidence_excludes_is_not_covered_whatever_the_statement(
                 assert clock == pytest.approx(float(np.median((span + 0.2)[HALF])))
     # the statement excludes it too (a bound below its drift): still not covered, however
     # affordable the union
-    other, other_fit = _fit(span + 0.2, 0.08, log_likelihood=100.0)
+    other, other_fit = clock_fit(span + 0.2, 0.08, log_likelihood=100.0)
     new, _, clock = weigh_clock(res, fit, other, other_fit, bound=0.01, scale=100.0,
                                 answer=0.2, evidence=0.2)
     assert new is res and clock is None
     # inside the band but outside the conditional band: an excluded account withdraws nothing
-    res, fit = _fit(np.full(N, 0.4), 0.2, log_likelihood=100.0 + 0.3 * N)
+    res, fit = clock_fit(np.full(N, 0.4), 0.2, log_likelihood=100.0 + 0.3 * N)
     fit["conditional"] = (fit["alpha"], fit["alpha"] - 0.03, fit["alpha"] + 0.03, None)
-    other, other_fit = _fit(np.linspace(0.45, 0.55, N), 0.05, log_likelihood=100.0)
+    other, other_fit = clock_fit(np.linspace(0.45, 0.55, N), 0.05, log_likelihood=100.0)
     assert weigh_clock(res, fit, other, other_fit, evidence=0.4)[2] == pytest.approx(
         float(np.median(np.linspace(0.45, 0.55, N)[HALF])))
     assert weigh_clock(res, fit, other, other_fit, evidence=0.2)[2] is None
