@@ -274,15 +274,13 @@ def clock_union(r, band):
     than `clock_evidence` nats per point, unless a drift bound is stated), or the statement
     does (parameters stated constant, which drift on the span's clock beyond `drift_floor`)
     and either the span's fit is ahead or covering it would leave no answer (a half-width
-    beyond `identified_halfwidth`).
-    Dumps without the span's length in the data's unit (`clock_scale`) count a constant
-    statement's account as drifting."""
+    beyond `identified_halfwidth`). Dumps without the span's length in the data's unit
+    (`clock_scale`) count a constant statement's account as drifting."""
     from vojax import TrackerSettings
     from vojax._tracker._band import outside, union
     from vojax._tracker._clock import clock_drift
 
-    other = r.get("other")
-    n = len(r["truth"])
+    other, n = r.get("other"), len(r["truth"])
     half = n // 2
     if other is None or not other["converged"]:
         return band
@@ -299,10 +297,8 @@ def clock_union(r, band):
     excluded = constant and drifts
     widened = union(band, (o_alpha, np.asarray(other["lower"], float)[:n],
                            np.asarray(other["upper"], float)[:n], 0.0))
-    if excluded and (apart > 0.0 or np.median(widened[2][half:] - widened[1][half:]) / 2
-                     > s.identified_halfwidth):
-        return band
-    return widened
+    wide = np.median(widened[2][half:] - widened[1][half:]) / 2 > s.identified_halfwidth
+    return band if excluded and (apart > 0.0 or wide) else widened
 
 
 def tempered_levels(c):

@@ -39,8 +39,8 @@ MUTATIONS = {
     ),
     "the clock replay covers a statement's excluded account where the span's fit is ahead": (
         "scripts/band_scores.py",
-        [("    if excluded and (apart > 0.0 or np.median(widened[2][half:] - widened[1][half:]) / 2",
-          "    if excluded and (False or np.median(widened[2][half:] - widened[1][half:]) / 2")],
+        [("    return band if excluded and (apart > 0.0 or wide) else widened",
+          "    return band if excluded and wide else widened")],
         ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
     ),
     "the clock replay covers an account the evidence excludes": (
