@@ -100,6 +100,12 @@ MUTATIONS = {
         ],
         ['tests/test_band.py'],
     ),
+    "the held scales run on the tuned smoothing's iteration budget": (
+        'vojax/_tracker/_level.py',
+        [('                               s.level_max_iter, False, problem.schedule)',
+          '                               s.max_iter, False, problem.schedule)')],
+        ['tests/test_envelope.py::test_the_held_scales_run_on_their_own_iteration_budget'],
+    ),
     'level profile keeps a run that did not converge': (
         'vojax/_tracker/_level.py',
         [

@@ -30,13 +30,14 @@ def _fake_modes(monkeypatch, fits_at, diverges_at=()):
     """A stand-in for `smoother_modes`: the run whose parameter is pinned at ratio r of the
     tuned mean has β = r everywhere, variance 0.01, residuals 0.1 (a χ² per sample of 1 at
     the noise variance 0.01: passes) where r is in `fits_at`, else 1 (fails), and no finite
-    score where r is in `diverges_at`. Records what each run was given."""
+    score where r is in `diverges_at`. Records what each run was given (its iteration
+    budget too)."""
     calls = []
 
     def modes(memory, u, y, mask, steps, horizon, hyper, m0, p0, start, bounds, budget, *rest):
         m0, p0, start = np.asarray(m0), np.asarray(p0), np.asarray(start)
         ratio = round(float(m0[1] / 2.0), 2)  # the tuned mode's mean parameter is 2
-        calls.append(dict(ratio=ratio, m0=m0, p0=p0, start=start, hyper=hyper))
+        calls.append(dict(ratio=ratio, m0=m0, p0=p0, start=start, hyper=hyper, budget=budget))
         res = np.full((1, N), 0.1 if ratio in fits_at else 1.0)
         score = -np.inf if ratio in diverges_at else 0.0
         return (np.full((1, N), ratio), np.full((1, N), 0.01), np.array([score]), res,
@@ -77,6 +78,16 @@ def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypat
         # started from the tuned mode's mean with the parameter held
         np.testing.assert_allclose(c["start"], [[0.3, held, -1.0]], rtol=1e-15)
         np.testing.assert_allclose(np.exp(c["hyper"].log_r[0]), 0.01, rtol=1e-14)  # tuned
+        assert c["budget"] == FIRST_ROUND.level_max_iter  # the held scales' own budget
+
+
+def test_the_held_scales_run_on_their_own_iteration_budget(monkeypatch):
+    """Every held scale's smoothing gets `level_max_iter` iterations, not the tuned
+    smoothing's `max_iter`, whichever is the larger."""
+    for level, tuned in ((37, 400), (500, 200)):
+        calls = _fake_modes(monkeypatch, fits_at=())
+        _profile(TrackerSettings(level_splits=0, level_max_iter=level, max_iter=tuned))
+        assert [c["budget"] for c in calls] == [level] * len(FIRST_ROUND.level_ratios)
 
 
 def test_each_held_scale_is_an_explanation_with_its_fit(monkeypatch):

@@ -30,6 +30,7 @@ from vojax import TrackerSettings
     (dict(max_points=99), r"max_points must be a whole number in \[100, 50000\], got 99"),
     (dict(max_points=50_001), r"max_points must be a whole number in \[100, 50000\]"),
     (dict(level_splits=-1), "level_splits must be a whole number ≥ 0"),
+    (dict(level_max_iter=0), "level_max_iter must be a whole number ≥ 1, got 0"),
     # ranges: two positive numbers, the first the smaller
     (dict(order_drift_range=(1.0, 0.1)), "order_drift_range must hold finite numbers > 0, two"),
     (dict(order_drift_range=(0.0, 1.0)), "order_drift_range must hold finite numbers > 0"),

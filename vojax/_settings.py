@@ -121,6 +121,9 @@ class TrackerSettings:
     level_max: float = 4.0  # … up to this ratio (and down to its inverse)
     level_splits: int = 3  # bisections a side between a fitting and a failing scale
     level_pin: float = 1e-8  # prior variance of a held parameter, × its square (at least 1)
+    # iterations of a held scale's smoothing: on the suite every held scale that fits converged
+    # within 92; one still climbing at this budget is far from fitting (docs/calibration.md)
+    level_max_iter: int = 150
     # how the band weighs the held scales: "chi2" (exp(−Δχ²/2), a χ² below its degrees of
     # freedom counted as dof: every scale that fits as well as the noise allows weighs alike)
     # or "evidence" (each smoothing's Laplace evidence: narrower, but confidently wrong on 6 of
@@ -235,6 +238,7 @@ RANGES = {
     "held_order_step": ((1.0,), math.inf, False), "level_step": ((1.0,), math.inf, False),
     "level_max": (1.0, math.inf, False),
     "max_iter": (1, math.inf, True), "grid_max_iter": (1, math.inf, True),
+    "level_max_iter": (1, math.inf, True),
     "refine_steps": (1, math.inf, True), "climb_rounds": (1, math.inf, True),
     "constant_grid": (3, math.inf, True), "golden_steps": (1, math.inf, True),
     "coloured_rounds": (1, math.inf, True), "fatal_edge_rounds": (1, math.inf, True),

@@ -14,8 +14,8 @@ from ._threads import in_threads, stack_hypers
 def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
     """The smoothings at the tuned intensities `tuning` with the parameters held at one of
     `level_ratios` × their mean over the tuned mode `sm` (a prior of variance `level_pin` on
-    θ_0's parameters, which the parameters' floor drift then keeps), each an `Explanation` of
-    kind `kind` (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
+    θ_0's parameters, which the parameters' floor drift then keeps; at most `level_max_iter`
+    iterations, a run still climbing there does not fit), each an `Explanation` of kind `kind` (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
     ratio still fits (the χ² test of `Explanation.fits`), the profile goes on by factors of
     `level_step` up to `level_max` (down to its inverse) until one does not. Between the tuned
     scale (or a ratio that fits) and the nearest ratio that does not, it bisects on the log
@@ -42,13 +42,13 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
 
         def call(lo, hi):
             return [
-                smoother_modes(*problem.record, hyper, m, p, start, problem.bounds, s.max_iter,
-                               False, problem.schedule)
+                smoother_modes(*problem.record, hyper, m, p, start, problem.bounds,
+                               s.level_max_iter, False, problem.schedule)
                 for m, p, start in runs[lo:hi]
             ]
 
         outs = [o for _, share in in_threads(problem, smoother_modes, len(runs), call,
-                                              (problem.u.shape, s.max_iter)) for o in share]
+                                              (problem.u.shape, s.level_max_iter)) for o in share]
         return (np.concatenate([o[k] for o in outs]) for k in range(5))
 
     # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
