@@ -83,7 +83,7 @@ def test_each_run_holds_the_parameter_at_its_multiple_of_the_tuned_one(monkeypat
 
 def test_the_held_scales_run_on_their_own_iteration_budget(monkeypatch):
     """Every held scale's smoothing gets `level_max_iter` iterations, not the tuned
-    smoothing's `max_iter`, whichever is the larger."""
+    smoothing's `max_iter`, whether that is the smaller budget or the larger."""
     for level, tuned in ((37, 400), (500, 200)):
         calls = _fake_modes(monkeypatch, fits_at=())
         _profile(TrackerSettings(level_splits=0, level_max_iter=level, max_iter=tuned))

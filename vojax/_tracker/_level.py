@@ -15,8 +15,9 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
     """The smoothings at the tuned intensities `tuning` with the parameters held at one of
     `level_ratios` × their mean over the tuned mode `sm` (a prior of variance `level_pin` on
     θ_0's parameters, which the parameters' floor drift then keeps; at most `level_max_iter`
-    iterations, a run still climbing there does not fit), each an `Explanation` of kind `kind` (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest)
-    ratio still fits (the χ² test of `Explanation.fits`), the profile goes on by factors of
+    iterations, a run still climbing there does not fit), each an `Explanation` of kind
+    `kind` (its χ² at `fit_noise`, or under `whiten`). Where the largest (smallest) ratio
+    still fits (the χ² test of `Explanation.fits`), the profile goes on by factors of
     `level_step` up to `level_max` (down to its inverse) until one does not. Between the tuned
     scale (or a ratio that fits) and the nearest ratio that does not, it bisects on the log
     scale while the failing run's order is outside its fitting neighbour's ±2σ band, up to
