@@ -369,4 +369,20 @@ MUTATIONS = {
           "    alpha = alpha + 0.01\n    full = _at_samples(res, at_samples, alpha, p_user,")],
         ["tests/test_blocks.py::test_the_second_clocks_quick_look_runs_no_memory_over_every_sample"],
     ),
+    "long blocks refitted whatever the reason they were refused for": (
+        "vojax/_tracker/_estimator.py",
+        [("                and Reason.CORRELATED in diagnostics.reasons):", "                and True):")],
+        ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
+    ),
+    "blocks of any length refitted where the prediction errors correlate": (
+        "vojax/_tracker/_estimator.py",
+        [("        if (size >= s.block_refine_from and finer < size", "        if (finer < size")],
+        ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
+    ),
+    "the refit's answer is the coarse fit's": (
+        "vojax/_tracker/_estimator.py",
+        [("            size = finer\n            res, fit, diagnostics = self._fit_sized(",
+          "            size = finer\n            _, _, _ = self._fit_sized(")],
+        ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
+    ),
 }

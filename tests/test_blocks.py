@@ -1,6 +1,8 @@
 """Long records for the tracker: block means by hand, the estimates back at every sample, the
 blocked fit against the fit of every sample, and the coarse clock's model error."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -216,3 +218,44 @@ def test_the_second_clocks_quick_look_runs_no_memory_over_every_sample(monkeypat
     phi = np.asarray(reference.fractional_integral(u, np.asarray(res.alpha), 0.01))
     expected = float(res.x0) + np.asarray(res.p)[:, 0] * phi
     np.testing.assert_allclose(np.asarray(res.y_hat), expected, rtol=0, atol=1e-8 * np.ptp(y))
+
+
+@pytest.mark.parametrize("reasons, settings, sizes", [
+    (("correlated",), {}, [21, 7]),  # refitted on up to 3 × 100 points: blocks of 7
+    (("correlated", "wide_band"), {"block_refine": 2}, [21, 11]),
+    (("wide_band",), {}, [21]),  # refused for another reason: not refitted
+    (("correlated",), {"block_refine": 1}, [21]),
+    (("correlated",), {"block_refine_from": 22}, [21]),  # blocks too short to refit
+])
+def test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones(
+        monkeypatch, reasons, settings, sizes):
+    """A record of 2,000 samples at `max_points` 100 is fitted in blocks of 21. Where the
+    fit's reasons hold correlated prediction errors and its blocks hold at least
+    `block_refine_from` samples, the record is fitted once more on up to `block_refine` ×
+    `max_points` points, and that fit is the answer (its block size, its order); else the
+    first fit is. The reasons of the first fit are set here (the fit itself is real)."""
+    from vojax._tracker._estimator import Tracker
+
+    seen = []
+    real = Tracker._fit_sized
+
+    def spied(self, u2, y, dt, t, mask, length, size, bounds):
+        res, fit, diagnostics = real(self, u2, y, dt, t, mask, length, size, bounds)
+        seen.append(size)
+        if len(seen) == 1:
+            diagnostics = dataclasses.replace(diagnostics, reasons=reasons)
+        return res, fit, diagnostics
+
+    monkeypatch.setattr(Tracker, "_fit_sized", spied)
+    t, u, y, alpha, x = _record(2000, 0.01, 0.01)
+    s = vojax.TrackerSettings(**settings)
+    res = vojax.identify(u, y, 0.01, max_points=100, parameters="constant", settings=s,
+                         warn=False)
+    assert seen == sizes
+    assert res.diagnostics.block == sizes[-1]
+    # the answer is that of a fit on those blocks alone (never refitted)
+    points = {21: 100, 11: 200, 7: 300}[sizes[-1]]
+    alone = vojax.identify(u, y, 0.01, max_points=points, parameters="constant", warn=False,
+                           settings=vojax.TrackerSettings(block_refine=1))
+    assert alone.diagnostics.block == sizes[-1]
+    np.testing.assert_array_equal(np.asarray(res.alpha), np.asarray(alone.alpha))

@@ -159,6 +159,10 @@ class TrackerSettings:
 
     # ---- long records and execution (no effect on the numbers)
     max_points: int = 1_000  # a longer record is fitted as the means of blocks of samples
+    # a record in blocks of at least `block_refine_from` samples whose prediction errors
+    # correlate is fitted again once on up to `block_refine` times `max_points` (1: never)
+    block_refine: int = 3
+    block_refine_from: int = 10
     batched_block: int = 10  # blocks of at least this many samples batch each pass's runs
     run_threads: int = 8  # a pass's independent smoothings run in up to this many threads
     # the linear filter and smoother's schedule: None (sequential on a CPU, chunked on a GPU
@@ -247,6 +251,7 @@ RANGES = {
     "trade_orders": (2, math.inf, True), "level_splits": (0, math.inf, True),
     "max_points": (MIN_POINTS, TRACKER_MAX_POINTS, True), "batched_block": (1, math.inf, True),
     "run_threads": (1, math.inf, True),
+    "block_refine": (1, math.inf, True), "block_refine_from": (2, math.inf, True),
 }
 
 
