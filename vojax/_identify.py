@@ -128,8 +128,10 @@ def identify(
       estimates are brought back to every sample (linear between block times, ``y_hat`` from
       one memory run over the whole record at that order), and `diagnostics` gives ``B`` and
       the coarse clock's model error against the noise of a block mean (above 0.5 the order
-      is not reported identified). The tracker's cost grows with its points, not the
-      record's length (`docs/benchmarks.md`).
+      is not reported identified). Where blocks of 10 samples or more leave the prediction
+      errors correlated, the record is fitted once more on up to 3 × `max_points` points,
+      and that fit is the answer (`TrackerSettings.block_refine`, `block_refine_from`). The
+      tracker's cost grows with its points, not the record's length (`docs/benchmarks.md`).
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
     - `time_scale`: ``method="kalman"`` only: the unit of time in which `parameters`
       states the parameters constant or drift-bounded (None: the record's span). The order

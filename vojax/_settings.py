@@ -157,7 +157,7 @@ class TrackerSettings:
     # 0–11, docs/calibration.md: the band covers drift faster than the bound's hats follow)
     protocol_factor: float = 6.8
 
-    # ---- long records and execution (no effect on the numbers)
+    # ---- long records (their blocks set the numbers) and execution (no effect on them)
     max_points: int = 1_000  # a longer record is fitted as the means of blocks of samples
     # a record in blocks of at least `block_refine_from` samples whose prediction errors
     # correlate is fitted again once on up to `block_refine` times `max_points` (1: never)
