@@ -91,7 +91,9 @@ def _saved(res, t, alpha, seconds):
 
     fit, other = _CAP["result"], _CAP.get("other")
     t = np.asarray(t, float)
-    size = block_size(t.size, vojax.TrackerSettings().max_points)
+    # the blocks the answer was fitted on (a long record's refit on shorter ones included)
+    size = int(getattr(res.diagnostics, "block", 0)) or block_size(
+        t.size, vojax.TrackerSettings().max_points)
     t_fit = t if size == 1 else block_average(t, size)
     d = res.diagnostics
     return dict(
