@@ -27,6 +27,22 @@ MUTATIONS = {
         [('    for fraction in (0.5, 0.25):', '    for fraction in ():')],
         ['tests/test_held_search.py::test_the_search_ends_within_a_quarter_step_of_the_evidence_peak'],
     ),
+    "the held scales' χ² gap ignored": (
+        "vojax/_tracker/_band.py",
+        [("    return var + level_spread(near, tuned, level_weights)",
+          "    return var + level_spread(explanations, tuned, level_weights)")],
+        ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
+    ),
+    "the held scales' χ² gap counted in units of χ², not of its standard deviation": (
+        "vojax/_tracker/_band.py",
+        [("tuned.chi2 + level_gap * np.sqrt(2.0 * e.dof)]", "tuned.chi2 + level_gap]")],
+        ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
+    ),
+    "the tracker's band without its χ² gap setting": (
+        "vojax/_tracker/_fit.py",
+        [(",\n                         level_gap=s.level_gap)", ")")],
+        ["tests/test_settings.py::test_the_band_gets_the_settings_held_scale_gap"],
+    ),
     "the held answer without its held scales": (
         "vojax/_tracker/_band.py",
         [("held.var + spread", "held.var")],
@@ -343,7 +359,7 @@ MUTATIONS = {
     ),
     "the tracker weighs the near alternatives only": (
         "vojax/_tracker/_fit.py",
-        [(", near_evidence=s.near_evidence)", ")")],
+        [(", near_evidence=s.near_evidence,", ",")],
         ["tests/test_band_near.py::test_the_tracker_passes_its_setting_to_the_band"],
     ),
 }

@@ -261,6 +261,42 @@ def test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile():
     np.testing.assert_allclose(reference_variance([tuned, worse], tuned, N), want)
 
 
+def test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band():
+    """`level_gap` (None, the default: off): a held scale whose χ² exceeds the tuned run's by
+    more than that many standard deviations of a χ² with its degrees of freedom (√(2·50) =
+    10 here) leaves the band, even where both fit below the noise (which the χ² weights count
+    as alike): 30 above is 3 σ, out at a gap of 2.5 and in at 3 (the limit is kept), at 3.5
+    and with none. It judges the held scales alone: another start as far above weighs by its
+    evidence as before, and the held smoothing's own scales (`held_level`) are weighed
+    without it."""
+    tuned = ex("tuned", 0.0, var=0.01, evidence=0.0, chi2=DOF - 40.0)
+    level = ex("level", 0.5, var=0.02, chi2=DOF - 10.0, evidence=-5.0)
+    both = 0.5 * 0.01 + 0.5 * (0.02 + 0.25)  # weighed alike (the χ² rule's floor at dof)
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N, "chi2", 2.5), 0.01)
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N, "chi2", 3.0), both)
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N, "chi2", 3.5), both)
+    np.testing.assert_allclose(reference_variance([tuned, level], tuned, N), both)
+    nearer = ex("level", 0.5, var=0.02, chi2=DOF - 16.0, evidence=-5.0)  # 24 above: 2.4 σ
+    np.testing.assert_allclose(reference_variance([tuned, nearer], tuned, N, "chi2", 2.5), both)
+    start = ex("start", 1.0, var=0.01, chi2=DOF - 10.0, evidence=-np.log(3.0))
+    np.testing.assert_allclose(reference_variance([tuned, start], tuned, N, "chi2", 0.0),
+                               0.01 + 0.25 * 1.0)
+    # through `bands`, with the parameters stated constant: the band is the tuned run's own
+    alone = bands([tuned], BOUNDS, N, 0.0)
+    gap = bands([tuned, level], BOUNDS, N, 0.0, level_gap=2.5)
+    np.testing.assert_allclose(gap.stated[1], alone.stated[1], rtol=1e-12)
+    assert halfwidth(bands([tuned, level], BOUNDS, N, 0.0).stated) > 2 * halfwidth(alone.stated)
+    # the held smoothing's scales: weighed by exp(−Δχ²/2) whatever the gap (2 above: e^−1)
+    drifting = ex("tuned", 1.5, drift=0.2, chi2=DOF - 20.0)
+    held = ex("held", 0.0, var=0.01, chi2=DOF - 40.0)
+    scale = ex("held_level", 0.5, var=0.01, chi2=DOF - 38.0)
+    for g in (0.0, None):
+        b = bands([drifting, held, scale], BOUNDS, N, 0.0, level_gap=g)
+        w = np.exp(-1.0) / (1.0 + np.exp(-1.0))
+        np.testing.assert_allclose(b.stated[3] / order_of_np(0.0, BOUNDS)[1],
+                                   np.sqrt(0.01 + w * 0.25), rtol=1e-9)
+
+
 def test_the_band_weighs_held_scales_as_its_setting_says():
     """`bands` passes `level_weights` on: with the parameters stated constant, a held scale
     1 nat of evidence below the tuned run widens the band by the equal weight of a fit below

@@ -50,6 +50,10 @@ from vojax import TrackerSettings
     # a negative lag-1 gate means nothing (0 restores the refusal limit); a NaN would shut it
     (dict(coloured_lag=-1.0), "coloured_lag must be a finite number ≥ 0, got -1.0"),
     (dict(coloured_lag=float("nan")), "coloured_lag must be a finite number ≥ 0, got nan"),
+    # a held scale's χ² gap below 0 would leave out every scale, the tuned run's own level too;
+    # ∞ is None (off)
+    (dict(level_gap=-0.5), "level_gap must be a finite number ≥ 0 or None, got -0.5"),
+    (dict(level_gap=float("inf")), "level_gap must be a finite number ≥ 0 or None, got inf"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
@@ -88,10 +92,33 @@ def test_the_tracker_answers_at_the_least_settings_it_takes():
         bound_fraction=0.0, start_orders=(0.5,), rho_starts=(0.5,), grid_order=(1.0,),
         held_order_drift=(1.0,), alt_order_drift=(), alt_param_drift=(), moving_offsets=(),
         level_ratios=(), noise_floor=0.0, edge=0.0, coloured_evidence=0.0, band_floor=0.0,
-        drift_floor=0.0, clock_evidence=0.0)
+        drift_floor=0.0, clock_evidence=0.0, level_gap=0.0)
     given = dict(noise_std=1e-3, order_drift=1.0, parameter_drift=1e-6)
     for kwargs in ({}, dict(noise=given)):
         r = vojax.identify(u, y, dt, settings=least, warn=False, **kwargs)
         alpha = np.asarray(r.alpha)
         assert alpha.shape == (n,) and np.all((alpha > 0.01) & (alpha < 0.99))
         assert r.diagnostics.verdict in ("identified", "conditional", "not identified")
+
+
+def test_the_band_gets_the_settings_held_scale_gap(monkeypatch):
+    """`level_gap` reaches the band of a fit: each `bands` call of the tracker gets the
+    settings' value (the χ² gap a held scale may lie above the tuned fit; see test_band)."""
+    from vojax._tracker import _fit
+
+    seen = []
+    original = _fit.bands
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("level_gap"))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(_fit, "bands", spy)
+    n, dt = 200, 0.01
+    t = dt * np.arange(n)
+    u = np.sin(2 * np.pi * t) + 1.0
+    y = np.asarray(vojax.simulate(u, 0.4, [1.0], dt))
+    y = y + 1e-3 * np.random.default_rng(1).standard_normal(n)
+    vojax.identify(u, y, dt, parameters="constant", warn=False,
+                   settings=TrackerSettings(level_gap=1.75))
+    assert seen and all(g == 1.75 for g in seen)

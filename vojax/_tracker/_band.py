@@ -77,18 +77,23 @@ def own_halfwidth(explanation, bounds, scale, floor, half, span) -> float:
     return float(np.median((upper - lower)[half:span]) / 2)
 
 
-def reference_variance(explanations, tuned, span, level_weights="chi2"):
+def reference_variance(explanations, tuned, span, level_weights="chi2", level_gap=None):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
     integrated over it. `level_weights`: how each held scale is weighed against the tuned run:
     ``"chi2"``, by exp(−Δχ²/2) from the best, a χ² below its degrees of freedom counted as dof
     (a run that fits below the noise has fitted noise, and that earns it no weight over a held
     scale that fits as well as the noise allows); ``"evidence"``, by its Laplace evidence
-    (where every member's is finite; else by χ²)."""
+    (where every member's is finite; else by χ²). `level_gap`: a held scale whose χ² exceeds
+    the tuned run's by more than this many standard deviations of a χ² with its degrees of
+    freedom (√(2 dof)) is left out (the two share every intensity, so that gap is the data's,
+    not the tuned run's freedom to fit the noise); None: none is."""
     mixed = [tuned] + [e for e in explanations if e.kind in OWN]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
-    return var + level_spread(explanations, tuned, level_weights)
+    near = [e for e in explanations if e.kind != "level" or level_gap is None
+            or e.chi2 <= tuned.chi2 + level_gap * np.sqrt(2.0 * e.dof)]
+    return var + level_spread(near, tuned, level_weights)
 
 
 def level_spread(explanations, reference, level_weights="chi2", kind="level"):
@@ -178,7 +183,7 @@ def near_alternatives(explanations, tuned, limit):
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
           floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
-          fastest_evidence=np.inf, near_evidence=None):
+          fastest_evidence=np.inf, near_evidence=None, level_gap=None):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -194,7 +199,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     this many nats below the tuned one is left to its mixture weight (`fastest_far`);
     `near_evidence`: with the parameters stated constant, the tuned run's own alternatives
     (`near_alternatives`) within this many nats of its evidence are covered, not only
-    weighed (None: weighed only)."""
+    weighed (None: weighed only); `level_gap`: see `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
@@ -214,7 +219,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     else:
         reference = tuned
         ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
-                                                         level_weights), bounds,
+                                                         level_weights, level_gap), bounds,
                            scale, floor)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
