@@ -4,6 +4,7 @@ the fitted clock, the median z RMS of the identified, the median order RMS, the 
 wrong (identified, the truth outside the band at most samples)."""
 
 import numpy as np
+from band_library import as_reported, clock_union, library_bands  # noqa: F401
 from calibration_tables import SHORT_OF  # the coverage an identified record owes
 
 HALFWIDTH = 0.1
@@ -204,6 +205,13 @@ def report(rows, out=None, only=None):
         # the floor at the degrees of freedom (docs/calibration.md: not adopted)
         **{f"as reported, held scales by exp(−Δχ²/{2 * c:g})": tempered_levels(c)
            for c in (1.0, 4.0, 10.0)},
+        # the level profile's held scales within an evidence floor of the tuned run
+        **{f"as reported, held scales within {f:g} nats": held_scales(within=f)
+           for f in (50.0, 100.0, 200.0, 400.0)},
+        # the level profile's held scales within k σ of a χ² of the tuned run's (`level_gap`),
+        # at the order's least σ (`band_floor`) of before and of now
+        **{f"as reported, held scales within {k:g} sigma, σ floor {f:g}": levels_near_chi2(
+            k, floor=f) for k in (1.0, 2.0, 2.5, 3.0, 4.0, np.inf) for f in (0.0025, 0.005)},
         # the tuned run's alternatives far below its evidence weighed, not covered
         # (CHANGELOG: measured and not adopted)
         **{f"as reported, far ({20:g} nats) {w} weighed": far_alternatives_weighed(w)
@@ -220,92 +228,13 @@ def report(rows, out=None, only=None):
         Path(out).write_text(text + "\n")
 
 
-# ---------------------------------------------------------------- the library's own bands
-
-
-def as_explanations(r):
-    from vojax._tracker._explanations import Explanation
-
-    return [Explanation(e["kind"], np.asarray(e["beta"], float),
-                        np.maximum(np.asarray(e["var"], float), 0), float(e["chi2"]),
-                        float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"],
-                        e.get("factor"))
-            for e in r["explanations"]]
-
-
-def library_bands(r, **kwargs):
-    from vojax._tracker._band import bands
-
-    ex = as_explanations(r)
-    if not any(e.kind == "tuned" for e in ex):
-        return None
-    stated = {"free": np.inf, "constant": 0.0, "constant-x0": 0.0, "free-x0": np.inf}.get(
-        r["setting"], r.get("stated") or np.inf)
-    return bands(ex, r["bounds"], len(r["truth"]), stated, **kwargs)
-
-
-def as_reported(r, **kwargs):
-    """The band as the tracker reports it, from the library's `bands` (with `kwargs`, e.g.
-    `evidence_floor`) on the saved explanations: the stated band about the reported
-    estimate, its σ at least a quarter of its width, widened to the second clock's tuned
-    smoothing as `clock_union` says; the fifth element True (see `score`)."""
-    from vojax import TrackerSettings
-
-    s = TrackerSettings()
-    n = len(r["truth"])
-    kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
-                       half=n // 2, level_weights=s.level_weights,
-                       evidence_floor=s.envelope_evidence,
-                       fastest_evidence=s.fastest_evidence,
-                       near_evidence=s.near_evidence), **kwargs)
-    b = library_bands(r, **kwargs)
-    if b is None:
-        return None
-    alpha = np.asarray(r["alpha"], float)
-    _, lower, upper, sd = (np.asarray(a, float)[:n] for a in b.stated)
-    band = (alpha, lower, upper, np.maximum(sd, (upper - lower) / 4))
-    return (*clock_union(r, band), True)
-
-
-def clock_union(r, band):
-    """`band` widened to the second clock's tuned smoothing (the data's unit of time) as
-    `Tracker` weighs it (`vojax._tracker._clock.weigh_clock`): where that order lies outside
-    the band, the union, unless the data exclude that account (the span's fit ahead by more
-    than `clock_evidence` nats per point, unless a drift bound is stated), or the statement
-    does (parameters stated constant, which drift on the span's clock beyond `drift_floor`)
-    and either the span's fit is ahead or covering it would leave no answer (a half-width
-    beyond `identified_halfwidth`). Dumps without the span's length in the data's unit
-    (`clock_scale`) count a constant statement's account as drifting."""
-    from vojax import TrackerSettings
-    from vojax._tracker._band import outside, union
-    from vojax._tracker._clock import clock_drift
-
-    other, n = r.get("other"), len(r["truth"])
-    half = n // 2
-    if other is None or not other["converged"]:
-        return band
-    o_alpha = np.asarray(other["alpha"], float)[:n]
-    if not outside(o_alpha, (*band[:3], 0.0), half):
-        return band
-    s = TrackerSettings()
-    scale = r.get("clock_scale")
-    constant = r["setting"] in ("constant", "constant-x0")
-    drifts = scale is None or clock_drift(o_alpha, scale) > s.drift_floor
-    apart = (r["log_likelihood"] - other["log_likelihood"]) / max(n, 1)
-    if r["setting"] != "stated" and apart > s.clock_evidence:
-        return band
-    excluded = constant and drifts
-    widened = union(band, (o_alpha, np.asarray(other["lower"], float)[:n],
-                           np.asarray(other["upper"], float)[:n], 0.0))
-    wide = np.median(widened[2][half:] - widened[1][half:]) / 2 > s.identified_halfwidth
-    return band if excluded and (apart > 0.0 or wide) else widened
-
-
-def tempered_levels(c):
-    """`as_reported` with the level profile's held scales about the tuned smoothing weighed
-    by exp(−Δχ²/(2c)) from the best (the tuned run among them), no χ² raised to the degrees
-    of freedom: a likelihood ratio tempered by `c` instead of the library's rule that every
-    scale fitting within the noise weighs alike."""
+def held_scales(temper=None, within=None):
+    """`as_reported` with the level profile's held scales about the tuned smoothing
+    (``kind="level"``) weighed otherwise than by the library: ``temper`` c, by
+    exp(−Δχ²/(2c)) from the best (the tuned run among them), no χ² raised to the degrees of
+    freedom, a likelihood ratio tempered by c instead of the library's rule that every scale
+    fitting within the noise weighs alike; ``within`` N, as the library weighs them, but only
+    those whose Laplace evidence lies within N nats of the tuned run's."""
     def rule(r):
         from vojax._tracker import _band
 
@@ -315,9 +244,13 @@ def tempered_levels(c):
             levels = [e for e in explanations if e.kind == kind and e.converged]
             if kind != "level" or not levels:
                 return library(explanations, reference, level_weights, kind)
+            if within is not None:
+                near = [e for e in explanations if e.kind != "level"
+                        or e.evidence >= reference.evidence - within]
+                return library(near, reference, level_weights, kind)
             members = [reference] + levels
             chi2 = np.array([e.chi2 for e in members])
-            return _band.mixture_spread(members, np.exp(-(chi2 - chi2.min()) / (2.0 * c)),
+            return _band.mixture_spread(members, np.exp(-(chi2 - chi2.min()) / (2.0 * temper)),
                                         reference)
 
         _band.level_spread = spread
@@ -326,6 +259,17 @@ def tempered_levels(c):
         finally:
             _band.level_spread = library
     return rule
+
+
+def tempered_levels(c):
+    return held_scales(temper=c)
+
+
+def levels_near_chi2(k, **kwargs):
+    """`as_reported` (with `kwargs`) with the held scales left out where their χ² exceeds the
+    tuned run's by more than `k` standard deviations of a χ² with their degrees of freedom
+    (k·√(2 dof): the library's `level_gap`; ∞, every held scale that fits weighs)."""
+    return lambda r: as_reported(r, level_gap=k, **kwargs)
 
 
 def far_alternatives_weighed(which, limit=20.0):

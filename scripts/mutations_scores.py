@@ -38,13 +38,13 @@ MUTATIONS = {
         ["tests/test_band_scores.py"],
     ),
     "the clock replay covers a statement's excluded account where the span's fit is ahead": (
-        "scripts/band_scores.py",
+        "scripts/band_library.py",
         [("    return band if excluded and (apart > 0.0 or wide) else widened",
           "    return band if excluded and wide else widened")],
         ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
     ),
     "the clock replay covers an account the evidence excludes": (
-        "scripts/band_scores.py",
+        "scripts/band_library.py",
         [('    if r["setting"] != "stated" and apart > s.clock_evidence:\n        return band',
           '    if False:\n        return band')],
         ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
