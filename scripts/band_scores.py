@@ -209,7 +209,7 @@ def report(rows, out=None, only=None):
         **{f"as reported, held scales within {f:g} nats": held_scales(within=f)
            for f in (50.0, 100.0, 200.0, 400.0)},
         # the level profile's held scales within k σ of a χ² of the tuned run's (`level_gap`),
-        # at the order's least σ (`band_floor`) of before and of now
+        # at the order's least σ (`band_floor`) of the defaults and at twice it
         **{f"as reported, held scales within {k:g} sigma, σ floor {f:g}": levels_near_chi2(
             k, floor=f) for k in (1.0, 2.0, 2.5, 3.0, 4.0, np.inf) for f in (0.0025, 0.005)},
         # the tuned run's alternatives far below its evidence weighed, not covered
@@ -262,6 +262,7 @@ def held_scales(temper=None, within=None):
 
 
 def tempered_levels(c):
+    """`held_scales` weighed by a likelihood ratio tempered by `c`."""
     return held_scales(temper=c)
 
 
