@@ -240,14 +240,14 @@ def held_scales(temper=None, within=None):
 
         library = _band.level_spread
 
-        def spread(explanations, reference, level_weights="chi2", kind="level"):
+        def spread(explanations, reference, level_weights="chi2", kind="level", gap=None):
             levels = [e for e in explanations if e.kind == kind and e.converged]
             if kind != "level" or not levels:
-                return library(explanations, reference, level_weights, kind)
+                return library(explanations, reference, level_weights, kind, gap)
             if within is not None:
                 near = [e for e in explanations if e.kind != "level"
                         or e.evidence >= reference.evidence - within]
-                return library(near, reference, level_weights, kind)
+                return library(near, reference, level_weights, kind, gap)
             members = [reference] + levels
             chi2 = np.array([e.chi2 for e in members])
             return _band.mixture_spread(members, np.exp(-(chi2 - chi2.min()) / (2.0 * temper)),

@@ -29,13 +29,13 @@ MUTATIONS = {
     ),
     "the held scales' χ² gap ignored": (
         "vojax/_tracker/_band.py",
-        [("    return var + level_spread(near, tuned, level_weights)",
+        [("    return var + level_spread(explanations, tuned, level_weights, gap=level_gap)",
           "    return var + level_spread(explanations, tuned, level_weights)")],
         ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
     ),
     "the held scales' χ² gap counted in units of χ², not of its standard deviation": (
         "vojax/_tracker/_band.py",
-        [("tuned.chi2 + level_gap * np.sqrt(2.0 * e.dof)]", "tuned.chi2 + level_gap]")],
+        [("reference.chi2 + gap * np.sqrt(2.0 * e.dof))]", "reference.chi2 + gap)]")],
         ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
     ),
     "the tracker's band without its χ² gap setting": (

@@ -8,6 +8,8 @@ import pytest
 import vojax
 from vojax import TrackerSettings
 
+from .helpers import band_calls
+
 
 @pytest.mark.parametrize("kwargs, words", [
     # the level profile stepped by a factor of 1 ran the same scale for ever
@@ -102,23 +104,9 @@ def test_the_tracker_answers_at_the_least_settings_it_takes():
 
 
 def test_the_band_gets_the_settings_held_scale_gap(monkeypatch):
-    """`level_gap` reaches the band of a fit: each `bands` call of the tracker gets the
-    settings' value (the χ² gap a held scale may lie above the tuned fit; see test_band)."""
-    from vojax._tracker import _fit
-
-    seen = []
-    original = _fit.bands
-
-    def spy(*args, **kwargs):
-        seen.append(kwargs.get("level_gap"))
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(_fit, "bands", spy)
-    n, dt = 200, 0.01
-    t = dt * np.arange(n)
-    u = np.sin(2 * np.pi * t) + 1.0
-    y = np.asarray(vojax.simulate(u, 0.4, [1.0], dt))
-    y = y + 1e-3 * np.random.default_rng(1).standard_normal(n)
-    vojax.identify(u, y, dt, parameters="constant", warn=False,
-                   settings=TrackerSettings(level_gap=1.75))
-    assert seen and all(g == 1.75 for g in seen)
+    """`level_gap` reaches the band of a fit: each `bands` call of a constant-statement fit
+    gets the settings' value (the χ² gap a held scale may lie above the tuned fit; see
+    test_band)."""
+    seen = band_calls(monkeypatch, parameters="constant",
+                      settings=TrackerSettings(level_gap=1.75))
+    assert seen and all(kwargs["level_gap"] == 1.75 for _, _, kwargs in seen)

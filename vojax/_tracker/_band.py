@@ -91,21 +91,22 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     mixed = [tuned] + [e for e in explanations if e.kind in OWN]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
-    near = [e for e in explanations if e.kind != "level" or level_gap is None
-            or e.chi2 <= tuned.chi2 + level_gap * np.sqrt(2.0 * e.dof)]
-    return var + level_spread(near, tuned, level_weights)
+    return var + level_spread(explanations, tuned, level_weights, gap=level_gap)
 
 
-def level_spread(explanations, reference, level_weights="chi2", kind="level"):
+def level_spread(explanations, reference, level_weights="chi2", kind="level", gap=None):
     """What the level profile adds to the variance of β (N,) of the `reference` (the
     smoothing it ran about, or one with the parameters as constant): its held scales (the
-    explanations of `kind`) and the reference weighed as `reference_variance` says, their
-    mixture's variance about the reference's β less the reference's own; 0 where the profile
-    did not run. About the held smoothing (``kind="held_level"``) by exp(−Δχ²/2) from the
-    best, with no floor at the degrees of freedom: the held smoothing and its scales share
-    every intensity, so their χ² differ by the likelihood ratio alone."""
+    explanations of `kind`; with a `gap`, only those whose χ² exceeds the reference's by at
+    most that many √(2 dof), see `reference_variance`) and the reference weighed as
+    `reference_variance` says, their mixture's variance about the reference's β less the
+    reference's own; 0 where the profile did not run. About the held smoothing
+    (``kind="held_level"``) by exp(−Δχ²/2) from the best, with no floor at the degrees of
+    freedom: the held smoothing and its scales share every intensity, so their χ² differ by
+    the likelihood ratio alone."""
     at_dof = kind == "level"
-    levels = [e for e in explanations if e.kind == kind and e.converged]
+    levels = [e for e in explanations if e.kind == kind and e.converged and (
+        gap is None or e.chi2 <= reference.chi2 + gap * np.sqrt(2.0 * e.dof))]
     if not levels:
         return 0.0
     members = [reference] + levels
