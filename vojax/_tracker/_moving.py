@@ -117,19 +117,18 @@ def penalised_jacobian(profile, x, dx, level, lam, system=None):
     trace (variable projection, exact). `system`: as in `penalised_fit`."""
     k = profile.bases[level].shape[1]
     a_mat, b, penalty, unit = system_of(profile, x, level) if system is None else system
-    cols = np.moveaxis(dx, 0, 1)  # (N, m, n·k): the whitener runs along the samples
+    da = dx
     if profile.offset:
-        cols = np.concatenate([cols, np.zeros(cols.shape[:2] + (1,))], axis=2)
-    if profile.whiten is not None:
-        cols = profile.whiten(cols)
-    da = np.moveaxis(cols * np.sqrt(np.asarray(profile.mask, float))[:, None, None], 1, 0)
-    da_t = np.ascontiguousarray(da.transpose(0, 2, 1))  # (m, W, N)
+        da = np.concatenate([da, np.zeros(da.shape[:2] + (1,))], axis=2)
+    if profile.whiten is not None:  # the whitener runs along the samples
+        da = np.moveaxis(profile.whiten(np.moveaxis(da, 0, 1)), 1, 0)
+    da = da * np.sqrt(np.asarray(profile.mask, float))[None, :, None]  # (m, N, W)
     mat = a_mat.T @ a_mat + lam * unit * penalty
     coef = np.linalg.lstsq(mat, a_mat.T @ b, rcond=None)[0]
-    dunit = unit * 2.0 * np.tensordot(da, a_mat, axes=([1, 2], [0, 1])) / np.sum(a_mat**2)
-    cross = da_t @ a_mat  # (m, W, W): dAᵀ A
+    dunit = unit * 2.0 * (da.reshape(da.shape[0], -1) @ a_mat.ravel()) / np.sum(a_mat**2)
+    cross = np.matmul(a_mat.T, da).transpose(0, 2, 1)  # (m, W, W): dAᵀ A
     dmat = cross + cross.transpose(0, 2, 1) + lam * dunit[:, None, None] * penalty
-    rhs = (da_t @ b - dmat @ coef).T  # (W, m)
+    rhs = (b @ da - dmat @ coef).T  # (W, m)
     dcoef = np.linalg.lstsq(mat, rhs, rcond=None)[0]
     dres = -((da @ coef).T + a_mat @ dcoef) * np.sqrt(profile.scale)
     n = x.shape[1] // k
