@@ -31,12 +31,12 @@ MUTATIONS = {
         "vojax/_tracker/_band.py",
         [("    return var + level_spread(explanations, tuned, level_weights, gap=level_gap)",
           "    return var + level_spread(explanations, tuned, level_weights)")],
-        ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
+        ["tests/test_band_held.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
     ),
     "the held scales' χ² gap counted in units of χ², not of its standard deviation": (
         "vojax/_tracker/_band.py",
         [("reference.chi2 + gap * np.sqrt(2.0 * e.dof))]", "reference.chi2 + gap)]")],
-        ["tests/test_band.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
+        ["tests/test_band_held.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
     ),
     "the tracker's band without its χ² gap setting": (
         "vojax/_tracker/_fit.py",
@@ -46,24 +46,24 @@ MUTATIONS = {
     "the held answer without its held scales": (
         "vojax/_tracker/_band.py",
         [("held.var + spread", "held.var")],
-        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+        ["tests/test_band_held.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
     "the held smoothing's scales floored at the degrees of freedom": (
         "vojax/_tracker/_band.py",
         [('    at_dof = kind == "level"\n', "    at_dof = True\n")],
-        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+        ["tests/test_band_held.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
     "the held smoothing's scales weighed however far the evidence excludes them": (
         "vojax/_tracker/_band.py",
         [("level_spread([e for e in explanations if plausible(e)], held,",
           "level_spread(explanations, held,")],
-        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+        ["tests/test_band_held.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
     "the held smoothing's scales unioned with the free band": (
         "vojax/_tracker/_band.py",
         [('INTEGRATED = (*OWN, "level")\n',
           'INTEGRATED = (*OWN, "level", "held_level")\n')],
-        ["tests/test_band.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
+        ["tests/test_band_held.py::test_the_held_answer_weighs_its_own_held_scales_by_their_likelihood"],
     ),
     "the least drift's constant parameters judged by the penalised ladder only": (
         "vojax/_tracker/_trade.py",
@@ -99,14 +99,14 @@ MUTATIONS = {
              '        spread = level_spread([e for e in explanations if plausible(e)], held,\n'
              '                                         level_weights, "held_level")'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     "a run whose optimiser failed stands for the data if its chi2 passes": (
         'vojax/_tracker/_explanations.py',
         [
             ('        return self.fits and self.converged', '        return self.fits'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     "the band's members need not fit (every alternative widens the band)": (
         'vojax/_tracker/_band.py',
@@ -114,7 +114,7 @@ MUTATIONS = {
             ('              and e.holds and plausible(e)]',
              '              and e.converged and plausible(e)]'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     "the held scales run on the tuned smoothing's iteration budget": (
         'vojax/_tracker/_level.py',
@@ -145,7 +145,7 @@ MUTATIONS = {
         "vojax/_tracker/_band.py",
         [("np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])",
           "np.array([e.chi2 for e in members])")],
-        ["tests/test_band.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
+        ["tests/test_band_held.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
     ),
     "the band ignores the evidence floor of alternative smoothings": (
         'vojax/_tracker/_band.py',
@@ -170,7 +170,7 @@ MUTATIONS = {
             ('    spread = sum(wi * (e.var + (e.beta - reference.beta) ** 2) for wi, e in zip(w, members))',
              '    spread = sum(wi * e.var for wi, e in zip(w, members))'),
         ],
-        ['tests/test_band.py::test_integrated_alternatives_are_weighed_not_unioned'],
+        ['tests/test_band_held.py::test_integrated_alternatives_are_weighed_not_unioned'],
     ),
     'the breakdown set by any drifting alternative, inside the band or not': (
         'vojax/_tracker/_band.py',
@@ -178,7 +178,7 @@ MUTATIONS = {
             ('if max(e.drift - reference.drift, 0.0) > drift_floor and outside(m[0], band, half):',
              'if max(e.drift - reference.drift, 0.0) > drift_floor:'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     'the stated band ignores the statement about the parameters': (
         'vojax/_tracker/_band.py',
@@ -194,7 +194,7 @@ MUTATIONS = {
             ('    if not levels:',
              '    if True:'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     'the held scales weighted by exp(+Δχ²/2)': (
         'vojax/_tracker/_band.py',
@@ -202,7 +202,7 @@ MUTATIONS = {
             ('    w = np.exp(-(chi2 - chi2.min()) / 2)',
              '    w = np.exp((chi2 - chi2.min()) / 2)'),
         ],
-        ['tests/test_band.py'],
+        ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
     'outside judged over the first half': (
         'vojax/_tracker/_band.py',
@@ -305,7 +305,13 @@ MUTATIONS = {
     ),
     "the moving orders' Jacobian on unwhitened columns": (
         "vojax/_tracker/_moving.py",
-        [("        cols = profile.whiten(cols)", "        pass")],
+        [("        da = np.moveaxis(profile.whiten(np.moveaxis(da, 0, 1)), 1, 0)", "        pass")],
+        ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
+    ),
+    "the moving orders' Jacobian without the mask's weights on the design's derivatives": (
+        "vojax/_tracker/_moving.py",
+        [("    da = da * np.sqrt(np.asarray(profile.mask, float))[None, :, None]  # (m, N, W)",
+          "    da = da * 1.0  # (m, N, W)")],
         ["tests/test_moving.py::test_the_shape_fits_jacobian_equals_central_differences"],
     ),
     "the memory's slope in the order off by a factor": (

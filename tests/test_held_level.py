@@ -4,7 +4,7 @@ parameters' scale along the level ridge is integrated about it (the profile runs
 held run, not the tuned one). Checked here on `held_order`'s run (its intensities, its
 smoothing, its parameters held whatever the tuned drift) and on which smoothing
 `alternatives` profiles; the band's rule on stand-ins is in
-`test_band.py`, a record that needs it (white draw 16, the offset stated) in the slow tier
+`test_band_held.py`, a record that needs it (white draw 16, the offset stated) in the slow tier
 (`test_calibration.py`)."""
 
 import importlib

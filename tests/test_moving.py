@@ -167,18 +167,31 @@ def _coloured_profile(profile):
     return dataclasses.replace(profile, whiten=whiten, scale=1.0)
 
 
-@pytest.mark.parametrize("coloured", [False, True])
+def _masked_profile(profile):
+    """The profile with some samples out of the fit (a window's end and every seventh one:
+    their mask 0), as a fitted window or a padded block leaves them."""
+    import dataclasses
+
+    mask = np.ones(profile.y.size)
+    mask[-profile.y.size // 5 :] = 0.0
+    mask[::7] = 0.0
+    return dataclasses.replace(profile, mask=mask)
+
+
+@pytest.mark.parametrize("noise", ["white", "coloured", "masked"])
 @pytest.mark.parametrize("level, form, lam", [(0, 0, 0.0), (0, 1, 1e-2), (1, 0, 1.0),
                                                (1, 1, 100.0)])
-def test_the_shape_fits_jacobian_equals_central_differences(level, form, lam, coloured):
+def test_the_shape_fits_jacobian_equals_central_differences(level, form, lam, noise):
     """The Jacobian of the shape fit's residuals (the penalised fit at a moving order, the
     order piecewise linear on 8 knots, the drifting parameters projected out) equals central
     differences of those residuals in each knot's order (step 1e-6), to 1e-6 of its largest
     entry: each form and level, with the penalty off and on (its unit moves with the
-    columns), white and under an AR(1) whitener."""
+    columns), white, under an AR(1) whitener, and with samples out of the fit."""
     profile = _profile()[-1]
-    if coloured:
+    if noise == "coloured":
         profile = _coloured_profile(profile)
+    elif noise == "masked":
+        profile = _masked_profile(profile)
     shape, step = profile.shape, 1e-6
     theta = 0.45 + 0.08 * np.sin(np.arange(shape.shape[1]) * 1.3)
 
