@@ -41,13 +41,12 @@ def _record(job):
     vojax.use_fast_cpu_loops()
     case = draw_case(family, index, real_signals(Path(DATA)))
     grid = dict(t=case["t"]) if case["irregular"] else dict(dt=float(case["t"][1] - case["t"][0]))
-    fits = {}
+    fits, half = {}, slice(len(case["y"]) // 2, None)  # the second half of the samples
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, options in (("span", {}), ("unit", dict(time_scale=1.0))):
             res = vojax.identify(case["u"], case["y"], method="kalman", warn=False, **grid,
                                  **options)
-            half = slice(res.alpha.shape[0] // 2, None)
             fits[name] = dict(verdict=res.diagnostics.verdict,
                               lower=np.asarray(res.alpha_lower)[half],
                               upper=np.asarray(res.alpha_upper)[half],

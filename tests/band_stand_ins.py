@@ -12,10 +12,12 @@ FITS, FAILS = 40.0, 200.0  # χ² that passes the 2σ test at 50 dof (≤ 70), a
 
 
 def ex(kind, beta, var=0.01, chi2=FITS, evidence=0.0, drift=0.0, accepted=None):
+    """An explanation of `kind` at the constant β `beta`, its variance `var` at every point."""
     return Explanation(kind, np.full(N, float(beta)), np.full(N, float(var)), chi2, DOF,
                        evidence, drift, accepted)
 
 
 def halfwidth(band):
+    """A band's half-width, its median over the second half."""
     _, lower, upper, _ = band
     return float(np.median((upper - lower)[N // 2 :]) / 2)

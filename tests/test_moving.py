@@ -173,7 +173,7 @@ def _masked_profile(profile):
     import dataclasses
 
     mask = np.ones(profile.y.size)
-    mask[-profile.y.size // 5 :] = 0.0
+    mask[profile.y.size * 4 // 5 :] = 0.0
     mask[::7] = 0.0
     return dataclasses.replace(profile, mask=mask)
 
