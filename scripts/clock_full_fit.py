@@ -10,8 +10,16 @@ unit's, per fitted point: `vojax._tracker._clock.evidence_apart`) and the union 
 bands; the summary counts, for the records within each evidence margin, how many the union
 would refuse and how many confidently wrong answers it would cover.
 
-    python scripts/clock_full_fit.py [--rows FILE ...] [--margins 0.001 0.01 0.2]
-        [--workers 2] [--out FILE]
+The accounts the two clocks give differ only where the order moves: with a constant order
+they are one model (the parameters differ by a constant factor), and their evidence ties
+whatever the data. Each record's `differ` is the drift on the span's clock of parameters
+constant in the data's unit at the data unit's order (`vojax._tracker._clock.clock_drift`),
+and the summary counts the records that tie and differ by more than each of `--differ`.
+`--families` runs those draws (`--first`, `--count`) whatever the default answers, instead
+of the identified rows of `--rows`.
+
+    python scripts/clock_full_fit.py [--rows FILE ...] [--families F ... --first 24
+        --count 24] [--margins 0.001 0.01 0.2] [--differ 0.05] [--workers 2] [--out FILE]
 """
 
 import argparse
@@ -37,6 +45,7 @@ def _record(job):
     from calibration_suite import DATA, draw_case, real_signals
 
     import vojax
+    from vojax._tracker._clock import clock_drift
 
     vojax.use_fast_cpu_loops()
     case = draw_case(family, index, real_signals(Path(DATA)))
@@ -50,7 +59,8 @@ def _record(job):
             fits[name] = dict(verdict=res.diagnostics.verdict,
                               lower=np.asarray(res.alpha_lower)[half],
                               upper=np.asarray(res.alpha_upper)[half],
-                              ll=float(res.tuning.log_likelihood), block=res.diagnostics.block)
+                              ll=float(res.tuning.log_likelihood), block=res.diagnostics.block,
+                              alpha=np.asarray(res.alpha))
     truth = case["alpha"][half]
 
     def scored(lower, upper):  # median half-width, coverage of the second half
@@ -59,7 +69,9 @@ def _record(job):
 
     span, unit = fits["span"], fits["unit"]
     points = len(case["y"]) / span["block"]
+    differ = clock_drift(unit["alpha"], float(case["t"][-1] - case["t"][0]))
     return dict(family=family, index=index, apart=(span["ll"] - unit["ll"]) / points,
+                differ=differ,
                 span=(span["verdict"], *scored(span["lower"], span["upper"])),
                 unit=(unit["verdict"], *scored(unit["lower"], unit["upper"])),
                 union=scored(np.minimum(span["lower"], unit["lower"]),
@@ -69,28 +81,43 @@ def _record(job):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rows", nargs="*", default=[str(p) for p in ROWS])
+    parser.add_argument("--families", nargs="*", default=None)
+    parser.add_argument("--first", type=int, default=24)
+    parser.add_argument("--count", type=int, default=24)
     parser.add_argument("--margins", type=float, nargs="*", default=[0.001, 0.01, 0.2])
+    parser.add_argument("--differ", type=float, nargs="*", default=[0.05])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
-    jobs = [(r["family"], r["index"]) for path in args.rows for r in json.loads(Path(path).read_text())
-            if r["method"] == "tracker" and r["identified"]]
+    if args.families:
+        jobs = [(f, i) for f in args.families for i in range(args.first, args.first + args.count)]
+        source = f"{', '.join(args.families)}: draws {args.first}-{args.first + args.count - 1}"
+    else:
+        jobs = [(r["family"], r["index"]) for path in args.rows
+                for r in json.loads(Path(path).read_text())
+                if r["method"] == "tracker" and r["identified"]]
+        source = "the identified rows of " + ", ".join(Path(p).name for p in args.rows)
     with ProcessPoolExecutor(args.workers) as pool:
         rows = sorted(pool.map(_record, jobs), key=lambda r: r["apart"])
-    lines = [f"# clock_full_fit: {len(rows)} records the default identifies ({', '.join(args.rows)})",
-             "| family | draw | evidence apart (nats a point) | span: verdict, half-width, coverage "
-             "| data unit with alternatives | union: half-width, coverage |", "|---|---|---|---|---|---|"]
+    lines = [f"# clock_full_fit: {len(rows)} records ({source})",
+             "| family | draw | evidence apart (nats a point) | differ | span: verdict, half-width, "
+             "coverage | data unit with alternatives | union: half-width, coverage |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['family']} | {r['index']} | {r['apart']:+.4f} | {r['span'][0]}, "
+        lines.append(f"| {r['family']} | {r['index']} | {r['apart']:+.4f} | {r['differ']:.3f} | "
+                     f"{r['span'][0]}, "
                      f"{r['span'][1]:.3f}, {r['span'][2]:.2f} | {r['unit'][0]}, {r['unit'][1]:.3f}, "
                      f"{r['unit'][2]:.2f} | {r['union'][0]:.3f}, {r['union'][1]:.2f} |")
-    lines += ["", "| records within the margin (|apart| ≤) | records | the union refuses (±0.1) "
-              "| confidently wrong covered |", "|---|---|---|---|"]
+    lines += ["", "| the default identifies, within the margin (|apart| ≤), differing by more than "
+              "| records | the union refuses (±0.1) | confidently wrong covered |",
+              "|---|---|---|---|---|"]
+    identified = [r for r in rows if r["span"][0] == "identified"]
     for margin in args.margins:
-        near = [r for r in rows if abs(r["apart"]) <= margin]
-        refused = sum(r["union"][0] > 0.1 for r in near)
-        covered = sum(r["span"][2] < 0.5 <= r["union"][1] for r in near)
-        lines.append(f"| {margin:g} | {len(near)} | {refused} | {covered} |")
+        for differ in [0.0, *args.differ]:
+            near = [r for r in identified if abs(r["apart"]) <= margin and r["differ"] > differ]
+            refused = sum(r["union"][0] > 0.1 for r in near)
+            covered = sum(r["span"][2] < 0.5 <= r["union"][1] for r in near)
+            lines.append(f"| {margin:g}, {differ:g} | {len(near)} | {refused} | {covered} |")
     publish(lines, args.out)
 
 
