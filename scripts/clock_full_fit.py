@@ -108,16 +108,18 @@ def main(argv=None):
                      f"{r['span'][0]}, "
                      f"{r['span'][1]:.3f}, {r['span'][2]:.2f} | {r['unit'][0]}, {r['unit'][1]:.3f}, "
                      f"{r['unit'][2]:.2f} | {r['union'][0]:.3f}, {r['union'][1]:.2f} |")
-    lines += ["", "| the default identifies, within the margin (|apart| ≤), differing by more than "
-              "| records | the union refuses (±0.1) | confidently wrong covered |",
+    lines += ["", "| identified by the default: evidence apart at most (either way) | differing by "
+              "more than | records | the union refuses (±0.1) | confidently wrong covered |",
               "|---|---|---|---|---|"]
     identified = [r for r in rows if r["span"][0] == "identified"]
     for margin in args.margins:
-        for differ in [0.0, *args.differ]:
-            near = [r for r in identified if abs(r["apart"]) <= margin and r["differ"] > differ]
+        for differ in [None, *args.differ]:  # None: however little they differ
+            near = [r for r in identified if abs(r["apart"]) <= margin
+                    and (differ is None or r["differ"] > differ)]
             refused = sum(r["union"][0] > 0.1 for r in near)
             covered = sum(r["span"][2] < 0.5 <= r["union"][1] for r in near)
-            lines.append(f"| {margin:g}, {differ:g} | {len(near)} | {refused} | {covered} |")
+            lines.append(f"| {margin:g} | {'any' if differ is None else f'{differ:g}'} | "
+                         f"{len(near)} | {refused} | {covered} |")
     publish(lines, args.out)
 
 
