@@ -4,6 +4,7 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -34,3 +35,13 @@ def ramp():
     from .helpers import ramp_case
 
     return ramp_case()
+
+
+@pytest.fixture(scope="module")
+def suite():
+    """`scripts/bench_calibration.py` and the recorded inputs its families draw on, from
+    ../shared/data (the calibration tests skip where that folder is absent)."""
+    from .helpers import load_script
+
+    module = load_script("bench_calibration")
+    return module, module.real_signals(Path(__file__).resolve().parents[2] / "shared" / "data")
