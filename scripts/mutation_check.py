@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the planted bugs, by
 import mutations_data  # noqa: E402
 import mutations_design  # noqa: E402
 import mutations_figures  # noqa: E402
+import mutations_kernels  # noqa: E402
 import mutations_law  # noqa: E402
 import mutations_refit  # noqa: E402
 import mutations_scores  # noqa: E402
@@ -35,7 +36,7 @@ import mutations_tracker_noise  # noqa: E402
 # name: (file, [(old, new), ...], tests that should fail)
 AREAS = (mutations_law, mutations_design, mutations_refit, mutations_tracker_fit,
          mutations_tracker_noise, mutations_tracker_band, mutations_tracker_clock,
-         mutations_data, mutations_figures, mutations_scores)
+         mutations_data, mutations_figures, mutations_scores, mutations_kernels)
 MUTATIONS = {name: bug for area in AREAS for name, bug in area.MUTATIONS.items()}
 assert len(MUTATIONS) == sum(len(area.MUTATIONS) for area in AREAS), "a name planted twice"
 

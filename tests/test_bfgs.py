@@ -69,8 +69,15 @@ def _hilltop(y):
     return jnp.sum(jnp.cos(y)) + 0.05 * jnp.sum(y**2)
 
 
+def _far(y):
+    """A minimum of 0 far from the origin, at (1e6, −2e6): the points' tolerance
+    (``rtol·|y|``, about 0.1) passes moves that still change the loss by far more than its
+    own (``atol``, the loss near 0), so the stop must wait for both."""
+    return jnp.sum(jnp.cosh(y - jnp.asarray([1e6, -2e6]))) - 2.0
+
+
 CASES = [(_rosenbrock, [-1.2, 1.0]), (_rosenbrock, [2.0, -1.0]), (_coupled, [0.0, 0.0, 0.0]),
-         (_hilltop, [0.3, -0.2])]
+         (_hilltop, [0.3, -0.2]), (_far, [1e6 + 0.3, -2e6 - 0.2])]
 
 
 @pytest.mark.parametrize("loss, y0", CASES)

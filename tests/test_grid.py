@@ -180,6 +180,39 @@ def test_gradients_on_a_grid_are_finite_and_match_differences(memory):
     assert abs(float(g @ direction) - float(fd)) < 1e-6 * abs(float(fd))
 
 
+@pytest.mark.parametrize("memory", ["direct", "exponential"])
+@pytest.mark.parametrize("grid", ["log", "random"])
+def test_each_memorys_step_on_a_grid_is_the_interval_ending_at_the_sample(memory, grid):
+    """What the laws driven by a memory integrate over at sample k (its `step_size`): on a
+    grid, ``t_k − t_{k−1}``, and at sample 0 the first step; read from the memory's state as
+    the law's scan steps it."""
+    t = _grids()[grid]
+    mem = make_memory(memory, None, t.size, times=t)
+    state = mem.init(1)
+    steps = []
+    for k in range(t.size):
+        steps.append(float(mem.step_size(state)))
+        state = mem.update(state, jnp.ones(1))
+    expected = np.diff(t, prepend=2 * t[0] - t[1])
+    np.testing.assert_allclose(steps, expected, rtol=1e-15, atol=0)
+
+
+def test_the_law_on_a_grid_is_the_same_with_either_memory():
+    """The paper's law on a random clock (steps 0.001–0.1) with the direct memory and with
+    the exponential one (its modes designed to 1e-10): one estimate to the design tolerance,
+    though each memory gives the law its steps its own way."""
+    t = _grids()["random"]
+    u = np.stack([np.sin(3 * t), np.cos(t)], axis=1)
+    alpha = 0.4 + 0.1 * np.sin(t)
+    y = vojax.simulate(u, alpha, np.array([1.0, -0.5]), t=t)
+    runs = [vojax.identify(u, y, t=t, method="gradient", gamma=0.05, lam=0.9, x0=0.0,
+                           r0=np.eye(2), memory=memory, warn=False)
+            for memory in ("direct", "exponential")]
+    direct, fast = (np.asarray(r.alpha) for r in runs)
+    assert np.ptp(direct) > 1e-3  # the law moves: the steps it takes matter
+    assert np.max(np.abs(direct - fast)) < 1e-9  # 7e-13; the first step everywhere: 0.03
+
+
 def test_simulate_on_a_grid():
     """`simulate` with ``t=`` on a step load gives x0 + p t^b/Γ(b+1) from t_0."""
     t = np.concatenate([[0.0], np.geomspace(1e-3, 100.0, 200)])
