@@ -142,7 +142,7 @@ MUTATIONS = {
     "the lag-1 correlation with the mean left in": (
         "vojax/_stats.py",
         [("    e = e - np.mean(e)\n", "")],
-        ["tests/test_first_pass.py", "tests/test_refit_recordings.py", "tests/test_adaptive.py"],
+        ["tests/test_tracker.py::test_lag1_correlation_is_of_the_sequence_about_its_mean"],
     ),
     "the prediction errors' correlation counts the first error": (
         "vojax/_stats.py",
@@ -170,8 +170,7 @@ MUTATIONS = {
         "vojax/_values.py",
         [("    if not isinstance(value, (bool, np.bool_)):\n        raise TypeError(f\"`{name}` must be True or False",
           "    if value is None:\n        raise TypeError(f\"`{name}` must be True or False")],
-        ["tests/test_compare_window.py::test_a_window_too_short_to_compare_on_is_refused_in_one_sentence",
-         "tests/test_afm_contact.py"],
+        ["tests/test_validation.py"],
     ),
     "output files keep the temporary file's 0600": (
         "vojax/_io.py",
@@ -181,6 +180,6 @@ MUTATIONS = {
     "strict JSON leaves the non-finite numbers of a tuple": (
         "vojax/_io.py",
         [("    if isinstance(data, (list, tuple)):", "    if isinstance(data, list):")],
-        ["tests/test_tables.py", "tests/test_outputs.py"],
+        ["tests/test_checks_io.py::test_json_outputs_hold_no_non_finite_number_at_any_depth"],
     ),
 }

@@ -342,4 +342,20 @@ MUTATIONS = {
         [('not in ("", "1")', 'not in ("", "1", "0", "2")')],
         ["tests/test_quiet_logs.py"],
     ),
+    "the conditional message quotes an infinite breakdown drift as a percentage": (
+        "vojax/_diagnostics.py",
+        [('            "well" if np.isfinite(c["breakdown"]) else', '            "well" if True else')],
+        ["tests/test_verdict.py::test_verdict_words_follow_the_stated_and_the_conditional_bands"],
+    ),
+    "the verdict line promises a drift below inf %": (
+        "vojax/_identification.py",
+        [('        if d.verdict == "conditional" and not np.isfinite(d.breakdown_drift):',
+          '        if False:')],
+        ["tests/test_verdict.py::test_a_conditional_answer_no_drift_breaks_says_so_in_words"],
+    ),
+    "the conditional band's legend says less than inf %": (
+        "vojax/_identification.py",
+        [('    if not np.isfinite(breakdown_drift):\n        return "any drift tried"\n', "")],
+        ["tests/test_verdict.py::test_a_conditional_answer_no_drift_breaks_says_so_in_words"],
+    ),
 }

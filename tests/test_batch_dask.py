@@ -217,6 +217,8 @@ def test_workers_and_clients_that_cannot_work_are_refused(tmp_path):
     rec, = vojax.io.load_records(data / "r.csv", time="time_s", inputs=["stress"], output="strain")
     with pytest.raises(TypeError, match="`client` must be a distributed.Client, got str"):
         vojax.io.run_batch([rec], tmp_path / "py", client="local")
+    with pytest.raises(TypeError, match="`compare` must be True or False, got 'yes'"):
+        vojax.io.run_batch([rec], tmp_path / "py", compare="yes")
     if importlib.util.find_spec("distributed") is not None:
         with pytest.raises(ValueError, match=f"`workers` is {many}, more than"):
             with vojax.io.dask_client("local", many):

@@ -213,3 +213,21 @@ def test_every_cli_option_says_its_default():
             assert text, f"vojax {name} {action.option_strings[0]} has no help"
             if action.default not in (None, False) or action.choices:
                 assert "default" in text, f"vojax {name} {action.option_strings[0]}: no default"
+
+
+def test_json_outputs_hold_no_non_finite_number_at_any_depth():
+    """`vojax._io.json_text`: NaN and ±inf become null inside dicts, lists and tuples alike
+    (a band's edges or a trade-off's interval are tuples), finite numbers and text stay, and
+    a strict parser (no NaN, no Infinity) reads it back."""
+    from vojax._io import json_text
+
+    data = {"band": (0.25, float("nan")), "drifts": [float("inf"), 0.5],
+            "nested": {"pair": (float("-inf"), (1.0, float("nan")))}, "name": "r1", "n": 3}
+    text = json_text(data)
+
+    def refuse(token):
+        raise ValueError(f"non-strict JSON: {token}")
+
+    back = json.loads(text, parse_constant=refuse)
+    assert back == {"band": [0.25, None], "drifts": [None, 0.5],
+                    "nested": {"pair": [None, [1.0, None]]}, "name": "r1", "n": 3}

@@ -38,6 +38,12 @@ def test_verdict_words_follow_the_stated_and_the_conditional_bands():
     d = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), conditional=_band(0.2),
                  breakdown_drift=0.3, reference_drift=0.0)
     assert d.verdict == "not identified"
+    # no drifting explanation left the conditional band: it holds however they drift
+    d = diagnose(ALPHA, *wide, (0.01, 0.99), True, (), trade=(0.35, 0.45), conditional=narrow,
+                 breakdown_drift=np.inf, reference_drift=0.0)
+    assert d.verdict == "conditional" and d.breakdown_drift == np.inf
+    assert "no drift of the parameters tried moves the order outside ±0.05" in d.message
+    assert "inf" not in d.finding and "beyond that drift" not in d.finding
     d = diagnose(ALPHA, *wide, (0.01, 0.99), False, (), conditional=narrow,
                  breakdown_drift=0.3, reference_drift=0.0)
     assert d.verdict == "not identified" and "not_converged" in d.reasons
@@ -140,6 +146,36 @@ def test_the_verdict_line_states_the_answer_and_its_reach(drifting_gain):
         c = np.asarray(res.conditional.alpha)
         assert line.startswith(f"conditional: α {c[c.size // 2]:.2f} → {c[-1]:.2f} ± ")
     assert "alpha_conditional" in res.to_dataframe().columns
+
+
+def test_a_conditional_answer_no_drift_breaks_says_so_in_words(drifting_gain):
+    """A conditional verdict whose breakdown drift is infinite (no drifting explanation tried
+    left its band; the stated band is wider by the tuned fit's own alternatives): the line
+    and the figure's legend say it holds however the parameters drift, with the wider band,
+    never "less than inf %"."""
+    import dataclasses
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, u, y, dt = drifting_gain
+    res = vojax.identify(u, y, dt, warn=False)
+    assert res.conditional is not None  # the record's own answer is conditional (5 %)
+    d = dataclasses.replace(res.diagnostics, verdict="conditional", identified=False,
+                            breakdown_drift=np.inf)
+    res = dataclasses.replace(res, diagnostics=d)
+    line = res.verdict_line()
+    c = np.asarray(res.conditional.alpha)
+    assert line == (f"conditional: α {c[c.size // 2]:.2f} → {c[-1]:.2f} ± "
+                    f"{d.conditional_halfwidth:.2g} however the parameters drift (no drift tried "
+                    "moves the order outside it); the tuned fit's other alternatives widen it "
+                    f"to ± {d.band_halfwidth:.2g}")
+    ax = res.plot(ax=plt.figure().add_subplot())
+    labels = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert "any drift tried" in labels and not any("inf" in text for text in labels)
+    plt.close("all")
 
 
 def _log_spaced_record(tmp_path):

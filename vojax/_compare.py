@@ -203,8 +203,7 @@ def compare(stress, strain=None, dt=None, *, t=None, models=MODELS, knots: int =
     if "variable" in models:  # a moving order needs two knots; each a few points to fit it
         knots = check.count(knots, "knots", 2, max(2, min(stress.size, max_points) // 4))
     _check_x0(x0, origin)
-    if not isinstance(relative, (bool, np.bool_)):
-        raise TypeError(f"`relative` must be True or False, got {relative!r}.")
+    check.flag(relative, "relative")
     num = stress.size
     times = float(dt) * np.arange(num) if t is None else np.asarray(t, float)
     grid = dict(dt=dt) if t is None else dict(t=times)

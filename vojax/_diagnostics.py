@@ -67,13 +67,19 @@ def _trade_off(c):
     where = (f" with any constant order from {trade[0]:.2f} to {trade[1]:.2f}"
              if trade is not None else "")
     if c.get("conditional"):
-        return (
-            f"the order band is ±{c['width']:.2g} wide because a drifting parameter explains "
-            f"the data as well{where}; with the parameters drifting less than "
-            f"{100 * c['breakdown']:.0f} % over the record the band is ±{c['cond_width']:.2g} "
-            "(the conditional answer: `conditional` of the result), and beyond that drift an "
-            "order outside it fits as well"
+        answer = f"±{c['cond_width']:.2g} (the conditional answer: `conditional` of the result)"
+        reach = (
+            f"with the parameters drifting less than {100 * c['breakdown']:.0f} % over the "
+            f"record the band is {answer}, and beyond that drift an order outside it fits as "
+            "well" if np.isfinite(c["breakdown"]) else
+            # no drifting explanation left the conditional band: what widens the stated one
+            # is the tuned fit's own alternatives (`vojax._tracker._band.INTEGRATED`)
+            f"no drift of the parameters tried moves the order outside {answer}; the wider "
+            "band also covers the tuned fit's other starting orders, order drifts and "
+            "parameter scales"
         )
+        return (f"the order band is ±{c['width']:.2g} wide because a drifting parameter "
+                f"explains the data as well{where}; {reach}")
     return (
         f"the order band is ±{c['width']:.2g} wide because a drifting parameter explains the "
         f"data as well{where}: an order and a drifting parameter can trade off (with one "

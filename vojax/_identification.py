@@ -155,6 +155,10 @@ class Identification(eqx.Module):
             return head + held + ("" if other is None else (
                 f" (over the record's span; constant in the data's unit of time instead, "
                 f"α {other:.2f})"))
+        if d.verdict == "conditional" and not np.isfinite(d.breakdown_drift):
+            return (f"{head} however the parameters drift (no drift tried moves the order "
+                    "outside it); the tuned fit's other alternatives widen it to "
+                    f"± {d.band_halfwidth:.2g}")
         if d.verdict == "conditional":
             return (f"{head} if the parameters drift less than {100 * d.breakdown_drift:.0f} % "
                     "over the test; beyond that a drifting parameter explains the data as well")
@@ -195,7 +199,7 @@ class Identification(eqx.Module):
             c = self.conditional
             ax.fill_between(times, np.asarray(c.alpha_lower), np.asarray(c.alpha_upper),
                             color="C0", alpha=0.3, lw=0,
-                            label=f"if drift < {100 * self.diagnostics.breakdown_drift:.0f} %")
+                            label=_reach_label(self.diagnostics.breakdown_drift))
             ax.legend(fontsize=8)
         return ax
 
@@ -221,3 +225,11 @@ class Identification(eqx.Module):
             columns[f"{name}_std"] = p_std[:, j]
         columns.update(y_hat=self.y_hat, y_pred=self.y_pred)
         return to_dataframe(columns)
+
+
+def _reach_label(breakdown_drift) -> str:
+    """The conditional band's legend label: the drift it holds below, or every drift tried."""
+    if not np.isfinite(breakdown_drift):
+        return "any drift tried"
+    return f"if drift < {100 * breakdown_drift:.0f} %"
+

@@ -28,6 +28,7 @@ from ._data._pipeline import canonical_method, make_provenance, write_outputs
 from ._data._pipeline import identify_record as _identify_record
 from ._data._records import DataError, Record, load_records
 from ._progress import wanted
+from ._values import flag
 
 __all__ = [
     "BatchReport",
@@ -214,8 +215,7 @@ def run_batch(
     """
     _check_model(model, area, length)
     wanted(progress)  # True, False or None
-    if not isinstance(compare, bool):
-        raise TypeError(f"`compare` must be True or False, got {compare!r}.")
+    flag(compare, "compare")
     failures = list(failures)
     if not all(
         isinstance(f, (tuple, list)) and len(f) == 3 and all(isinstance(x, str) for x in f)

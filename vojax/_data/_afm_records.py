@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from .._values import flag
 from ._errors import CurvesFailed, DataError
 from ._record import _record
 
@@ -40,8 +41,7 @@ class AfmOptions:
         check_contact(contact, tip)
         if baseline is not None:
             baseline = check_baseline(baseline)
-        if not isinstance(from_contact, (bool, np.bool_)):
-            raise TypeError(f"`from_contact` must be True or False, got {from_contact!r}.")
+        flag(from_contact, "from_contact")
         if segments is not None:
             given = segments
             segments = None if isinstance(given, (str, bytes)) else (
