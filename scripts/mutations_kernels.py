@@ -170,7 +170,7 @@ MUTATIONS = {
         "vojax/_values.py",
         [("    if not isinstance(value, (bool, np.bool_)):\n        raise TypeError(f\"`{name}` must be True or False",
           "    if value is None:\n        raise TypeError(f\"`{name}` must be True or False")],
-        ["tests/test_validation.py"],
+        ["tests/test_validation.py::test_a_bad_argument_is_named_not_left_to_numpy"],
     ),
     "output files keep the temporary file's 0600": (
         "vojax/_io.py",
