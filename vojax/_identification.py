@@ -232,4 +232,3 @@ def _reach_label(breakdown_drift) -> str:
     if not np.isfinite(breakdown_drift):
         return "any drift tried"
     return f"if drift < {100 * breakdown_drift:.0f} %"
-
