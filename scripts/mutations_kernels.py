@@ -137,12 +137,12 @@ MUTATIONS = {
     "the noise variance from second differences divided by C(4, 1)": (
         "vojax/_stats.py",
         [("/ math.comb(2 * order, order))", "/ math.comb(2 * order, order - 1))")],
-        ["tests/test_tracker.py::test_noise_variance_estimate"],
+        ["tests/test_stats.py::test_noise_variance_estimate"],
     ),
     "the lag-1 correlation with the mean left in": (
         "vojax/_stats.py",
         [("    e = e - np.mean(e)\n", "")],
-        ["tests/test_tracker.py::test_lag1_correlation_is_of_the_sequence_about_its_mean"],
+        ["tests/test_stats.py::test_lag1_correlation_is_of_the_sequence_about_its_mean"],
     ),
     "the prediction errors' correlation counts the first error": (
         "vojax/_stats.py",

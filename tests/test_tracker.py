@@ -137,26 +137,6 @@ def test_law_band_matches_monte_carlo():
     assert 0.7 <= ratio <= 1.4, ratio
 
 
-def test_noise_variance_estimate():
-    from vojax._stats import noise_variance
-
-    t = np.linspace(0, 10, 4000)
-    y = np.sin(t) + 0.3 * np.random.default_rng(0).standard_normal(t.size)
-    assert noise_variance(y) == pytest.approx(0.09, rel=0.08)
-
-
-
-def test_lag1_correlation_is_of_the_sequence_about_its_mean():
-    """``c + (−1)^k`` over n samples: about its mean (c, n even) the lag-1 autocorrelation is
-    −(n−1)/n exactly, whatever the offset c; a constant sequence has none (NaN)."""
-    from vojax._stats import lag1_correlation
-
-    n = 40
-    alternating = (-1.0) ** np.arange(n)
-    for c in (0.0, 5.0, -1e3):
-        assert lag1_correlation(c + alternating) == pytest.approx(-(n - 1) / n, rel=1e-12)
-    assert np.isnan(lag1_correlation(np.full(n, 3.0)))
-
 def test_no_silent_nan():
     t = np.arange(400) * 60.0
     u = np.stack([np.sin(1e-4 * t) + 1.0, np.cos(2e-4 * t)], axis=1)  # two slow inputs
