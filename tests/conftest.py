@@ -4,7 +4,6 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
 import os
-from pathlib import Path
 
 import pytest
 
@@ -41,7 +40,7 @@ def ramp():
 def suite():
     """`scripts/bench_calibration.py` and the recorded inputs its families draw on, from
     ../shared/data (the calibration tests skip where that folder is absent)."""
-    from .helpers import load_script
+    from .helpers import SHARED_DATA, load_script
 
     module = load_script("bench_calibration")
-    return module, module.real_signals(Path(__file__).resolve().parents[2] / "shared" / "data")
+    return module, module.real_signals(SHARED_DATA)

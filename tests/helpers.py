@@ -1,10 +1,15 @@
 import dataclasses
 import math
+from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 
 import vojax
+
+# the recorded inputs beside the project (``../shared/data``); tests that need them skip where
+# the folder is absent
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
 def paper_inputs(n: int, dt: float):

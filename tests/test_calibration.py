@@ -5,17 +5,15 @@ stated constant it identifies most white-noise and noisy draws with bands that h
 paper's law never claims a band. Needs ../shared/data (the recorded inputs); skipped where it is absent."""
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import vojax
 
+from .helpers import SHARED_DATA as DATA
 from .helpers import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
 pytestmark = [
     pytest.mark.slow,
     pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data is not present"),

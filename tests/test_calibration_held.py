@@ -5,16 +5,15 @@ answer weighs the held scales. Needs ../shared/data (the recorded inputs); skipp
 is absent."""
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import vojax
 
+from .helpers import SHARED_DATA as DATA
 from .helpers import load_script
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 pytestmark = [
     pytest.mark.slow,
     pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data is not present"),

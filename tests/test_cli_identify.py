@@ -8,7 +8,6 @@ import os
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,10 +16,10 @@ import vojax
 from vojax._data import load_records
 from vojax._steps import say
 
+from .helpers import SHARED_DATA as DATA
 from .helpers import fresh_cli
 from .test_data_cli import _springpot_csv
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 DT = 0.1
 
 

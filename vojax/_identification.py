@@ -155,14 +155,14 @@ class Identification(eqx.Module):
             return head + held + ("" if other is None else (
                 f" (over the record's span; constant in the data's unit of time instead, "
                 f"α {other:.2f})"))
-        if d.verdict == "conditional" and not np.isfinite(d.breakdown_drift):
+        if d.verdict != "conditional":
+            return head
+        if not np.isfinite(d.breakdown_drift):  # no drift tried left the conditional band
             return (f"{head} however the parameters drift (no drift tried moves the order "
                     "outside it); the tuned fit's other alternatives widen it to "
                     f"± {d.band_halfwidth:.2g}")
-        if d.verdict == "conditional":
-            return (f"{head} if the parameters drift less than {100 * d.breakdown_drift:.0f} % "
-                    "over the test; beyond that a drifting parameter explains the data as well")
-        return head
+        return (f"{head} if the parameters drift less than {100 * d.breakdown_drift:.0f} % "
+                "over the test; beyond that a drifting parameter explains the data as well")
 
     def plot(self, ax=None, *, t=None):
         """The identification at a glance against `t` (the sample times; default ``k·dt``).
