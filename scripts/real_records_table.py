@@ -63,7 +63,15 @@ DATASETS = {
 
 def load(data, per_dataset):
     """(dataset, record, origin, phase order or None) for the first `per_dataset` records of
-    each dataset, and a row for each file or curve that could not be read."""
+    each dataset, and a row for each file or curve that could not be read. The records are
+    read into memory: the CSVs written on the way are removed."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        return _load(data, per_dataset, Path(scratch))
+
+
+def _load(data, per_dataset, scratch):
     from vojax._data import load_records
     from vojax._data._errors import CurvesFailed, DataError
     from vojax._data._tables import natural_key
@@ -74,12 +82,12 @@ def load(data, per_dataset):
         records = []
         for path in sorted((data / folder).glob(glob), key=lambda p: natural_key(p.name)):
             if loader == "laos":
-                path, phase = _laos(path)
+                path, phase = _laos(path, scratch)
                 records += [(r, phase) for r in load_records(
                     path, time="time_s", inputs=["stress"], output="strain")]
                 continue
             if loader.get("group_by") in loader["inputs"]:  # one series per load level
-                path = _with_series(path, loader["group_by"])
+                path = _with_series(path, loader["group_by"], scratch)
                 loader = dict(loader, group_by="series")
             try:
                 read = load_records(path, **loader)
@@ -109,26 +117,23 @@ def phase_order(t, stress, strain, omega):
     return float(2 / np.pi * ((phase(stress) - phase(strain)) % (2 * np.pi)))
 
 
-def _laos(path):
-    """A CSV (time_s, strain, stress) of a RepTate ``.laos`` file (a header line
+def _laos(path, folder):
+    """A CSV (time_s, strain, stress) in `folder` of a RepTate ``.laos`` file (a header line
     ``omega=…;gamma=…;``, then time, strain and stress), and its `phase_order`."""
-    import tempfile
-
     lines = Path(path).read_text().splitlines()
     omega = float(lines[0].split("omega=")[1].split(";")[0])
     rows = np.loadtxt(lines[1:], comments="#")
-    target = Path(tempfile.mkdtemp()) / f"{path.stem}.csv"
+    target = folder / f"{path.stem}.csv"
     np.savetxt(target, rows, delimiter=",", header="time_s,strain,stress", comments="")
     return target, phase_order(rows[:, 0], rows[:, 2], rows[:, 1], omega)
 
 
-def _with_series(path, column):
-    """A copy of the CSV with a column `series` equal to `column` (a load level that is the
-    input as well as what names the record)."""
+def _with_series(path, column, folder):
+    """A copy in `folder` of the CSV with a column `series` equal to `column` (a load level
+    that is the input as well as what names the record)."""
     import csv
-    import tempfile
 
-    target = Path(tempfile.mkdtemp()) / path.name
+    target = folder / path.name
     with open(path, newline="") as f, open(target, "w", newline="") as g:
         rows = csv.reader(line for line in f if not line.startswith("#"))
         head = next(rows)

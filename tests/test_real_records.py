@@ -50,7 +50,7 @@ def test_phase_order_of_the_library_springpot_in_steady_oscillation(table):
 @pytest.mark.slow
 @pytest.mark.skipif(not LAOS.is_dir(), reason="no LAOS recordings in ../shared/data")
 @pytest.mark.parametrize("name", ["CPyCL-omega00p30-gam03p1600", "SlugSlime-omega03p00-Run31"])
-def test_laos_records_agree_with_their_phase_or_refuse(table, name):
+def test_laos_records_agree_with_their_phase_or_refuse(table, name, tmp_path):
     """On each recorded LAOS test (a wormlike-micelle solution near q 0.9, a slug's mucus
     near 0.1 by the phase), the constant-order refit's 95 % interval holds the phase order,
     and the tracker is never identified with the phase order outside its band (where the
@@ -58,7 +58,7 @@ def test_laos_records_agree_with_their_phase_or_refuse(table, name):
     from vojax._data import load_records
     from vojax._data._pipeline import identify_record
 
-    path, phase = table._laos(LAOS / f"{name}.laos")
+    path, phase = table._laos(LAOS / f"{name}.laos", tmp_path)
     (record,) = load_records(path, time="time_s", inputs=["stress"], output="strain")
     columns, summary = identify_record(record, method="kalman+refit", threads=1)
     refit = summary["refit"]
