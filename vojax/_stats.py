@@ -9,11 +9,19 @@ def noise_variance(y, order: int = 2) -> float:
     """Measurement-noise variance from the data alone: the median absolute difference of the
     given `order` (2: ``σ̂ = 1.4826·median|y_{k+1} − 2y_k + y_{k−1}| / √6``; white noise:
     Var Δ^k y = C(2k, k) σ²; the median ignores the few large differences of steps and
-    ramps). Not from the law's residuals, which carry its tracking error as well."""
+    ramps). Not from the law's residuals, which carry its tracking error as well. Where most
+    differences are exactly zero (an output held flat over most of the record: set to zero
+    before a contact, clipped, padded), the median is over the others: a flat stretch has no
+    noise to measure, and the median of all would be 0. A constant `y`: 0."""
     import math
 
-    dk = np.diff(np.asarray(y), order)
-    return float((1.4826 * np.median(np.abs(dk))) ** 2 / math.comb(2 * order, order))
+    dk = np.abs(np.diff(np.asarray(y), order))
+    moving = dk[dk != 0]
+    if 2 * moving.size < dk.size:  # most exactly zero
+        dk = moving
+    if dk.size == 0:
+        return 0.0
+    return float((1.4826 * np.median(dk)) ** 2 / math.comb(2 * order, order))
 
 
 # lag-1 autocorrelation of the tracker's innovations above which its band, which assumes
