@@ -139,6 +139,17 @@ MUTATIONS = {
         [("/ math.comb(2 * order, order))", "/ math.comb(2 * order, order - 1))")],
         ["tests/test_stats.py::test_noise_variance_estimate"],
     ),
+    "the noise of an output flat over most of the record taken over every difference": (
+        "vojax/_stats.py",
+        [("    if 2 * moving.size < dk.size:  # most exactly zero", "    if False:")],
+        ["tests/test_stats.py::test_noise_variance_of_an_output_flat_over_most_of_the_record",
+         "tests/test_blocks.py::test_the_block_error_of_an_output_flat_over_most_of_the_record"],
+    ),
+    "the noise's zeros left out however few": (
+        "vojax/_stats.py",
+        [("    if 2 * moving.size < dk.size:  # most exactly zero", "    if moving.size:")],
+        ["tests/test_stats.py::test_noise_variance_of_an_output_flat_over_most_of_the_record"],
+    ),
     "the lag-1 correlation with the mean left in": (
         "vojax/_stats.py",
         [("    e = e - np.mean(e)\n", "")],

@@ -5,7 +5,8 @@ order, each run as `vojax batch --method kalman+refit` runs it (a springpot, σ 
 with the file's force or stress as input; the tracker with its defaults and the
 constant-order refit). The AFM files are read raw, as `vojax.load_records` reads them: the
 contact point and the indentation from nanite, the output the contact strain of a sphere (its
-radius scales η, not q), the approach and the segment after it. The LAOS records (stress in,
+radius scales η, not q), from the contact on: the approach and the hold of a creep or
+relaxation test, the approach of a force map's curve. The LAOS records (stress in,
 strain out) have a check no other record has: a springpot's strain lags its stress by qπ/2,
 so the first harmonic's phase gives the order independently (`phase_order`).
 
@@ -33,10 +34,12 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 INDENTATION = dict(time="time_s", inputs=["force_N"], output="displacement_mm",
                    group_by="specimen", trim_column="force_N", trim_below=0.02)
 # the raw AFM files: the contact strain of a sphere of 5 µm (the tip is not stated in the
-# files; the radius scales η alone) against the force's rise, the approach and the segment
-# after it (the hold of a creep or relaxation test, the retraction of a force curve)
+# files; the radius scales η alone) against the force's rise from the contact on, over the
+# approach and the hold of a creep or relaxation test, over the approach alone of a force
+# map's curve (its retraction leaves the contact: the strain is zero over most of it)
 AFM = dict(time="time_s", inputs=["force_rise_N"], output="contact_strain",
            tip=("sphere", 5e-6), segments=[0, 1])
+AFM_MAP = dict(AFM, segments=[0])
 DATASETS = {
     "beef indentation": ("beef-indentation-relaxation/beef_indentation_relaxation.csv",
                          INDENTATION, None),
@@ -56,7 +59,7 @@ DATASETS = {
     "rheometer creep": ("rheometer-creep-hermes/creep_experiment.csv",
                         dict(time="time_s", inputs=["stress_Pa"], output="strain"), None),
     "AFM creep, relaxation": ("afm-brain-gel-creep/raw/*.jpk-force", AFM, None),
-    "AFM force maps": ("afm-force-maps/raw/*.jpk-force-map", AFM, None),
+    "AFM force maps": ("afm-force-maps/raw/*.jpk-force-map", AFM_MAP, None),
     "LAOS": ("laos-mitlaos-reptate/raw/*.laos", "laos", None),
 }
 

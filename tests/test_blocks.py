@@ -129,6 +129,22 @@ def test_blocks_that_misrepresent_the_record_are_reported():
     assert fine.diagnostics.block == 3 and fine.diagnostics.block_error < 0.5
 
 
+def test_the_block_error_of_an_output_flat_over_most_of_the_record():
+    """An output exactly zero over the first two thirds of the record (an AFM contact strain
+    before the contact), a springpot's creep at 1 % noise after it, fitted in blocks:
+    the block error is measured against the noise of the samples that move, and the smooth
+    creep's blocks represent it (the noise of all the second differences, most of them
+    exactly zero, was 0, and the error 1e100 times it)."""
+    num, dt, rest = 3000, 0.01, 2000
+    u = np.where(np.arange(num) >= rest, 1.0, 0.0)
+    x = np.asarray(reference.fractional_integral(u, np.full(num, 0.4), dt))
+    rng = np.random.default_rng(5)
+    y = np.where(np.arange(num) >= rest, x + 1e-2 * np.ptp(x) * rng.standard_normal(num), 0.0)
+    d = vojax.identify(u, y, dt, max_points=500, parameters="constant", warn=False).diagnostics
+    assert d.block > 1 and 0 < d.block_error < 0.5
+    assert "blocks" not in d.message
+
+
 def test_blocks_on_a_non_uniform_clock_and_with_padding():
     """On sample times (`t=`) the blocks take the mean times; padding after the last fitted
     sample (the batch's buckets) changes nothing within the solvers' tolerances."""
