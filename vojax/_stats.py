@@ -12,7 +12,8 @@ def noise_variance(y, order: int = 2) -> float:
     ramps). Not from the law's residuals, which carry its tracking error as well. Where most
     differences are exactly zero (an output held flat over most of the record: set to zero
     before a contact, clipped, padded), the median is over the others: a flat stretch has no
-    noise to measure, and the median of all would be 0. A constant `y`: 0."""
+    noise to measure, and the median of all would be 0. A constant `y`, or one too short for
+    a difference of that order: 0."""
     import math
 
     dk = np.abs(np.diff(np.asarray(y), order))
