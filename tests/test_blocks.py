@@ -134,7 +134,7 @@ def test_the_block_error_of_an_output_flat_over_most_of_the_record():
     before the contact), a springpot's creep at 1 % noise after it, fitted in blocks:
     the block error is measured against the noise of the samples that move, and the smooth
     creep's blocks represent it (the noise of all the second differences, most of them
-    exactly zero, was 0, and the error 1e100 times it)."""
+    exactly zero, was 0, and the error over 1e100 times it)."""
     num, dt, rest = 3000, 0.01, 2000
     u = np.where(np.arange(num) >= rest, 1.0, 0.0)
     x = np.asarray(reference.fractional_integral(u, np.full(num, 0.4), dt))
