@@ -60,7 +60,8 @@ DATASETS = {
                         dict(time="time_s", inputs=["stress_Pa"], output="strain"), None),
     "AFM creep, relaxation": ("afm-brain-gel-creep/raw/*.jpk-force", AFM, None),
     "AFM force maps": ("afm-force-maps/raw/*.jpk-force-map", AFM_MAP, None),
-    "LAOS": ("laos-mitlaos-reptate/raw/*.laos", "laos", None),
+    "LAOS": ("laos-mitlaos-reptate/raw/*.laos",
+             dict(time="time_s", inputs=["stress"], output="strain"), None),
 }
 
 
@@ -84,11 +85,9 @@ def _load(data, per_dataset, scratch):
         folder, _, glob = pattern.rpartition("/")
         records = []
         for path in sorted((data / folder).glob(glob), key=lambda p: natural_key(p.name)):
-            if loader == "laos":
+            phase = None
+            if path.suffix == ".laos":  # a CSV of it, and its phase order
                 path, phase = _laos(path, scratch)
-                records += [(r, phase) for r in load_records(
-                    path, time="time_s", inputs=["stress"], output="strain")]
-                continue
             if loader.get("group_by") in loader["inputs"]:  # one series per load level
                 path = _with_series(path, loader["group_by"], scratch)
                 loader = dict(loader, group_by="series")
@@ -100,7 +99,7 @@ def _load(data, per_dataset, scratch):
             except DataError as e:
                 failed.append(dict(dataset=name, record=path.name, error=str(e)))
                 continue
-            records += [(r, None) for r in read]
+            records += [(r, phase) for r in read]
         records.sort(key=lambda rp: natural_key(rp[0].name))
         out += [(name, r, origin, phase) for r, phase in records[:per_dataset]]
     return out, failed
