@@ -40,17 +40,19 @@ def as_reported(r, **kwargs):
                        half=n // 2, level_weights=s.level_weights,
                        evidence_floor=s.envelope_evidence,
                        fastest_evidence=s.fastest_evidence,
-                       near_evidence=s.near_evidence, level_gap=s.level_gap), **kwargs)
+                       near_evidence=s.near_evidence, level_gap=s.level_gap,
+                       profile_chi2=s.level_profile_chi2), **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None
     alpha = np.asarray(r["alpha"], float)
     _, lower, upper, sd = (np.asarray(a, float)[:n] for a in b.stated)
     band = (alpha, lower, upper, np.maximum(sd, (upper - lower) / 4))
-    return (*clock_union(r, band), True)
+    profile = kwargs["profile_chi2"] if kwargs["level_weights"] == "profile" else None
+    return (*clock_union(r, band, profile), True)
 
 
-def clock_union(r, band):
+def clock_union(r, band, profile=None):
     """`band` widened to the second clock's tuned smoothing (the data's unit of time) as
     `Tracker` weighs it (`vojax._tracker._clock.weigh_clock`): where that order lies outside
     the band, the union, unless the data exclude that account (the span's fit ahead by more
@@ -58,7 +60,9 @@ def clock_union(r, band):
     does (parameters stated constant, which drift on the span's clock beyond `drift_floor`)
     and either the span's fit is ahead or covering it would leave no answer (a half-width
     beyond `identified_halfwidth`). Dumps without the span's length in the data's unit
-    (`clock_scale`) count a constant statement's account as drifting."""
+    (`clock_scale`) count a constant statement's account as drifting. `profile`: where the
+    statement excludes that account, its order moved back towards the span's band's estimate
+    as `vojax._tracker._clock.weigh_clock` moves it, and covered where it is then outside."""
     from vojax import TrackerSettings
     from vojax._tracker._band import outside, union
     from vojax._tracker._clock import clock_drift
@@ -81,4 +85,13 @@ def clock_union(r, band):
     widened = union(band, (o_alpha, np.asarray(other["lower"], float)[:n],
                            np.asarray(other["upper"], float)[:n], 0.0))
     wide = np.median(widened[2][half:] - widened[1][half:]) / 2 > s.identified_halfwidth
-    return band if excluded and (apart > 0.0 or wide) else widened
+    if not (excluded and (apart > 0.0 or wide)):
+        return widened
+    if profile is None:
+        return band
+    from vojax._tracker._clock import moved_share
+
+    a = np.asarray(band[0], float)
+    moved = a + moved_share(2.0 * apart * n, profile) * (o_alpha - a)
+    return union(band, (moved, moved, moved, 0.0)) if outside(moved, (*band[:3], 0.0),
+                                                                half) else band

@@ -39,8 +39,8 @@ MUTATIONS = {
     ),
     "the clock replay covers a statement's excluded account where the span's fit is ahead": (
         "scripts/band_library.py",
-        [("    return band if excluded and (apart > 0.0 or wide) else widened",
-          "    return band if excluded and wide else widened")],
+        [("    if not (excluded and (apart > 0.0 or wide)):",
+          "    if not (excluded and wide):")],
         ["tests/test_band_scores.py::test_the_second_clocks_replay_widens_exactly_where_the_tracker_does"],
     ),
     "the clock replay covers an account the evidence excludes": (

@@ -29,8 +29,8 @@ MUTATIONS = {
     ),
     "the held scales' χ² gap ignored": (
         "vojax/_tracker/_band.py",
-        [("    return var + level_spread(explanations, tuned, level_weights, gap=level_gap)",
-          "    return var + level_spread(explanations, tuned, level_weights)")],
+        [("    return var + level_spread(explanations, tuned, level_weights, gap=level_gap,",
+          "    return var + level_spread(explanations, tuned, level_weights,")],
         ["tests/test_band_held.py::test_a_held_scale_far_above_the_tuned_fit_is_left_out_of_the_band"],
     ),
     "the held scales' χ² gap counted in units of χ², not of its standard deviation": (
@@ -40,8 +40,34 @@ MUTATIONS = {
     ),
     "the tracker's band without its χ² gap setting": (
         "vojax/_tracker/_fit.py",
-        [(",\n                         level_gap=s.level_gap)", ")")],
+        [("level_gap=s.level_gap, profile_chi2", "profile_chi2")],
         ["tests/test_settings.py::test_the_band_gets_the_settings_held_scale_gap"],
+    ),
+    "the profile's held scales counted in full however far above the tuned fit": (
+        "vojax/_tracker/_band.py",
+        [("(1.0 if gap <= chi2 else np.sqrt(chi2 / gap))", "1.0")],
+        ["tests/test_band_profile.py::test_a_held_scale_further_above_is_moved_back_by_the_quadratic_profile"],
+    ),
+    "the profile's held scales that do not fit counted": (
+        "vojax/_tracker/_band.py",
+        [("profile_spread([e for e in levels if e.fits], reference,",
+          "profile_spread(levels, reference,")],
+        ["tests/test_band_profile.py::test_only_held_scales_that_fit_count_and_the_nearest_edge_is_the_widest_one"],
+    ),
+    "the profile's share without its square root": (
+        "vojax/_tracker/_clock.py",
+        [("else float(np.sqrt(profile / gap))", "else float(profile / gap)")],
+        ["tests/test_band_profile.py::test_an_account_the_statement_excludes_is_covered_moved_back_on_the_profile"],
+    ),
+    "the clock's excluded account covered where it lies, not moved": (
+        "vojax/_tracker/_clock.py",
+        [("        o_alpha = points[0] + move * (o_alpha - points[0])\n", "")],
+        ["tests/test_band_profile.py::test_an_account_the_statement_excludes_is_covered_moved_back_on_the_profile"],
+    ),
+    "the tracker's band without the profile's Δχ² setting": (
+        "vojax/_tracker/_fit.py",
+        [(", profile_chi2=s.level_profile_chi2)", ")")],
+        ["tests/test_settings.py::test_the_band_gets_the_settings_profile_level"],
     ),
     "the held answer without its held scales": (
         "vojax/_tracker/_band.py",
@@ -191,8 +217,8 @@ MUTATIONS = {
     "the level profile's held scales left out of the reference's variance": (
         'vojax/_tracker/_band.py',
         [
-            ('    if not levels:',
-             '    if True:'),
+            ('    if not levels:\n        return 0.0\n    members',
+             '    if True:\n        return 0.0\n    members'),
         ],
         ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
@@ -279,7 +305,8 @@ MUTATIONS = {
     ),
     "the second clock's band never joins the span's": (
         "vojax/_tracker/_clock.py",
-        [("    if not outside(o_alpha, (*points, 0.0), half):", "    if True:")],
+        [("    if not outside(o_alpha, (*points, 0.0), half):\n        cond",
+          "    if True:\n        cond")],
         ["tests/test_clock.py"],
     ),
     "the second clock's union takes the span's band twice": (

@@ -91,29 +91,37 @@ def test_a_record_scored_from_a_given_point_is_scored_there(scores):
 
 
 
-@pytest.mark.parametrize("setting, lead", [
-    (s, lead) for s in ("free", "constant") for lead in (-0.05, 0.0, 1e-3, 0.1, 0.3)])
-def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, setting, lead):
+@pytest.mark.parametrize("setting, lead, profile", [
+    (s, lead, profile) for s in ("free", "constant") for lead in (-0.05, 0.0, 1e-3, 0.1, 0.3)
+    for profile in (None, 4.0)])
+def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, setting, lead,
+                                                                        profile):
     """`clock_union` replays `weigh_clock` on a saved record: the span's band 0.30–0.40
     (±0.05), the data unit's order 0.1 above (±0.03; parameters constant in it drift 46 %
     on a span of 100 units), the span's fit ahead by `lead` nats per point. The union
     (±0.09) is still an answer, so where the tracker covers it the replay does, and where
     the tracker leaves the band (the evidence, or a constant statement with the span's fit
-    ahead) so does the replay, to the last bit."""
+    ahead) so does the replay, to the last bit. With `profile` (Δχ² 4), a constant
+    statement's excluded account is covered moved back by √(4/Δχ²), Δχ² = 2 × 40 × `lead`:
+    beyond the span's band (0.05) while that share exceeds one half."""
     s = TrackerSettings()
     span = np.linspace(0.3, 0.4, N)
     mine, fit = clock_fit(span, 0.05, log_likelihood=10.0 + lead * N)
     other, other_fit = clock_fit(span + 0.1, 0.03, log_likelihood=10.0)
     bound = s.drift_floor if setting == "constant" else None
     new, _, _ = weigh_clock(mine, fit, other, other_fit, bound=bound, scale=100.0,
-                            answer=s.identified_halfwidth, evidence=s.clock_evidence)
+                            answer=s.identified_halfwidth, evidence=s.clock_evidence,
+                            profile=profile)
     record = dict(truth=span, setting=setting, clock_scale=100.0,
                   log_likelihood=10.0 + lead * N,
                   other=dict(converged=True, alpha=other.alpha, lower=other.alpha_lower,
                              upper=other.alpha_upper, log_likelihood=10.0))
     band = (span, mine.alpha_lower, mine.alpha_upper, mine.alpha_std)
-    replay = scores.clock_union(record, band)
+    replay = scores.clock_union(record, band, profile)
     np.testing.assert_array_equal(replay[1], np.asarray(new.alpha_lower))
     np.testing.assert_array_equal(replay[2], np.asarray(new.alpha_upper))
     widened = not np.array_equal(replay[2], band[2])
-    assert widened == (lead <= 0.0 if setting == "constant" else lead <= s.clock_evidence)
+    gap = 2 * N * lead
+    moved = profile is not None and 0.1 * (1.0 if gap <= profile else np.sqrt(profile / gap)) > 0.05
+    assert widened == (lead <= 0.0 or (moved and lead <= s.clock_evidence)
+                       if setting == "constant" else lead <= s.clock_evidence)

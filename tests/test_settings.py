@@ -59,7 +59,7 @@ from .helpers import band_calls
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
-    (dict(level_weights="aic"), "`level_weights` must be 'evidence' or 'chi2', got 'aic'"),
+    (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2' or 'profile', got 'aic'"),
 ])
 def test_a_setting_the_tracker_cannot_use_is_refused_naming_it(kwargs, words):
     with pytest.raises(ValueError, match=words):
@@ -110,3 +110,13 @@ def test_the_band_gets_the_settings_held_scale_gap(monkeypatch):
     seen = band_calls(monkeypatch, parameters="constant",
                       settings=TrackerSettings(level_gap=1.75))
     assert seen and all(kwargs["level_gap"] == 1.75 for _, _, kwargs in seen)
+
+
+def test_the_band_gets_the_settings_profile_level(monkeypatch):
+    """`level_weights` and `level_profile_chi2` reach the band of a fit: each `bands` call
+    of a constant-statement fit gets the settings' values."""
+    seen = band_calls(monkeypatch, parameters="constant",
+                      settings=TrackerSettings(level_weights="profile",
+                                               level_profile_chi2=2.5))
+    assert seen and all(kwargs["profile_chi2"] == 2.5 and kwargs["level_weights"] == "profile"
+                        for _, _, kwargs in seen)

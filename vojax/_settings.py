@@ -138,6 +138,9 @@ class TrackerSettings:
     # a true constant statement, 2 fewer by default, 5 more confidently wrong under false
     # ones (docs/calibration.md); kept for measuring
     level_gap: float | None = None
+    # with `level_weights="profile"`: the Δχ² at which a held scale's order counts in full
+    # (4: the ±2σ edge of a quadratic profile); one further above is moved back by √(4/Δχ²)
+    level_profile_chi2: float = 4.0
     # the band from the explanations (`vojax._tracker._band`)
     band_scale: float = 1.0  # the factor on each explanation's σ (1: calibrated on the suite)
     band_floor: float = 0.0025  # the order's least σ: its model error (quadrature, the input)
@@ -229,7 +232,7 @@ class TrackerSettings:
 
 # the settings that name a choice, and their choices
 CHOICES = {"schedule": (None, "sequential", "associative", "chunked"),
-           "second_climb": (True, False), "level_weights": ("evidence", "chi2")}
+           "second_climb": (True, False), "level_weights": ("evidence", "chi2", "profile")}
 # the settings that hold a range (low, high)
 PAIRS = frozenset({"order_drift_range", "parameter_drift_range"})
 # each numeric setting's limits ``(low, high, whole)``: a bound ``(x,)`` is open (x itself

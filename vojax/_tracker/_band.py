@@ -77,7 +77,8 @@ def own_halfwidth(explanation, bounds, scale, floor, half, span) -> float:
     return float(np.median((upper - lower)[half:span]) / 2)
 
 
-def reference_variance(explanations, tuned, span, level_weights="chi2", level_gap=None):
+def reference_variance(explanations, tuned, span, level_weights="chi2", level_gap=None,
+                       profile_chi2=4.0):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
     integrated over it. `level_weights`: how each held scale is weighed against the tuned run:
@@ -91,10 +92,12 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     mixed = [tuned] + [e for e in explanations if e.kind in OWN]
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
-    return var + level_spread(explanations, tuned, level_weights, gap=level_gap)
+    return var + level_spread(explanations, tuned, level_weights, gap=level_gap,
+                              profile_chi2=profile_chi2)
 
 
-def level_spread(explanations, reference, level_weights="chi2", kind="level", gap=None):
+def level_spread(explanations, reference, level_weights="chi2", kind="level", gap=None,
+                 profile_chi2=4.0):
     """What the level profile adds to the variance of β (N,) of the `reference` (the
     smoothing it ran about, or one with the parameters as constant): its held scales (the
     explanations of `kind`; with a `gap`, only those whose χ² exceeds the reference's by at
@@ -107,6 +110,8 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level", ga
     at_dof = kind == "level"
     levels = [e for e in explanations if e.kind == kind and e.converged and (
         gap is None or e.chi2 <= reference.chi2 + gap * np.sqrt(2.0 * e.dof))]
+    if at_dof and level_weights == "profile":
+        return profile_spread([e for e in levels if e.fits], reference, profile_chi2)
     if not levels:
         return 0.0
     members = [reference] + levels
@@ -117,6 +122,23 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level", ga
         chi2 = np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])
         w = np.exp(-(chi2 - chi2.min()) / 2)
     return mixture_spread(members, w, reference)
+
+
+def profile_spread(levels, reference, chi2=4.0):
+    """What the level profile adds to the variance of β (N,) of the `reference` read as a
+    profile likelihood: each held scale in `levels` (those that fit) moves the order by its
+    β − the reference's; one whose χ² lies Δ above the reference's is moved back towards it
+    by √(`chi2`/Δ) where Δ > `chi2` (a quadratic profile reaches Δχ² = `chi2` there: at 4,
+    the ±2σ edge of one parameter's interval). The variance makes the ±2σ band cover each
+    moved scale's own ±2σ; 0 where none fits."""
+    if not levels:
+        return 0.0
+    need = 0.0
+    for e in levels:
+        gap = max(e.chi2 - reference.chi2, 0.0)
+        moved = (e.beta - reference.beta) * (1.0 if gap <= chi2 else np.sqrt(chi2 / gap))
+        need = np.maximum(need, (np.abs(moved) / 2 + np.sqrt(e.var)) ** 2)
+    return np.maximum(need - reference.var, 0.0)
 
 
 def mixture_spread(members, weights, reference):
@@ -184,7 +206,7 @@ def near_alternatives(explanations, tuned, limit):
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
           floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
-          fastest_evidence=np.inf, near_evidence=None, level_gap=None):
+          fastest_evidence=np.inf, near_evidence=None, level_gap=None, profile_chi2=4.0):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -220,8 +242,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     else:
         reference = tuned
         ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
-                                                         level_weights, level_gap), bounds,
-                           scale, floor)
+                                                         level_weights, level_gap,
+                                                         profile_chi2), bounds, scale, floor)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
               and e.holds and plausible(e)]

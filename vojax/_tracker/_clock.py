@@ -72,8 +72,15 @@ def evidence_apart(res, fit, other) -> float:
     return float(gain / max(points, 1))
 
 
+def moved_share(gap, profile) -> float:
+    """The share of an account's distance from the answer that a profile likelihood keeps
+    where that account fits `gap` units of χ² worse: all of it up to `profile` units, then
+    √(`profile`/`gap`) (a quadratic profile's Δχ² = `profile` point)."""
+    return 1.0 if gap <= profile else float(np.sqrt(profile / gap))
+
+
 def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf,
-                evidence=np.inf):
+                evidence=np.inf, profile=None):
     """The span's result `res` and its fitted points `fit` (see `Tracker._fit`) weighed
     against the data's-unit fit (`other`, `other_fit`): where that fit's order lies outside
     the stated band (`outside`, on the fitted points) the band is widened to cover both;
@@ -89,7 +96,11 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
     half) stays within `answer`, and the conditional answer is kept. Where the span's
     fit explains the data better by more than `evidence` nats per fitted point
     (`evidence_apart`), whatever the statement, the data exclude that account: the band is
-    the span's and the conditional answer is kept."""
+    the span's and the conditional answer is kept. `profile` (Δχ²): where the statement
+    excludes that account, the band still covers it read on a profile likelihood, as the
+    level profile's held scales are (`vojax._tracker._band.profile_spread`): its order moved
+    back towards the span's by `moved_share` of twice the log-likelihood it loses (None:
+    not covered)."""
     span = fit["span"]
     half, o_points = _other_points(fit, other, other_fit)
     if o_points is None:
@@ -109,14 +120,24 @@ def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf
             o_alpha, (None, *(np.asarray(a)[:span] for a in cond[1:3]), None), half)
         return res, fit, clock if beyond and not excluded else None
     _, lo, hi, _ = union((*points, 0.0), (*o_points, 0.0))
+    fields = ("alpha", "alpha_lower", "alpha_upper", "alpha_std")
+    o_res = tuple(np.asarray(getattr(other, k)) for k in fields)
     if excluded and (apart > 0.0 or np.median(hi[half:] - lo[half:]) / 2 > answer):
-        # covered only where the data favour it as much and covering it leaves an answer
-        return res, fit, None
+        # covered only where the data favour it as much and covering it leaves an answer …
+        if profile is None:
+            return res, fit, None
+        # … or, read on a profile likelihood, its order moved back towards the span's
+        move = moved_share(2.0 * (res.tuning.log_likelihood - other.tuning.log_likelihood),
+                           profile)
+        o_alpha = points[0] + move * (o_alpha - points[0])
+        _, lo, hi, _ = union((*points, 0.0), (o_alpha, o_alpha, o_alpha, 0.0))
+        r_alpha = np.asarray(res.alpha)
+        o_res = (r_alpha + move * (o_res[0] - r_alpha),) * 3 + (0.0,)
+        if not outside(o_alpha, (*points, 0.0), half):
+            return res, fit, None
     fit = dict(fit, lower=np.concatenate([lo, np.asarray(fit["lower"])[span:]]),
                upper=np.concatenate([hi, np.asarray(fit["upper"])[span:]]))
-    fields = ("alpha", "alpha_lower", "alpha_upper", "alpha_std")
-    _, r_lo, r_hi, std = union(*(tuple(np.asarray(getattr(r, k)) for k in fields)
-                                 for r in (res, other)))
+    _, r_lo, r_hi, std = union(tuple(np.asarray(getattr(res, k)) for k in fields), o_res)
     res = dataclasses.replace(res, alpha_lower=to_device(r_lo), alpha_upper=to_device(r_hi),
                               alpha_std=to_device(std))
     return res, fit, clock

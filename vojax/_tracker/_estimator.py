@@ -201,9 +201,11 @@ class Tracker:
             stated = self.settings.drift_floor if self.parameters == "constant" else None
             bounded = not isinstance(self.parameters, str)
             evidence = np.inf if bounded else self.settings.clock_evidence
+            profile = (self.settings.level_profile_chi2
+                       if self.settings.level_weights == "profile" else None)
             res, fit, clock = weigh_clock(res, fit, *other, bound=stated, scale=scale,
                                           answer=self.settings.identified_halfwidth,
-                                          evidence=evidence)
+                                          evidence=evidence, profile=profile)
         bad = check.first_bad(res.alpha, res.p, res.y_hat, res.alpha_std, res.p_std)
         if bad is not None:
             raise ValueError(f"the tracker diverged at sample {bad} (non-finite estimate).")
