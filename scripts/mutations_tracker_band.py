@@ -52,7 +52,7 @@ MUTATIONS = {
         "vojax/_tracker/_band.py",
         [("profile_spread([e for e in levels if e.fits], reference,",
           "profile_spread(levels, reference,")],
-        ["tests/test_band_profile.py::test_only_held_scales_that_fit_count_and_the_nearest_edge_is_the_widest_one"],
+        ["tests/test_band_profile.py::test_only_held_scales_that_fit_count_and_the_widest_moved_edge_sets_the_band"],
     ),
     "the profile's share without its square root": (
         "vojax/_tracker/_clock.py",

@@ -39,7 +39,7 @@ def test_a_held_scale_further_above_is_moved_back_by_the_quadratic_profile(gap, 
     assert np.allclose(profile_spread([level], tuned), (0.3 * moved + SD) ** 2 - SD**2)
 
 
-def test_only_held_scales_that_fit_count_and_the_nearest_edge_is_the_widest_one():
+def test_only_held_scales_that_fit_count_and_the_widest_moved_edge_sets_the_band():
     tuned = ex("tuned", 0.0)
     # fails the χ² test: no account of the data (counted, it would be moved to 0.79)
     failing = ex("level", 5.0, chi2=FAILS)

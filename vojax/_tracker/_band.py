@@ -85,7 +85,9 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     ``"chi2"``, by exp(−Δχ²/2) from the best, a χ² below its degrees of freedom counted as dof
     (a run that fits below the noise has fitted noise, and that earns it no weight over a held
     scale that fits as well as the noise allows); ``"evidence"``, by its Laplace evidence
-    (where every member's is finite; else by χ²). `level_gap`: a held scale whose χ² exceeds
+    (where every member's is finite; else by χ²); ``"profile"``, not weighed but covered as
+    a profile likelihood's interval, each moved back by `profile_chi2` (`profile_spread`).
+    `level_gap`: a held scale whose χ² exceeds
     the tuned run's by more than this many standard deviations of a χ² with its degrees of
     freedom (√(2 dof)) is left out (the two share every intensity, so that gap is the data's,
     not the tuned run's freedom to fit the noise); None: none is."""
@@ -222,7 +224,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     this many nats below the tuned one is left to its mixture weight (`fastest_far`);
     `near_evidence`: with the parameters stated constant, the tuned run's own alternatives
     (`near_alternatives`) within this many nats of its evidence are covered, not only
-    weighed (None: weighed only); `level_gap`: see `reference_variance`."""
+    weighed (None: weighed only); `level_gap`, `profile_chi2`: see `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
