@@ -264,6 +264,17 @@ MUTATIONS = {
           "        curve = _ExportCurve({names[c]: v for c, v in raw.items()},")],
         ["tests/test_afm_contact.py::test_a_csv_export_is_read_as_its_raw_file"],
     ),
+    "AFM record kept after the tip leaves the sample": (
+        "vojax/_data/_afm_records.py",
+        [('        keep[released(cols["indentation_m"], keep):] = False\n', "")],
+        ["tests/test_afm.py::test_a_record_ends_where_the_tip_leaves_the_sample"],
+    ),
+    "AFM record ends at the first sample out of contact, before the deepest indentation": (
+        "vojax/_data/_afm_records.py",
+        [("    after = np.flatnonzero(depth[int(np.argmax(depth)):] <= 0)",
+          "    after = np.flatnonzero(depth <= 0)")],
+        ["tests/test_afm.py::test_a_record_ends_where_the_tip_leaves_the_sample"],
+    ),
     "AFM channels of different lengths taken": (
         "vojax/_data/_afm.py",
         [("    if len(set(sizes.values())) > 1:", "    if False:")],

@@ -203,3 +203,32 @@ def test_a_damaged_file_in_a_batch_fails_only_its_own_record(tmp_path):
     assert (tmp_path / "out" / "good" / "summary.json").is_file()
     check = run_cli("check", str(RAW), *base, "--out", "c", cwd=tmp_path)
     assert check.returncode == 1 and "unrecognized arguments: --out c" in check.stderr
+
+
+def test_a_record_ends_where_the_tip_leaves_the_sample():
+    """With every segment kept, the brain record runs from the contact point to the first
+    sample after its deepest indentation at which the indentation is back to 0 or below: its
+    retraction stays while the tip is in contact; with a tip, under 1 % of the contact
+    strain (0 out of contact) is exactly 0. `released` on a closed case, where the
+    indentation never comes back, and with nothing kept."""
+    from vojax._data._afm_records import released
+
+    ((cols, meta),), _ = _afm.read_afm(RAW)
+    depth, c = cols["indentation_m"], meta["contact_index"]
+    deepest = int(np.argmax(depth[c:])) + c
+    end = deepest + int(np.flatnonzero(depth[deepest:] <= 0)[0])
+    assert cols["segment"][end - 1] > 1  # the in-contact retraction is kept
+    rec, = load_records(RAW, time="time_s", inputs=["force_rise_N"], output="indentation_m")
+    assert rec.output.size == end - c
+    np.testing.assert_array_equal(rec.output, depth[c:end])
+    assert np.all(rec.output[deepest - c:] > 0) and depth[end] <= 0
+    strain, = load_records(RAW, time="time_s", inputs=["force_rise_N"], output="contact_strain",
+                           tip=("sphere", 5e-6))  # its own contact point (the Hertz fit's)
+    assert np.mean(strain.output == 0) < 0.01
+    keep = np.ones(10, bool)
+    shape = np.array([-1, -0.5, 0.2, 0.8, 1.0, 0.6, 0.1, -0.1, -0.3, 0.05])
+    assert released(shape, keep) == 7
+    keep[:3] = False  # kept from the third sample on: the same
+    assert released(shape, keep) == 7
+    assert released(np.array([-1.0, 0.5, 1.0, 0.7]), np.ones(4, bool)) == 4
+    assert released(shape, np.zeros(10, bool)) == 10

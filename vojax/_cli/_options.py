@@ -132,7 +132,8 @@ def _afm_options(p):
     p.add_argument(
         "--no-contact",
         action="store_true",
-        help="AFM curves: keep the samples before the contact point (default: drop them)",
+        help="AFM curves: keep the samples before the contact point and after the tip leaves "
+        "the sample (default: drop them)",
     )
     p.add_argument(
         "--tip",

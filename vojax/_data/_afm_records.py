@@ -19,7 +19,7 @@ SPRING_CONSTANT = (1e-6, 1e4)  # N/m; outside these a unit mistake
 @dataclasses.dataclass(frozen=True)
 class AfmOptions:
     """How force curves become records: the `segments` kept, whether the samples before
-    contact are dropped (`from_contact`), the `tip` and `poisson` of the Hertz fit and the
+    contact and after the tip leaves the sample are dropped (`from_contact`, `released`), the `tip` and `poisson` of the Hertz fit and the
     contact strain, the `contact` method, the `spring_constant` (N/m) of a CSV export and the
     force `baseline`'s correction (`_contact.BASELINES`)."""
 
@@ -171,14 +171,28 @@ def _check_wanted(path, wanted, afm):
                         "cone:HALF_ANGLE_deg or pyramid:FACE_ANGLE_deg.")
 
 
+def released(indentation, keep) -> int:
+    """Where the tip leaves the sample: the first of the kept samples after the deepest
+    indentation at which the `indentation` is back to 0 or below (the record's end where it
+    never is)."""
+    idx = np.flatnonzero(keep)
+    if idx.size == 0:
+        return indentation.size
+    depth = np.asarray(indentation, float)[idx]
+    after = np.flatnonzero(depth[int(np.argmax(depth)):] <= 0)
+    return int(idx[int(np.argmax(depth)) + after[0]]) if after.size else indentation.size
+
+
 def _cut(path, cols, meta, wanted, afm, time, inputs, output, trim):
-    """One record from a curve's columns: the segments kept, from the contact on."""
+    """One record from a curve's columns: the segments kept, from the contact on until the
+    tip leaves the sample."""
     name = meta["name"]
     keep = np.ones(cols["time_s"].size, bool)
     if afm.segments is not None:
         keep &= np.isin(cols["segment"], np.asarray(list(afm.segments), float))
     if afm.from_contact:
         keep[: meta["contact_index"]] = False
+        keep[released(cols["indentation_m"], keep):] = False
     idx = np.flatnonzero(keep)
     if idx.size < 3:
         raise DataError(f"{path}, curve {name!r}: fewer than 3 samples in the segments kept.")
