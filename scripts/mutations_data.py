@@ -271,7 +271,7 @@ MUTATIONS = {
     ),
     "AFM record ends at the first sample out of contact, before the deepest indentation": (
         "vojax/_data/_afm_records.py",
-        [("    after = np.flatnonzero(depth[int(np.argmax(depth)):] <= 0)",
+        [("    after = np.flatnonzero(depth[deepest:] <= 0)",
           "    after = np.flatnonzero(depth <= 0)")],
         ["tests/test_afm.py::test_a_record_ends_where_the_tip_leaves_the_sample"],
     ),

@@ -19,9 +19,10 @@ SPRING_CONSTANT = (1e-6, 1e4)  # N/m; outside these a unit mistake
 @dataclasses.dataclass(frozen=True)
 class AfmOptions:
     """How force curves become records: the `segments` kept, whether the samples before
-    contact and after the tip leaves the sample are dropped (`from_contact`, `released`), the `tip` and `poisson` of the Hertz fit and the
-    contact strain, the `contact` method, the `spring_constant` (N/m) of a CSV export and the
-    force `baseline`'s correction (`_contact.BASELINES`)."""
+    contact and after the tip leaves the sample are dropped (`from_contact`, `released`),
+    the `tip` and `poisson` of the Hertz fit and the contact strain, the `contact` method,
+    the `spring_constant` (N/m) of a CSV export and the force `baseline`'s correction
+    (`_contact.BASELINES`)."""
 
     segments: tuple | None = None
     from_contact: bool = True
@@ -179,8 +180,9 @@ def released(indentation, keep) -> int:
     if idx.size == 0:
         return indentation.size
     depth = np.asarray(indentation, float)[idx]
-    after = np.flatnonzero(depth[int(np.argmax(depth)):] <= 0)
-    return int(idx[int(np.argmax(depth)) + after[0]]) if after.size else indentation.size
+    deepest = int(np.argmax(depth))
+    after = np.flatnonzero(depth[deepest:] <= 0)
+    return int(idx[deepest + after[0]]) if after.size else indentation.size
 
 
 def _cut(path, cols, meta, wanted, afm, time, inputs, output, trim):

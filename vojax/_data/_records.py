@@ -68,7 +68,8 @@ def load_records(
       point found with nanite (see the command line's docs). `segments`: the segments to keep
       (e.g. ``[0, 1]``, the approach and the hold; default all); `from_contact`: drop the
       samples before the contact point and after the tip leaves the sample (the first
-      sample after the deepest indentation at which it is back to 0 or below; default); `tip`: ``("sphere", R)`` with R in m,
+      sample after the deepest indentation at which it is back to 0 or below; default);
+      `tip`: ``("sphere", R)`` with R in m,
       ``("cone", θ)`` with the half-angle or ``("pyramid", θ)`` with the face angle in
       degrees, and `poisson`, for ``contact_strain`` and nanite's Hertz fit of the loading
       (its Young's modulus is in each record's ``afm``); `contact`: ``"fit"`` (that fit's
