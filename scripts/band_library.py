@@ -89,7 +89,7 @@ def clock_union(r, band, profile=None):
         return widened
     if profile is None:
         return band
-    from vojax._tracker._clock import moved_share
+    from vojax._tracker._band import moved_share
 
     a = np.asarray(band[0], float)
     moved = a + moved_share(2.0 * apart * n, profile) * (o_alpha - a)

@@ -45,7 +45,7 @@ MUTATIONS = {
     ),
     "the profile's held scales counted in full however far above the tuned fit": (
         "vojax/_tracker/_band.py",
-        [("(1.0 if gap <= chi2 else np.sqrt(chi2 / gap))", "1.0")],
+        [(" * moved_share(e.chi2 - reference.chi2, chi2)", "")],
         ["tests/test_band_profile.py::test_a_held_scale_further_above_is_moved_back_by_the_quadratic_profile"],
     ),
     "the profile's held scales that do not fit counted": (
@@ -55,7 +55,7 @@ MUTATIONS = {
         ["tests/test_band_profile.py::test_only_held_scales_that_fit_count_and_the_widest_moved_edge_sets_the_band"],
     ),
     "the profile's share without its square root": (
-        "vojax/_tracker/_clock.py",
+        "vojax/_tracker/_band.py",
         [("else float(np.sqrt(profile / gap))", "else float(profile / gap)")],
         ["tests/test_band_profile.py::test_an_account_the_statement_excludes_is_covered_moved_back_on_the_profile"],
     ),

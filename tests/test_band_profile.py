@@ -87,7 +87,8 @@ def test_an_account_the_statement_excludes_is_covered_moved_back_on_the_profile(
     bound) with `profile`: the band reaches its order moved back towards the span's by
     √(4/Δχ²), Δχ² = twice the log-likelihood it loses (the span's lead × 100 points), all
     of it up to 4; the reported order is the span's, the clock's median is named."""
-    from vojax._tracker._clock import moved_share, weigh_clock
+    from vojax._tracker._band import moved_share
+    from vojax._tracker._clock import weigh_clock
 
     from .helpers import clock_fit
 

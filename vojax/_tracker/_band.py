@@ -126,19 +126,24 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level", ga
     return mixture_spread(members, w, reference)
 
 
+def moved_share(gap, profile) -> float:
+    """The share of an account's distance from the answer that a profile likelihood keeps
+    where that account fits `gap` units of χ² worse: all of it up to `profile` units, then
+    √(`profile`/`gap`) (a quadratic profile's Δχ² = `profile` point)."""
+    return 1.0 if gap <= profile else float(np.sqrt(profile / gap))
+
+
 def profile_spread(levels, reference, chi2=4.0):
     """What the level profile adds to the variance of β (N,) of the `reference` read as a
     profile likelihood: each held scale in `levels` (those that fit) moves the order by its
-    β − the reference's; one whose χ² lies Δ above the reference's is moved back towards it
-    by √(`chi2`/Δ) where Δ > `chi2` (a quadratic profile reaches Δχ² = `chi2` there: at 4,
-    the ±2σ edge of one parameter's interval). The variance makes the ±2σ band cover each
-    moved scale's own ±2σ; 0 where none fits."""
+    β − the reference's, kept at `moved_share` of the Δχ² by which it lies above the
+    reference (all of it within `chi2`; at 4, the ±2σ edge of one parameter's interval).
+    The variance makes the ±2σ band cover each moved scale's own ±2σ; 0 where none fits."""
     if not levels:
         return 0.0
     need = 0.0
     for e in levels:
-        gap = max(e.chi2 - reference.chi2, 0.0)
-        moved = (e.beta - reference.beta) * (1.0 if gap <= chi2 else np.sqrt(chi2 / gap))
+        moved = (e.beta - reference.beta) * moved_share(e.chi2 - reference.chi2, chi2)
         need = np.maximum(need, (np.abs(moved) / 2 + np.sqrt(e.var)) ** 2)
     return np.maximum(need - reference.var, 0.0)
 

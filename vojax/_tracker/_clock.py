@@ -24,7 +24,7 @@ import dataclasses
 import numpy as np
 
 from .._xla import to_device
-from ._band import outside, second_half, union
+from ._band import moved_share, outside, second_half, union
 from ._explanations import relative_drift
 
 # the second clock is skipped where the span is within this relative distance of one unit
@@ -70,13 +70,6 @@ def evidence_apart(res, fit, other) -> float:
     points = span if mask is None else int(np.sum(np.asarray(mask)[:span] > 0))
     gain = res.tuning.log_likelihood - other.tuning.log_likelihood
     return float(gain / max(points, 1))
-
-
-def moved_share(gap, profile) -> float:
-    """The share of an account's distance from the answer that a profile likelihood keeps
-    where that account fits `gap` units of χ² worse: all of it up to `profile` units, then
-    √(`profile`/`gap`) (a quadratic profile's Δχ² = `profile` point)."""
-    return 1.0 if gap <= profile else float(np.sqrt(profile / gap))
 
 
 def weigh_clock(res, fit, other, other_fit, bound=None, scale=1.0, answer=np.inf,
