@@ -105,7 +105,7 @@ def _saved(res, t, alpha, seconds):
         std=_compact(fit.alpha_std), bounds=tuple(res.alpha_bounds),
         explanations=[dict(kind=e.kind, beta=_compact(e.beta), var=_compact(e.var),
                            chi2=e.chi2, dof=e.dof, evidence=e.evidence, drift=e.drift,
-                           accepted=e.accepted, factor=e.factor) for e in fit.explanations],
+                           accepted=e.accepted, factor=e.factor, freedom=e.freedom) for e in fit.explanations],
         other_reasons=tuple(r for r in d.reasons if r not in ("wide_band", "trade_off")),
         noise_levels=getattr(fit, "noise_levels", None),
         log_likelihood=fit.tuning.log_likelihood, clock_scale=_CAP.get("scale"),

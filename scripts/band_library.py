@@ -12,7 +12,7 @@ def as_explanations(r):
     return [Explanation(e["kind"], np.asarray(e["beta"], float),
                         np.maximum(np.asarray(e["var"], float), 0), float(e["chi2"]),
                         float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"],
-                        e.get("factor"))
+                        e.get("factor"), float(e.get("freedom", np.nan)))
             for e in r["explanations"]]
 
 

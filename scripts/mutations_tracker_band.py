@@ -169,8 +169,8 @@ MUTATIONS = {
     ),
     "the level profile rewards a fit below the noise": (
         "vojax/_tracker/_band.py",
-        [("np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])",
-          "np.array([e.chi2 for e in members])")],
+        [("np.array([max(e.chi2, chi2_floor(e, level_weights)) if at_dof else e.chi2",
+          "np.array([e.chi2 if at_dof else e.chi2")],
         ["tests/test_band_held.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
     ),
     "the band ignores the evidence floor of alternative smoothings": (

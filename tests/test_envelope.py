@@ -41,7 +41,7 @@ def _fake_modes(monkeypatch, fits_at, diverges_at=()):
         res = np.full((1, N), 0.1 if ratio in fits_at else 1.0)
         score = -np.inf if ratio in diverges_at else 0.0
         return (np.full((1, N), ratio), np.full((1, N), 0.01), np.array([score]), res,
-                np.full((1, N, 1), 2.0 * ratio))
+                np.full((1, N, 1), 2.0 * ratio), np.array([3.0 + ratio]))
 
     monkeypatch.setattr(_level, "smoother_modes", modes)
     return calls
@@ -93,8 +93,9 @@ def test_the_held_scales_run_on_their_own_iteration_budget(monkeypatch):
 def test_each_held_scale_is_an_explanation_with_its_fit(monkeypatch):
     """Each run of the profile is an `Explanation` of kind "level": its order and variance
     as the run gave them, its χ² over the fitted samples at the noise variance (residuals
-    0.1 at 0.01: χ² = N where the run fits, 100 N where it does not), which `fits` reads, and
-    a run that did not converge is kept, marked by its evidence (−∞)."""
+    0.1 at 0.01: χ² = N where the run fits, 100 N where it does not), which `fits` reads, its
+    fitted freedom beyond the constant fit's, and a run that did not converge is kept,
+    marked by its evidence (−∞)."""
     _fake_modes(monkeypatch, fits_at=(0.71, 1.41), diverges_at=(1.41,))
     out = _profile()
     assert all(e.kind == "level" for e in out)
@@ -105,6 +106,7 @@ def test_each_held_scale_is_an_explanation_with_its_fit(monkeypatch):
         assert e.chi2 == pytest.approx(N * (1.0 if fits else 100.0)) and e.fits == fits
         np.testing.assert_allclose(e.var, 0.01)
         assert e.drift == 0.0  # the stand-in's parameter is held: no drift
+        assert e.freedom == pytest.approx(ratio)  # its trace (3 + ratio) less the constant 3
     assert by_ratio[1.41].evidence == -np.inf and not by_ratio[1.41].converged
     assert by_ratio[0.71].converged
 
@@ -154,14 +156,16 @@ def _mixture(monkeypatch, residual, scores, tuned=0.0):
         ramp = np.linspace(0.0, 1.0, N)[None, :, None]
         params = 1.0 + 0.01 * np.arange(c)[:, None, None] * ramp
         return (np.arange(1.0, c + 1.0)[:, None] * np.ones((1, N)), np.full((c, N), 0.01),
-                scores(c), np.array([residual(k) for k in range(c)]), params)
+                scores(c), np.array([residual(k) for k in range(c)]), params,
+                3.0 + np.arange(c, dtype=float))
 
     monkeypatch.setattr(mixture_module, "run_mode_shares", modes)
     cov = np.tile(np.eye(3) * 0.01, (N, 1, 1))
     theta = np.zeros((N, 3))
     theta[:, 1] = 1.0
     sm = types.SimpleNamespace(theta=theta, cov=cov, log_likelihood=tuned,
-                               objective=0.0, converged=np.isfinite(tuned), phi=np.zeros((N, 1)))
+                               objective=0.0, converged=np.isfinite(tuned), phi=np.zeros((N, 1)),
+                               jacobian=np.ones((N, 3)))
     tuning = types.SimpleNamespace(values=(0.1, 1e-6, 0.01))
     _, _, explanations = mixture_module.mixture(_problem(), tuning, STARTS, sm, False, 0.01,
                                                 None)
@@ -186,6 +190,10 @@ def test_the_mixtures_runs_are_explanations_of_their_kinds(monkeypatch):
         assert e.evidence == -k
         assert e.drift == pytest.approx(0.01 * k / (1 + 0.005 * k))  # (max − min)/|mean|
     assert explanations[0].drift == 0.0 and explanations[0].chi2 == 0.0  # fits exactly
+    # each run's fitted freedom less the constant fit's 3: the runs' as given (3 + k), the
+    # tuned run's its trace at the tuned noise 0.01 (a unit Jacobian, variance 0.01 a state)
+    assert [e.freedom for e in explanations[1:]] == list(range(len(explanations) - 1))
+    assert explanations[0].freedom == pytest.approx(N * 0.03 / 0.01 - 3.0, rel=1e-12)
 
 
 def test_each_order_drift_carries_the_factor_its_run_was_given(monkeypatch):

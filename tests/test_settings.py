@@ -59,7 +59,7 @@ from .helpers import band_calls
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
-    (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2' or 'profile', got 'aic'"),
+    (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2', 'profile' or 'freedom', got 'aic'"),
 ])
 def test_a_setting_the_tracker_cannot_use_is_refused_naming_it(kwargs, words):
     with pytest.raises(ValueError, match=words):

@@ -84,7 +84,11 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     integrated over it. `level_weights`: how each held scale is weighed against the tuned run:
     ``"chi2"``, by exp(−Δχ²/2) from the best, a χ² below its degrees of freedom counted as dof
     (a run that fits below the noise has fitted noise, and that earns it no weight over a held
-    scale that fits as well as the noise allows); ``"evidence"``, by its Laplace evidence
+    scale that fits as well as the noise allows); ``"freedom"``, the same with each run's
+    floor at its degrees of freedom less the freedom its drifts fit (`chi2_floor`: a tuned
+    run whose drifts fit 150 effective parameters leaves a χ² about 150 below dof where it
+    is the truth, and a held scale 100 units above it then fits worse than the noise allows,
+    not as well); ``"evidence"``, by its Laplace evidence
     (where every member's is finite; else by χ²); ``"profile"``, not weighed but covered as
     a profile likelihood's interval, each moved back by `profile_chi2` (`profile_spread`).
     `level_gap`: a held scale whose χ² exceeds
@@ -121,9 +125,21 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level", ga
         score = np.array([e.evidence for e in members])
         w = np.exp(score - score.max())
     else:
-        chi2 = np.array([max(e.chi2, e.dof) if at_dof else e.chi2 for e in members])
+        chi2 = np.array([max(e.chi2, chi2_floor(e, level_weights)) if at_dof else e.chi2
+                         for e in members])
         w = np.exp(-(chi2 - chi2.min()) / 2)
     return mixture_spread(members, w, reference)
+
+
+def chi2_floor(explanation, level_weights="chi2") -> float:
+    """The χ² below which a held scale (or the run it is weighed against) earns no more
+    weight: its degrees of freedom (``"chi2"``), or, with ``"freedom"``, those less the
+    freedom its drifts fit (`Explanation.freedom`): the χ² it leaves on average where it is
+    the truth (its degrees of freedom where that freedom is unknown)."""
+    e = explanation
+    if level_weights == "freedom" and np.isfinite(e.freedom):
+        return e.dof - max(e.freedom, 0.0)
+    return e.dof
 
 
 def moved_share(gap, profile) -> float:

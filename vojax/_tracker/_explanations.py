@@ -31,7 +31,10 @@ class Explanation:
     min)/|mean|, the largest over the inputs), and its `kind` (see `KINDS`); `accepted`:
     where its own rule decides whether it fits (the trade-off's profile), that rule's
     answer, else None; `factor`: an order drift's factor of `alt_order_drift` on the tuned
-    drift, else None."""
+    drift, else None; `freedom`: for a smoothing, the effective number of parameters its
+    drifts fit beyond the constant fit's n + 2 (its linearised hat matrix's trace less
+    n + 2, `freedom`), else NaN: where it is the truth, its χ²
+    lies about `dof` − `freedom` on average."""
 
     kind: str
     beta: np.ndarray
@@ -42,6 +45,7 @@ class Explanation:
     drift: float
     accepted: bool | None = None
     factor: float | None = None
+    freedom: float = np.nan
 
     @property
     def fits(self) -> bool:
@@ -83,15 +87,34 @@ def chi2_of(residuals, mask, fit_noise, whiten=None):
 
 
 def smoothing_explanations(kinds, betas, variances, scores, residuals, params, problem,
-                           fit_noise, whiten=None, factors=None):
+                           fit_noise, whiten=None, factors=None, freedoms=None):
     """`Explanation`s of smoothing runs (`smoother_modes`' outputs), one per row of `kinds`
-    (with its order drift's factor from `factors`, where given)."""
+    (with its order drift's factor from `factors`, and its fitted freedom from `freedoms`
+    (`freedom`), where given and the noise is white: under a
+    coloured noise's `whiten` the χ² is not on the white part's scale that the trace is
+    taken at, and the freedom is left NaN)."""
     w = np.asarray(problem.mask)
     dof = max(float(np.sum(w)) - problem.n - 2, 1.0)
     chi2 = chi2_of(residuals, w, fit_noise, whiten)
     return [
         Explanation(kind, np.asarray(b), np.maximum(np.asarray(v), 0.0), float(c), dof,
-                    float(s), relative_drift(p, problem.span), factor=f)
-        for kind, b, v, s, c, p, f in zip(kinds, betas, variances, scores, chi2, params,
-                                          factors or [None] * len(kinds))
+                    float(s), relative_drift(p, problem.span), factor=f,
+                    freedom=float(e) - problem.n - 2)
+        for kind, b, v, s, c, p, f, e in zip(kinds, betas, variances, scores, chi2, params,
+                                             factors or [None] * len(kinds),
+                                             [np.nan] * len(kinds)
+                                             if freedoms is None or whiten is not None
+                                             else freedoms)
     ]
+
+
+def freedom(sm, r, mask) -> float:
+    """The run's effective number of fitted parameters: the trace of its linearised hat matrix
+    for the noise-free output, ``Σ_t mask_t · J_t P_t Jᵀ_t / r`` over the order, the
+    parameters and the offset (the smoothed variance of each fitted output over the white
+    measurement variance `r`; a coloured noise's AR(1) state is left out). A smoothing whose
+    states do not drift has n + 2 (the order, the n parameters and the offset); each drift
+    adds what it fits."""
+    k = min(np.asarray(sm.theta).shape[1], np.asarray(sm.phi).shape[1] + 2)
+    jac, cov = np.asarray(sm.jacobian)[:, :k], np.asarray(sm.cov)[:, :k, :k]
+    return float(np.sum(np.asarray(mask) * np.einsum("ti,tij,tj->t", jac, cov, jac)) / float(r))

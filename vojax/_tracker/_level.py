@@ -50,7 +50,7 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
 
         outs = [o for _, share in in_threads(problem, smoother_modes, len(runs), call,
                                               (problem.u.shape, s.level_max_iter)) for o in share]
-        return (np.concatenate([o[k] for o in outs]) for k in range(5))
+        return (np.concatenate([o[k] for o in outs]) for k in range(6))
 
     # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
     def sd(variance):
@@ -60,9 +60,10 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
     ratios = list(s.level_ratios)
     explanations = []
     while ratios:
-        betas, variances, scores, residuals, params = held_runs(ratios)
+        betas, variances, scores, residuals, params, edf = held_runs(ratios)
         explanations += smoothing_explanations([kind] * len(ratios), betas, variances, scores,
-                                               residuals, params, problem, fit_noise, whiten)
+                                               residuals, params, problem, fit_noise, whiten,
+                                               freedoms=edf)
         fits = fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)
         for r, f, b, v in zip(ratios, fits, betas, variances):
             tried[r] = (bool(f), b, sd(v))

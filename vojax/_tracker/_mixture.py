@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._xla import to_device
-from ._explanations import smoothing_explanations
+from ._explanations import freedom, smoothing_explanations
 from ._model import Hyper, model_output, order_of_np
 from ._smoother import host_score, mix_modes
 from ._threads import host_hyper, in_threads, run_mode_shares
@@ -115,7 +115,8 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     residuals = np.asarray(problem.y) - model_output(theta, np.asarray(best.phi), n)
     (explanation,) = smoothing_explanations(
         ["held"], theta[None, :, 0], np.asarray(best.cov)[None, :, 0, 0], [best_score],
-        residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten)
+        residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten,
+        freedoms=[freedom(best, np.exp(float(np.asarray(held.log_r))), problem.mask)])
     tuning = Tuning.of(host_hyper(held), (), best_score, True)
     return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation, (tuning, best)
 
@@ -161,7 +162,7 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores, residuals, params = run_mode_shares(
+    betas, variances, scores, residuals, params, edf = run_mode_shares(
         problem, rows, to_device(np.asarray(firsts, problem.u.dtype)), problem.settings.max_iter,
     )
     theta, n = np.asarray(sm.theta), problem.n
@@ -175,5 +176,6 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
         explanations = smoothing_explanations(
             ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
             np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten,
-            [None, *factors])
+            [None, *factors],
+            [freedom(sm, tuning.values[2], problem.mask), *edf])
     return variance, weights, explanations

@@ -19,6 +19,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._integral import order_map
 from .._xla import to_device
+from ._explanations import freedom
 from ._kalman import kalman_filter, rts_smoother
 from ._model import Hyper, linearise, model_output, objective, order_of, posterior_cost
 from ._parallel import parallel_filter, parallel_smoother
@@ -219,16 +220,18 @@ def smoother_modes(
     the constant trajectory of its row of `starts` (C, d), in order (`_runs`). Returns, per
     run, only what a mixture of them needs: the order coordinate β of the mode (C, N), its
     smoothed variance (C, N), the run's `score` (C,), its residuals from the noise-free
-    output (C, N) and its parameters (C, N, n)."""
+    output (C, N), its parameters (C, N, n) and its fitted freedom (C,)
+    (`vojax._tracker._explanations.freedom`)."""
     n, yy = u.shape[1], np.asarray(y)
+    rs = np.broadcast_to(np.exp(np.asarray(hyper.log_r, float)).reshape(-1), (len(starts),))
     out = []
-    for sm in _runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds, max_iter,
-                    batched, schedule):
+    for sm, r in zip(_runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds,
+                           max_iter, batched, schedule), rs):
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
         res = yy - model_output(theta, phi, n)
         out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res,
-                    theta[:, 1 : 1 + n]))
-    return tuple(np.array([o[k] for o in out]) for k in range(5))
+                    theta[:, 1 : 1 + n], freedom(sm, r, mask)))
+    return tuple(np.array([o[k] for o in out]) for k in range(6))
 
 
 def score(sm):

@@ -147,4 +147,4 @@ def run_batch_shares(problem, rows, firsts, budget):
 def run_mode_shares(problem, rows, firsts, budget):
     """`smoother_modes` in shares (`_run_shares`): its five outputs, one row per run."""
     parts = _run_shares(problem, smoother_modes, rows, firsts, budget)
-    return tuple(_joined(parts, k) for k in range(5))
+    return tuple(_joined(parts, k) for k in range(6))

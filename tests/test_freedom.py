@@ -1,0 +1,184 @@
+"""A smoothing's fitted freedom (`vojax._tracker._explanations.freedom`): the trace of its
+linearised hat matrix, checked against closed forms and against the derivative of its fitted
+output with respect to the data, computed independently by finite differences; and the band
+rule that reads it (`TrackerSettings(level_weights="freedom")`, `_band.chi2_floor`)."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from .helpers import band_calls, load_script, normalised_problem
+
+
+def _run(problem, y, hyper, p0, nominal):
+    from vojax._tracker._smoother import iterated_smoother
+
+    record = list(problem.record)
+    record[2] = jnp.asarray(y)  # (memory, u, y, mask, steps, horizon)
+    return iterated_smoother(*record, hyper, problem.m0, p0, nominal, problem.bounds, 400)
+
+
+def _setup(ramp, num, q_order, q_params, pin_order=False):
+    from vojax._tracker._threads import stack_hypers
+
+    problem, starts = normalised_problem(ramp, num, columns=1)
+    (hyper,) = [stack_hypers([(q_order, q_params, 1e-3)])]
+    hyper = type(hyper)(*(a[0] for a in (hyper.log_q_order, hyper.log_q_params, hyper.log_r)))
+    p0 = np.array(problem.p0)
+    if pin_order:  # the order held at its start: the model is linear in the other states
+        p0[0, :] = p0[:, 0] = 0.0
+        p0[0, 0] = 1e-14
+    nominal = jnp.asarray(np.broadcast_to(starts[0], (num, starts.shape[1])))
+    return problem, hyper, jnp.asarray(p0), nominal
+
+
+def test_a_smoothing_whose_states_do_not_drift_fits_n_plus_two_parameters(ramp):
+    """With drifts 1e-12 of the record's scale, the smoothing is a least-squares fit of the
+    order, one parameter and the offset under a broad prior: its hat matrix's trace is 3 (to
+    the prior's pull, under 1e-3)."""
+    from vojax._tracker._explanations import freedom
+
+    problem, hyper, p0, nominal = _setup(ramp, 200, 1e-12, 1e-12)
+    sm = _run(problem, problem.y, hyper, p0, nominal)
+    assert bool(sm.converged)
+    assert freedom(sm, float(hyper.r), problem.mask) == pytest.approx(3.0, abs=1e-3)
+
+
+@pytest.mark.parametrize("q_params", [1e-4, 1e-1])
+def test_the_freedom_is_the_trace_of_the_fitted_outputs_derivative(ramp, q_params):
+    """With the order held (a prior of variance 1e-14 on it), the model is linear in the
+    parameter and the offset, so the smoothed output is a linear function of the data and
+    its hat matrix's trace is ``Σ_k ∂ŷ_k/∂y_k``, here by a finite difference on each sample
+    in turn (60 runs). The parameter's drift adds to the 2 fitted constants: the two agree
+    to 1e-6 at either drift, and the freedom grows with it."""
+    from vojax._tracker._explanations import freedom
+    from vojax._tracker._model import model_output
+
+    num, eps = 60, 1e-4
+    problem, hyper, p0, nominal = _setup(ramp, num, 1e-12, q_params, pin_order=True)
+    y = np.asarray(problem.y)
+    base = _run(problem, y, hyper, p0, nominal)
+    assert bool(base.converged)
+
+    def fitted(sm):
+        return np.asarray(model_output(np.asarray(sm.theta), np.asarray(sm.phi), 1))
+
+    y0, trace = fitted(base), 0.0
+    for k in range(num):
+        moved = y.copy()
+        moved[k] += eps
+        trace += (fitted(_run(problem, moved, hyper, p0, nominal))[k] - y0[k]) / eps
+    found = freedom(base, float(hyper.r), problem.mask)
+    assert found == pytest.approx(trace, abs=1e-6 * num)
+    assert found > 2.0 + (0.5 if q_params > 1e-2 else 0.0)
+
+
+def test_the_coloured_noise_state_is_left_out():
+    """A coloured noise's AR(1) state (the last of n + 3) does not count: the trace is over
+    the order, the parameters and the offset. On a stand-in run with a unit Jacobian and a
+    diagonal covariance, ``Σ_t (P_00 + P_11 + P_22)/r``."""
+    from types import SimpleNamespace
+
+    from vojax._tracker._explanations import freedom
+
+    num, d = 10, 4
+    cov = np.zeros((num, d, d))
+    cov[:, 0, 0], cov[:, 1, 1], cov[:, 2, 2], cov[:, 3, 3] = 0.1, 0.2, 0.3, 5.0
+    sm = SimpleNamespace(theta=np.zeros((num, d)), phi=np.zeros((num, 1)),
+                         jacobian=np.ones((num, d)), cov=cov)
+    mask = np.ones(num)
+    mask[:2] = 0.0  # samples outside the fit window do not count
+    assert freedom(sm, 0.5, mask) == pytest.approx(8 * 0.6 / 0.5, rel=1e-12)
+
+
+def explanation(kind, beta, chi2=600.0, freedom=np.nan):
+    """A converged stand-in at the constant β `beta` (variance 1e-4), dof 600."""
+    from vojax._tracker._explanations import Explanation
+
+    return Explanation(kind, np.full(40, float(beta)), np.full(40, 1e-4), chi2, 600.0, 0.0,
+                       0.0, freedom=freedom)
+
+
+def test_the_freedom_floor_counts_what_each_run_fits():
+    """`chi2_floor`: with ``"chi2"`` every run's floor is its degrees of freedom; with
+    ``"freedom"`` those less its own fitted freedom (never more than dof; dof where the
+    freedom is unknown). On stand-ins: a tuned run fitting 150 beyond the constant fit
+    leaves χ² 450 at dof 600: a held scale at χ² 455 whose drifts fit 141 (its floor 459)
+    weighs exp(−Δ/2) with Δ = 459 − 450 = 9 against it, not alike (both floored at 600 by
+    ``"chi2"``)."""
+    from vojax._tracker._band import chi2_floor, level_spread
+
+    tuned = explanation("tuned", 0.0, chi2=450.0, freedom=150.0)
+    held = explanation("level", 0.5, chi2=455.0, freedom=141.0)
+    assert chi2_floor(tuned) == chi2_floor(held) == 600.0
+    assert chi2_floor(tuned, "freedom") == 450.0 and chi2_floor(held, "freedom") == 459.0
+    assert chi2_floor(explanation("level", 0.0, freedom=-2.0), "freedom") == 600.0
+    assert chi2_floor(explanation("level", 0.0), "freedom") == 600.0
+    # by χ² the two weigh alike: the mixture's spread is half the squared shift
+    alike = level_spread([tuned, held], tuned, "chi2")
+    np.testing.assert_allclose(alike, 0.5 * 0.5**2, rtol=1e-12)
+    # with the freedom floor the held scale lies 9 units above (459 against 450)
+    apart = level_spread([tuned, held], tuned, "freedom")
+    w = np.exp(-4.5) / (1 + np.exp(-4.5))
+    np.testing.assert_allclose(apart, w * 0.25, rtol=1e-9)
+
+
+def test_an_explanation_counts_the_freedom_beyond_the_constant_fit():
+    """`smoothing_explanations` keeps each run's trace less the constant fit's n + 2 (here
+    one input: 3 → 0, 10.5 → 7.5), and NaN where no freedom is given or the noise is
+    coloured."""
+    from types import SimpleNamespace
+
+    from vojax._tracker._explanations import smoothing_explanations
+
+    num = 20
+    problem = SimpleNamespace(mask=np.ones(num), n=1, span=num)
+    args = (np.zeros((2, num)), np.full((2, num), 1e-4), [0.0, 0.0], np.zeros((2, num)),
+            np.ones((2, num, 1)), problem, 1.0)
+    given = smoothing_explanations(["tuned", "level"], *args, freedoms=[3.0, 10.5])
+    assert [e.freedom for e in given] == [0.0, 7.5]
+    assert all(np.isnan(e.freedom) for e in smoothing_explanations(["tuned", "level"], *args))
+    # under a coloured noise's whitening the χ² is not on the trace's scale: left unknown
+    coloured = smoothing_explanations(["tuned", "level"], *args, whiten=lambda r: r,
+                                      freedoms=[3.0, 10.5])
+    assert all(np.isnan(e.freedom) for e in coloured)
+
+
+def test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples(monkeypatch):
+    """A linear smoother's hat matrix has its eigenvalues in [0, 1], so its trace lies
+    between 0 and the fitted samples. Every smoothing the tracker weighs on a fit stated
+    constant (`ramp_case(300)`'s first input: the tuned run, its alternatives, the level
+    profile's held scales) fits at least the constant fit's 3 less the prior's pull
+    (freedom ≥ −0.01) and at most the samples (≤ 300 − 3); the tuned run, whose order
+    drifts with the ramp, fits more than the constant fit."""
+    seen = band_calls(monkeypatch, parameters="constant")
+    smoothings = [e for e in seen[-1][0] if np.isfinite(e.evidence)]
+    assert len(smoothings) >= 5 and {"tuned", "level"} <= {e.kind for e in smoothings}
+    for e in smoothings:
+        assert -0.01 <= e.freedom <= 300 - 3
+    assert next(e for e in smoothings if e.kind == "tuned").freedom > 0.5
+
+
+def test_the_replay_of_saved_explanations_keeps_their_freedom():
+    """`scripts/band_library.as_explanations` rebuilds each saved explanation with the
+    freedom `band_explanations.py --dump` saved with it (NaN for a dump saved before it was
+    kept), so a rule that reads it is scored on what the tracker weighed: the replayed
+    band under ``"freedom"`` equals the library's on the same explanations, and differs
+    from the band by χ² here."""
+    from vojax._tracker._band import bands
+
+    library = load_script("band_library")
+    saved = [dict(kind=k, beta=np.full(40, b), var=np.full(40, 1e-4), chi2=c, dof=600.0,
+                  evidence=0.0, drift=0.0, accepted=None, factor=None, freedom=f)
+             for k, b, c, f in (("tuned", 0.0, 450.0, 150.0), ("level", 0.5, 455.0, 141.0))]
+    rebuilt = library.as_explanations(dict(explanations=saved))
+    assert [e.freedom for e in rebuilt] == [150.0, 141.0]
+    old = library.as_explanations(dict(explanations=[
+        {k: v for k, v in e.items() if k != "freedom"} for e in saved]))
+    assert all(np.isnan(e.freedom) for e in old)
+    direct = [explanation("tuned", 0.0, 450.0, 150.0), explanation("level", 0.5, 455.0, 141.0)]
+    by_freedom = bands(rebuilt, (0.0, 1.0), 40, 0.0, level_weights="freedom").stated
+    np.testing.assert_array_equal(
+        by_freedom[2], bands(direct, (0.0, 1.0), 40, 0.0, level_weights="freedom").stated[2])
+    by_chi2 = bands(rebuilt, (0.0, 1.0), 40, 0.0).stated
+    assert np.median(by_chi2[2] - by_freedom[2]) > 0.05
