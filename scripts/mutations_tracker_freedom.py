@@ -41,8 +41,8 @@ MUTATIONS = {
     ),
     "the tuned run's freedom at its parameters' drift, not its measurement variance": (
         "vojax/_tracker/_mixture.py",
-        [("            [freedom(sm, tuning.values[2], problem.mask), *edf])",
-          "            [freedom(sm, tuning.values[1], problem.mask), *edf])")],
+        [("            [freedom(sm, tuning.values[2], problem.mask), *traces])",
+          "            [freedom(sm, tuning.values[1], problem.mask), *traces])")],
         [T + "test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples"],
     ),
     "the freedom floor raised by the freedom, not lowered": (

@@ -87,8 +87,8 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     scale that fits as well as the noise allows); ``"freedom"``, the same with each run's
     floor at its degrees of freedom less the freedom its drifts fit (`chi2_floor`: a tuned
     run whose drifts fit 150 effective parameters leaves a χ² about 150 below dof where it
-    is the truth, and a held scale 100 units above it then fits worse than the noise allows,
-    not as well); ``"evidence"``, by its Laplace evidence
+    is the truth, so a held scale 100 units above it, as free, fits worse than the noise
+    allows, not as well); ``"evidence"``, by its Laplace evidence
     (where every member's is finite; else by χ²); ``"profile"``, not weighed but covered as
     a profile likelihood's interval, each moved back by `profile_chi2` (`profile_spread`).
     `level_gap`: a held scale whose χ² exceeds

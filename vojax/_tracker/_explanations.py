@@ -31,10 +31,10 @@ class Explanation:
     min)/|mean|, the largest over the inputs), and its `kind` (see `KINDS`); `accepted`:
     where its own rule decides whether it fits (the trade-off's profile), that rule's
     answer, else None; `factor`: an order drift's factor of `alt_order_drift` on the tuned
-    drift, else None; `freedom`: for a smoothing, the effective number of parameters its
-    drifts fit beyond the constant fit's n + 2 (its linearised hat matrix's trace less
-    n + 2, `freedom`), else NaN: where it is the truth, its χ²
-    lies about `dof` − `freedom` on average."""
+    drift, else None; `freedom`: for a smoothing under a white noise, the effective number
+    of parameters its drifts fit beyond the constant fit's n + 2 (the function `freedom`,
+    less n + 2), else NaN: where it is the truth, its χ² lies about `dof` − `freedom` on
+    average."""
 
     kind: str
     beta: np.ndarray
@@ -89,10 +89,10 @@ def chi2_of(residuals, mask, fit_noise, whiten=None):
 def smoothing_explanations(kinds, betas, variances, scores, residuals, params, problem,
                            fit_noise, whiten=None, factors=None, freedoms=None):
     """`Explanation`s of smoothing runs (`smoother_modes`' outputs), one per row of `kinds`
-    (with its order drift's factor from `factors`, and its fitted freedom from `freedoms`
-    (`freedom`), where given and the noise is white: under a
-    coloured noise's `whiten` the χ² is not on the white part's scale that the trace is
-    taken at, and the freedom is left NaN)."""
+    (with its order drift's factor from `factors`, and from `freedoms` each run's trace of
+    `freedom` less n + 2, where given and the noise is white: under a coloured noise's
+    `whiten` the χ² is not on the scale of the white part that the trace is taken at, and
+    the freedom is left NaN)."""
     w = np.asarray(problem.mask)
     dof = max(float(np.sum(w)) - problem.n - 2, 1.0)
     chi2 = chi2_of(residuals, w, fit_noise, whiten)

@@ -60,10 +60,10 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
     ratios = list(s.level_ratios)
     explanations = []
     while ratios:
-        betas, variances, scores, residuals, params, edf = held_runs(ratios)
+        betas, variances, scores, residuals, params, traces = held_runs(ratios)
         explanations += smoothing_explanations([kind] * len(ratios), betas, variances, scores,
                                                residuals, params, problem, fit_noise, whiten,
-                                               freedoms=edf)
+                                               freedoms=traces)
         fits = fitting(residuals, problem.mask, n, fit_noise, whiten) & np.isfinite(scores)
         for r, f, b, v in zip(ratios, fits, betas, variances):
             tried[r] = (bool(f), b, sd(v))

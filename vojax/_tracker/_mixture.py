@@ -162,7 +162,7 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
     firsts = np.concatenate(
         [np.asarray(starts), np.repeat(mean[None], len(rows) - len(starts), 0)]
     )
-    betas, variances, scores, residuals, params, edf = run_mode_shares(
+    betas, variances, scores, residuals, params, traces = run_mode_shares(
         problem, rows, to_device(np.asarray(firsts, problem.u.dtype)), problem.settings.max_iter,
     )
     theta, n = np.asarray(sm.theta), problem.n
@@ -177,5 +177,5 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
             ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
             np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten,
             [None, *factors],
-            [freedom(sm, tuning.values[2], problem.mask), *edf])
+            [freedom(sm, tuning.values[2], problem.mask), *traces])
     return variance, weights, explanations
