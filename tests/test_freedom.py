@@ -19,11 +19,10 @@ def _run(problem, y, hyper, p0, nominal):
 
 
 def _setup(ramp, num, q_order, q_params, pin_order=False):
-    from vojax._tracker._threads import stack_hypers
+    from vojax._tracker._model import Hyper
 
     problem, starts = normalised_problem(ramp, num, columns=1)
-    (hyper,) = [stack_hypers([(q_order, q_params, 1e-3)])]
-    hyper = type(hyper)(*(a[0] for a in (hyper.log_q_order, hyper.log_q_params, hyper.log_r)))
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (q_order, q_params, 1e-3)))
     p0 = np.array(problem.p0)
     if pin_order:  # the order held at its start: the model is linear in the other states
         p0[0, :] = p0[:, 0] = 0.0

@@ -50,7 +50,7 @@ def level_profile(problem, tuning, sm, fit_noise, whiten=None, kind="level"):
 
         outs = [o for _, share in in_threads(problem, smoother_modes, len(runs), call,
                                               (problem.u.shape, s.level_max_iter)) for o in share]
-        return (np.concatenate([o[k] for o in outs]) for k in range(6))
+        return (np.concatenate(output) for output in zip(*outs))
 
     # each ratio run: (fits, β (N,), σ of β (N,)); the tuned run is ratio 1, the anchor
     def sd(variance):

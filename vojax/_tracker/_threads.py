@@ -145,6 +145,6 @@ def run_batch_shares(problem, rows, firsts, budget):
 
 
 def run_mode_shares(problem, rows, firsts, budget):
-    """`smoother_modes` in shares (`_run_shares`): its five outputs, one row per run."""
+    """`smoother_modes` in shares (`_run_shares`): each of its outputs, one row per run."""
     parts = _run_shares(problem, smoother_modes, rows, firsts, budget)
-    return tuple(_joined(parts, k) for k in range(6))
+    return tuple(_joined(parts, k) for k in range(len(parts[0][1])))
