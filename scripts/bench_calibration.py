@@ -100,6 +100,9 @@ def run_method(method, case, max_points=None, threads=None, sets=None):
                         / max(float(np.var(case["y"] - case["x"])), 1e-300)),
         verdict=getattr(d, "verdict", "identified" if d.identified else "not identified"),
         breakdown_drift=float(getattr(d, "breakdown_drift", float("nan"))),
+        # the tuned intensities' marginal log-likelihood and parameter drift (NaN untuned)
+        log_likelihood=float(getattr(res.tuning, "log_likelihood", float("nan"))),
+        parameter_drift=float(getattr(res.tuning, "parameter_drift", float("nan"))),
     )
     conditional = getattr(res, "conditional", None)
     if conditional is not None:
