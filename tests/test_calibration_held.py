@@ -131,3 +131,29 @@ def test_the_held_answer_weighs_the_held_scales_on_white_draw_16(suite):
     assert not (row["identified"] and row["wrong"]), row
     if row.get("verdict") == "conditional":
         assert row["c_coverage"] >= 0.5, row
+
+
+def test_a_false_constant_statement_states_a_reach_below_the_drift_that_misled_it(suite):
+    """Gain-drift-constant draw 18 (a constant order under a gain drifting 16 %), stated
+    constant, which is false: one input cannot tell the drift from a moving order, and the
+    answer is identified with the truth outside its band at most of the second half. No
+    constant order outside the band fits with any drift of the parameters; a moving one
+    does, with less drift than the truth's. So the answer states a reach below the true
+    drift and the verdict line gives it: whoever knows the gain drifts that much is warned.
+    Searched only where a constant order set a finite breakdown drift, the moving orders
+    never ran here, and the line said nothing of how far the statement carries."""
+    module, signals = suite
+    case = module.draw_case("gain-drift-constant", 18, signals)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = vojax.identify(case["u"], case["y"], dt=float(case["t"][1] - case["t"][0]),
+                             warn=False, parameters="constant")
+    d = res.diagnostics
+    half = case["t"] > case["t"][-1] / 2
+    inside = ((case["alpha"] >= np.asarray(res.alpha_lower))
+              & (case["alpha"] <= np.asarray(res.alpha_upper)))[half]
+    assert d.verdict == "identified" and np.mean(inside) < 0.5  # confidently wrong
+    assert 0 < d.breakdown_drift <= case["true_drift"], (d.breakdown_drift, case["true_drift"])
+    assert res.verdict_line().endswith(
+        f"; with a drift of {100 * d.breakdown_drift:.2g} % over the test an order outside "
+        "the band fits as well")

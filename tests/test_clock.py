@@ -348,7 +348,8 @@ def test_an_identified_answer_names_the_order_its_statement_excluded():
 
     def line(clock_order, width=0.05):
         d = dataclasses.replace(res.diagnostics, verdict="identified", identified=True,
-                                band_halfwidth=width, clock_order=clock_order)
+                                band_halfwidth=width, clock_order=clock_order,
+                                breakdown_drift=float("inf"))  # no reach: the clock alone
         return dataclasses.replace(res, diagnostics=d, alpha_lower=res.alpha - width,
                                    alpha_upper=res.alpha + width).verdict_line()
 

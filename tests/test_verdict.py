@@ -148,6 +148,32 @@ def test_the_verdict_line_states_the_answer_and_its_reach(drifting_gain):
     assert "alpha_conditional" in res.to_dataframe().columns
 
 
+def test_an_answer_identified_under_a_statement_says_how_far_it_carries(drifting_gain):
+    """Identified under ``parameters="constant"`` (or a drift bound) with a finite breakdown
+    drift, the line ends with the drift at which an order outside the band fits as well, to
+    two digits; with none found (∞) or with the parameters free, nothing is added."""
+    import dataclasses
+
+    t, u, y, dt = drifting_gain
+    res = vojax.identify(u, y, dt, warn=False)
+    alpha = np.asarray(res.alpha)
+    width = res.diagnostics.band_halfwidth
+    head = f"identified: α {alpha[alpha.size // 2]:.2f} → {alpha[-1]:.2f} ± {width:.2g}"
+
+    def line(parameters, reach):
+        d = dataclasses.replace(res.diagnostics, verdict="identified", identified=True,
+                                breakdown_drift=reach, clock_order=float("nan"))
+        return dataclasses.replace(res, diagnostics=d, parameters=parameters).verdict_line()
+
+    carries = "over the test an order outside the band fits as well"
+    assert line("constant", 0.0153) == (f"{head} with the parameters constant, as stated; "
+                                        f"with a drift of 1.5 % {carries}")
+    assert line(0.05, 0.123) == (f"{head} with the parameters drifting less than 5 %, as "
+                                 f"stated; with a drift of 12 % {carries}")
+    assert line("constant", np.inf) == f"{head} with the parameters constant, as stated"
+    assert line("free", 0.0153) == head
+
+
 def test_a_conditional_answer_no_drift_breaks_says_so_in_words(drifting_gain):
     """A conditional verdict whose breakdown drift is infinite (no drifting explanation tried
     left its band; the stated band is wider by the tuned fit's own alternatives): the line

@@ -257,8 +257,11 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
                          level_gap=s.level_gap, profile_chi2=s.level_profile_chi2)
 
         found = band_of(explanations)
-        # a constant order outside the band fits with some drift: a moving one may need less
-        if profile is not None and np.isfinite(found.breakdown_drift):
+        # a constant order outside the band fits with some drift: a moving one may need less;
+        # under a statement (constant, or a drift bound) the answer states its reach, so a
+        # moving order is searched even where no constant one fits
+        stated = hold or np.isfinite(stated_drift(parameters))
+        if profile is not None and (np.isfinite(found.breakdown_drift) or stated):
             moving = moving_orders(profile, found.conditional, half)
             if moving:
                 explanations = explanations + tuple(moving)

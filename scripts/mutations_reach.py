@@ -1,0 +1,42 @@
+"""Planted bugs of `mutation_check.py`: how far an answer under stated parameters carries
+(its reach, the breakdown drift, in the verdict line), the moving orders that set it, and
+the calibration table that scores it."""
+
+V = "tests/test_verdict.py::"
+H = "tests/test_calibration_held.py::"
+C = "tests/test_calibration_tables.py::"
+LINE = V + "test_an_answer_identified_under_a_statement_says_how_far_it_carries"
+TABLE = C + "test_the_reach_table_splits_the_confidently_wrong_by_their_stated_reach"
+# name: (file, [(old, new), ...], tests that should fail)
+MUTATIONS = {
+    "the reach stated with the parameters free": (
+        "vojax/_identification.py",
+        [("                     if stated and np.isfinite(d.breakdown_drift) else \"\")",
+          "                     if np.isfinite(d.breakdown_drift) else \"\")")],
+        [LINE],
+    ),
+    "an infinite reach stated (no order outside the band found)": (
+        "vojax/_identification.py",
+        [("                     if stated and np.isfinite(d.breakdown_drift) else \"\")",
+          "                     if stated else \"\")")],
+        [LINE],
+    ),
+    "moving orders searched under a statement only where a constant one broke the band": (
+        "vojax/_tracker/_fit.py",
+        [("(np.isfinite(found.breakdown_drift) or stated):",
+          "np.isfinite(found.breakdown_drift):")],
+        [H + "test_a_false_constant_statement_states_a_reach_below_the_drift_that_misled_it"],
+    ),
+    "a wrong answer counted as warned by a reach above its true drift": (
+        "scripts/calibration_tables.py",
+        [("            warned = sum(r[\"breakdown_drift\"] <= r[\"true_drift\"] for r in wrong)",
+          "            warned = sum(r[\"breakdown_drift\"] >= r[\"true_drift\"] for r in wrong)")],
+        [TABLE],
+    ),
+    "the reach of refused records counted": (
+        "scripts/calibration_tables.py",
+        [("            stated = [r[\"breakdown_drift\"] for r in ident if np.isfinite(",
+          "            stated = [r[\"breakdown_drift\"] for r in sel if np.isfinite(")],
+        [TABLE],
+    ),
+}
