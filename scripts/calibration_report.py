@@ -3,7 +3,8 @@
 The page's prose stays as written; each table between a pair of markers
 ``<!-- table: FILE METHOD KIND -->`` … ``<!-- end -->`` is replaced by the rows of METHOD in
 `scripts/results/FILE` (KIND: ``stated``, the band under what the method states, or
-``conditional``, the conditional answers). `tests/test_docs.py` checks that the page holds
+``conditional``, the conditional answers; ``reach``, how far the answers under stated
+parameters carry). `tests/test_docs.py` checks that the page holds
 exactly these tables.
 
     python scripts/calibration_report.py [--check]
@@ -33,9 +34,13 @@ def tables(text):
 
 def rows(file, method, kind):
     """The table of METHOD's rows (the header and its rule kept) from a results file: the
-    first table (the stated band) or the second (the conditional answers)."""
+    first table (the stated band), the second (the conditional answers) or the reach
+    table (the answers under stated parameters)."""
     found = tables((ROOT / "scripts" / "results" / file).read_text())
-    table = found[0 if kind == "stated" else 1]
+    if kind == "reach":  # the answers under stated parameters: how far each carries
+        table = next(t for t in found if "| reach stated" in t[0])
+    else:
+        table = found[0 if kind == "stated" else 1]
     head, rule, *body = table
     return [head, rule, *(line for line in body if line.split("|")[1].strip() == method)]
 

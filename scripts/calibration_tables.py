@@ -71,8 +71,46 @@ def summarise(rows, methods, families):
     answers' table."""
     refit = [""] + _refit_table(rows, families) if "refit" in methods else []
     methods = [m for m in methods if m != "refit"]
+    stating = [m for m in methods if "constant" in m or "stated" in m]
+    reach = [""] + _reach_table(rows, stating, families) if stating else []
     return _stated_table(rows, methods, families) + [""] + _conditional_table(
-        rows, methods, families) + refit
+        rows, methods, families) + refit + reach
+
+
+def _reach(row):
+    """Whether an answer states its reach: a finite breakdown drift beyond what its method
+    states (0 for constant; ``tracker-stated``'s drift bound), as the verdict line does."""
+    bound = (row.get("stated") or 0.0) if row["method"].startswith("tracker-stated") else 0.0
+    return bool(bound < row["breakdown_drift"] < np.inf)
+
+
+def _reach_table(rows, methods, families):
+    """Per family and pooled, for each tracker that states the parameters (constant or a
+    drift bound): the identified records, those whose answer states its reach (`_reach`:
+    "with a drift of X % an order outside the band fits as well") and its median, and the
+    confidently wrong split by whether their reach warned of the drift that misled them
+    (stated, at or below the true drift) or not (above it, or none stated)."""
+    lines = [
+        "| method | family | identified | reach stated (of identified) | reach (median) | "
+        "confidently wrong | wrong, warned by the reach | wrong, not warned |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for method in methods:
+        for family in [*families, "pooled"]:
+            sel = [r for r in rows if r["method"] == method
+                   and (family == "pooled" or r["family"] == family)]
+            if not sel:
+                continue
+            ident = [r for r in sel if r["identified"]]
+            stated = [r["breakdown_drift"] for r in ident if _reach(r)]
+            wrong = [r for r in ident if r["wrong"]]
+            warned = sum(_reach(r) and r["breakdown_drift"] <= r["true_drift"] for r in wrong)
+            reach = np.median(stated) if stated else float("nan")
+            lines.append(
+                f"| {method} | {family} | {len(ident)}/{len(sel)} | {len(stated)}/{len(ident)} "
+                f"| {reach:.2g} | {len(wrong)}/{len(ident)} | {warned}/{len(wrong)} | "
+                f"{len(wrong) - warned}/{len(wrong)} |")
+    return lines
 
 
 def _conditional_table(rows, methods, families):

@@ -11,14 +11,20 @@ TABLE = C + "test_the_reach_table_splits_the_confidently_wrong_by_their_stated_r
 MUTATIONS = {
     "the reach stated with the parameters free": (
         "vojax/_identification.py",
-        [("                     if stated and np.isfinite(d.breakdown_drift) else \"\")",
-          "                     if np.isfinite(d.breakdown_drift) else \"\")")],
+        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
+          "                     if bound < d.breakdown_drift < np.inf else \"\")")],
         [LINE],
     ),
     "an infinite reach stated (no order outside the band found)": (
         "vojax/_identification.py",
-        [("                     if stated and np.isfinite(d.breakdown_drift) else \"\")",
-          "                     if stated else \"\")")],
+        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
+          "                     if stated and bound < d.breakdown_drift else \"\")")],
+        [LINE],
+    ),
+    "a reach within the stated drift bound stated": (
+        "vojax/_identification.py",
+        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
+          "                     if stated and 0 < d.breakdown_drift < np.inf else \"\")")],
         [LINE],
     ),
     "moving orders searched under a statement only where a constant one broke the band": (
@@ -29,14 +35,20 @@ MUTATIONS = {
     ),
     "a wrong answer counted as warned by a reach above its true drift": (
         "scripts/calibration_tables.py",
-        [("            warned = sum(r[\"breakdown_drift\"] <= r[\"true_drift\"] for r in wrong)",
-          "            warned = sum(r[\"breakdown_drift\"] >= r[\"true_drift\"] for r in wrong)")],
+        [("_reach(r) and r[\"breakdown_drift\"] <= r[\"true_drift\"] for r in wrong)",
+          "_reach(r) and r[\"breakdown_drift\"] >= r[\"true_drift\"] for r in wrong)")],
+        [TABLE],
+    ),
+    "a reach within a stated drift bound counted as stated": (
+        "scripts/calibration_tables.py",
+        [("    return bool(bound < row[\"breakdown_drift\"] < np.inf)",
+          "    return bool(0 < row[\"breakdown_drift\"] < np.inf)")],
         [TABLE],
     ),
     "the reach of refused records counted": (
         "scripts/calibration_tables.py",
-        [("            stated = [r[\"breakdown_drift\"] for r in ident if np.isfinite(",
-          "            stated = [r[\"breakdown_drift\"] for r in sel if np.isfinite(")],
+        [("            stated = [r[\"breakdown_drift\"] for r in ident if _reach(r)]",
+          "            stated = [r[\"breakdown_drift\"] for r in sel if _reach(r)]")],
         [TABLE],
     ),
 }

@@ -109,3 +109,31 @@ def test_a_results_file_without_a_table_is_refused(tables, tmp_path):
     path.with_suffix(".json").write_text("[]")
     with pytest.raises(ValueError, match="no table"):
         tables.retable(path)
+
+
+def test_the_reach_table_splits_the_confidently_wrong_by_their_stated_reach(tables):
+    """Under a stated constant, six records: identified and right with a reach of 0.02,
+    identified and wrong with reaches of 0.05 and 0.1 below their true drift 0.2 (warned),
+    wrong with a reach of 0.3 above its true drift 0.2 (not warned), wrong with no reach
+    found (∞: not warned, no reach stated), and a refused one whose reach counts nowhere.
+    The family's row: identified 5/6, reach stated 4/5 at the median of 0.02, 0.05, 0.1,
+    0.3 (0.075), wrong 4/5, warned 2/4, not warned 2/4; the free tracker's row is not counted. Under a drift
+    bound only a reach beyond it is stated."""
+    def row(identified, wrong, reach, drift, method="tracker-constant"):
+        return dict(method=method, family="drift", identified=identified, wrong=wrong,
+                    breakdown_drift=reach, true_drift=drift)
+
+    rows = [row(True, False, 0.02, 0.2), row(True, True, 0.05, 0.2), row(True, True, 0.1, 0.2),
+            row(True, True, 0.3, 0.2), row(True, True, np.inf, 0.2),
+            row(False, False, 0.01, 0.2), row(True, True, 0.05, 0.2, method="tracker")]
+    lines = tables._reach_table(rows, ["tracker-constant"], ["drift"])
+    family = [c.strip() for c in lines[2].strip("|").split("|")]
+    assert family == ["tracker-constant", "drift", "5/6", "4/5", "0.075", "4/5", "2/4", "2/4"]
+    assert len(lines) == 4  # the header, its rule, the family and the pooled row
+    # under a drift bound of 0.3 a reach of 0.2 is within it, not stated (the verdict line
+    # says nothing), and a wrong answer with it is not warned; 0.4 is stated
+    bounded = [dict(row(True, True, 0.2, 0.5, method="tracker-stated"), stated=0.3),
+               dict(row(True, False, 0.4, 0.1, method="tracker-stated"), stated=0.3)]
+    cells = [c.strip() for c in tables._reach_table(bounded, ["tracker-stated"], ["drift"])[2]
+             .strip("|").split("|")]
+    assert cells[3:] == ["1/2", "0.4", "1/2", "0/1", "1/1"]

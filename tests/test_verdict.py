@@ -150,8 +150,9 @@ def test_the_verdict_line_states_the_answer_and_its_reach(drifting_gain):
 
 def test_an_answer_identified_under_a_statement_says_how_far_it_carries(drifting_gain):
     """Identified under ``parameters="constant"`` (or a drift bound) with a finite breakdown
-    drift, the line ends with the drift at which an order outside the band fits as well, to
-    two digits; with none found (∞) or with the parameters free, nothing is added."""
+    drift beyond the statement, the line ends with the drift at which an order outside the
+    band fits as well, to two digits; with none found (∞), one within the stated bound or
+    the parameters free, nothing is added."""
     import dataclasses
 
     t, u, y, dt = drifting_gain
@@ -171,6 +172,8 @@ def test_an_answer_identified_under_a_statement_says_how_far_it_carries(drifting
     assert line(0.05, 0.123) == (f"{head} with the parameters drifting less than 5 %, as "
                                  f"stated; with a drift of 12 % {carries}")
     assert line("constant", np.inf) == f"{head} with the parameters constant, as stated"
+    # within a stated bound the band covers what drifts so far: no reach below it
+    assert line(0.2, 0.123) == f"{head} with the parameters drifting less than 20 %, as stated"
     assert line("free", 0.0153) == head
 
 

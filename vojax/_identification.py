@@ -140,7 +140,8 @@ class Identification(eqx.Module):
         "conditional: α 0.31 → 0.42 ± 0.02 if the parameters drift less than 12 % over the
         test; beyond that a drifting parameter explains the data as well". An answer
         identified under stated parameters (constant, or a drift bound) says how far the
-        statement carries where the breakdown drift is finite: "identified: α 0.31 → 0.42 ±
+        statement carries where the breakdown drift is finite and beyond the stated bound
+        (where it is within, the band covers what drifts so far): "identified: α 0.31 → 0.42 ±
         0.02 with the parameters constant, as stated; with a drift of 1.5 % over the test an
         order outside the band fits as well"."""
         d = self.diagnostics
@@ -160,11 +161,13 @@ class Identification(eqx.Module):
             clock = "" if other is None else (
                 f" (over the record's span; constant in the data's unit of time instead, "
                 f"α {other:.2f})")
-            # how far the statement carries: the drift with which an order outside the band
-            # fits as well (none found: nothing said, no promise made)
+            # how far the statement carries: the drift beyond it with which an order outside
+            # the band fits as well (none found: nothing said, no promise made; within a
+            # stated bound the band already covers the explanations that drift so far)
+            bound = float(self.parameters) if stated and self.parameters != "constant" else 0.0
             reach = (f"; with a drift of {100 * d.breakdown_drift:.2g} % over the test an "
                      "order outside the band fits as well"
-                     if stated and np.isfinite(d.breakdown_drift) else "")
+                     if stated and bound < d.breakdown_drift < np.inf else "")
             return head + held + clock + reach
         if d.verdict != "conditional":
             return head
