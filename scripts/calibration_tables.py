@@ -95,22 +95,28 @@ def _reach_table(rows, methods, families):
         "confidently wrong | wrong, warned by the reach | wrong, not warned |",
         "|---|---|---|---|---|---|---|---|",
     ]
+    for method, family, sel in _groups(rows, methods, families):
+        ident = [r for r in sel if r["identified"]]
+        stated = [r["breakdown_drift"] for r in ident if _reach(r)]
+        wrong = [r for r in ident if r["wrong"]]
+        warned = sum(_reach(r) and r["breakdown_drift"] <= r["true_drift"] for r in wrong)
+        reach = np.median(stated) if stated else float("nan")
+        lines.append(
+            f"| {method} | {family} | {len(ident)}/{len(sel)} | {len(stated)}/{len(ident)} "
+            f"| {reach:.2g} | {len(wrong)}/{len(ident)} | {warned}/{len(wrong)} | "
+            f"{len(wrong) - warned}/{len(wrong)} |")
+    return lines
+
+
+def _groups(rows, methods, families):
+    """Each method's rows per family and pooled over `families`: ``(method, family, rows)``,
+    none where a group is empty."""
     for method in methods:
         for family in [*families, "pooled"]:
             sel = [r for r in rows if r["method"] == method
                    and (family == "pooled" or r["family"] == family)]
-            if not sel:
-                continue
-            ident = [r for r in sel if r["identified"]]
-            stated = [r["breakdown_drift"] for r in ident if _reach(r)]
-            wrong = [r for r in ident if r["wrong"]]
-            warned = sum(_reach(r) and r["breakdown_drift"] <= r["true_drift"] for r in wrong)
-            reach = np.median(stated) if stated else float("nan")
-            lines.append(
-                f"| {method} | {family} | {len(ident)}/{len(sel)} | {len(stated)}/{len(ident)} "
-                f"| {reach:.2g} | {len(wrong)}/{len(ident)} | {warned}/{len(wrong)} | "
-                f"{len(wrong) - warned}/{len(wrong)} |")
-    return lines
+            if sel:
+                yield method, family, sel
 
 
 def _conditional_table(rows, methods, families):
@@ -124,21 +130,17 @@ def _conditional_table(rows, methods, families):
         "(median) |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for method in methods:
-        for family in [*families, "pooled"]:
-            sel = [r for r in rows if r["method"] == method and "c_coverage" in r
-                   and (family == "pooled" or r["family"] == family)]
-            if not sel:
-                continue
-            cond = [r for r in sel if r.get("verdict") == "conditional"]
-            cov = (sum(r["c_inside"] for r in cond) / max(1, sum(r["count"] for r in cond))
-                   if cond else float("nan"))
-            z = np.median([r["c_z_rms"] for r in cond]) if cond else float("nan")
-            wrong = sum(r["c_coverage"] < 0.5 for r in cond)
-            false = sum(r["false_promise"] for r in cond)
-            drift = np.median([r["breakdown_drift"] for r in cond]) if cond else float("nan")
-            lines.append(f"| {method} | {family} | {len(cond)}/{len(sel)} | {cov:.2f} | {z:.2f} "
-                         f"| {wrong}/{len(cond)} | {false}/{len(cond)} | {drift:.2g} |")
+    for method, family, sel in _groups([r for r in rows if "c_coverage" in r], methods,
+                                       families):
+        cond = [r for r in sel if r.get("verdict") == "conditional"]
+        cov = (sum(r["c_inside"] for r in cond) / max(1, sum(r["count"] for r in cond))
+               if cond else float("nan"))
+        z = np.median([r["c_z_rms"] for r in cond]) if cond else float("nan")
+        wrong = sum(r["c_coverage"] < 0.5 for r in cond)
+        false = sum(r["false_promise"] for r in cond)
+        drift = np.median([r["breakdown_drift"] for r in cond]) if cond else float("nan")
+        lines.append(f"| {method} | {family} | {len(cond)}/{len(sel)} | {cov:.2f} | {z:.2f} "
+                     f"| {wrong}/{len(cond)} | {false}/{len(cond)} | {drift:.2g} |")
     return lines
 
 
@@ -152,26 +154,21 @@ def _stated_table(rows, methods, families):
         f"(of identified) | coverage short of {SHORT_OF} (of identified) |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for method in methods:
-        for family in [*families, "pooled"]:
-            sel = [r for r in rows if r["method"] == method
-                   and (family == "pooled" or r["family"] == family)]
-            if not sel:
-                continue
-            ident = [r for r in sel if r["identified"]]
-            cov_id = (sum(r["inside"] for r in ident) / max(1, sum(r["count"] for r in ident))
-                      if ident else float("nan"))
-            ran = [r for r in sel if r["count"]]
-            cov_all = sum(r["inside"] for r in ran) / max(1, sum(r["count"] for r in ran))
-            z = np.median([r["z_rms"] for r in ident]) if ident else float("nan")
-            rms = np.median([r["rms"] for r in ran]) if ran else float("nan")
-            wrong = sum(r["wrong"] for r in ident)
-            short = sum(r["coverage"] < SHORT_OF for r in ident)
-            lines.append(
-                f"| {method} | {family} | {len(sel)} | {len(ident)}/{len(sel)} "
-                f"({len(ident) / len(sel):.2f}) | {cov_id:.2f} | {cov_all:.2f} | {z:.2f} | "
-                f"{rms:.4f} | {wrong}/{len(ident)} | {short}/{len(ident)} |"
-            )
+    for method, family, sel in _groups(rows, methods, families):
+        ident = [r for r in sel if r["identified"]]
+        cov_id = (sum(r["inside"] for r in ident) / max(1, sum(r["count"] for r in ident))
+                  if ident else float("nan"))
+        ran = [r for r in sel if r["count"]]
+        cov_all = sum(r["inside"] for r in ran) / max(1, sum(r["count"] for r in ran))
+        z = np.median([r["z_rms"] for r in ident]) if ident else float("nan")
+        rms = np.median([r["rms"] for r in ran]) if ran else float("nan")
+        wrong = sum(r["wrong"] for r in ident)
+        short = sum(r["coverage"] < SHORT_OF for r in ident)
+        lines.append(
+            f"| {method} | {family} | {len(sel)} | {len(ident)}/{len(sel)} "
+            f"({len(ident) / len(sel):.2f}) | {cov_id:.2f} | {cov_all:.2f} | {z:.2f} | "
+            f"{rms:.4f} | {wrong}/{len(ident)} | {short}/{len(ident)} |"
+        )
     return lines
 
 

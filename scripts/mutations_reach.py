@@ -47,8 +47,8 @@ MUTATIONS = {
     ),
     "the reach of refused records counted": (
         "scripts/calibration_tables.py",
-        [("            stated = [r[\"breakdown_drift\"] for r in ident if _reach(r)]",
-          "            stated = [r[\"breakdown_drift\"] for r in sel if _reach(r)]")],
+        [("        stated = [r[\"breakdown_drift\"] for r in ident if _reach(r)]",
+          "        stated = [r[\"breakdown_drift\"] for r in sel if _reach(r)]")],
         [TABLE],
     ),
 }
