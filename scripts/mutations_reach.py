@@ -11,20 +11,21 @@ TABLE = C + "test_the_reach_table_splits_the_confidently_wrong_by_their_stated_r
 MUTATIONS = {
     "the reach stated with the parameters free": (
         "vojax/_identification.py",
-        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
-          "                     if bound < d.breakdown_drift < np.inf else \"\")")],
+        [("                     if bound < d.breakdown_drift < np.inf else \"\")",
+          "                     if (0.0 if np.isinf(bound) else bound) < d.breakdown_drift < np.inf "
+          "else \"\")")],
         [LINE],
     ),
     "an infinite reach stated (no order outside the band found)": (
         "vojax/_identification.py",
-        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
-          "                     if stated and bound < d.breakdown_drift else \"\")")],
+        [("                     if bound < d.breakdown_drift < np.inf else \"\")",
+          "                     if bound < d.breakdown_drift else \"\")")],
         [LINE],
     ),
     "a reach within the stated drift bound stated": (
         "vojax/_identification.py",
-        [("                     if stated and bound < d.breakdown_drift < np.inf else \"\")",
-          "                     if stated and 0 < d.breakdown_drift < np.inf else \"\")")],
+        [("            bound = np.inf if self.parameters is None else stated_drift(self.parameters)",
+          "            bound = np.inf if self.parameters is None else 0.0")],
         [LINE],
     ),
     "moving orders searched under a statement only where a constant one broke the band": (

@@ -8,6 +8,16 @@ from . import _validate as check
 from ._diagnostics import Diagnostics
 
 
+def stated_drift(parameters) -> float:
+    """The largest relative drift of the parameters that `parameters` states: "constant" 0,
+    "free" (or "drifting") ∞, a number itself."""
+    if parameters == "constant":
+        return 0.0
+    if parameters in ("free", "drifting"):
+        return np.inf
+    return float(parameters)
+
+
 class Conditional(eqx.Module):
     """The conditional answer of the tracker: the order `alpha` (N,) with its ±2σ band
     `alpha_lower`, `alpha_upper` and `alpha_std`, which hold while the parameters drift less
@@ -152,7 +162,8 @@ class Identification(eqx.Module):
         half = alpha.shape[0] // 2
         head = f"{d.verdict}: α {alpha[half]:.2f} → {alpha[-1]:.2f} ± {width:.2g}"
         if d.verdict == "identified":
-            stated = self.parameters not in (None, "free", "drifting")
+            bound = np.inf if self.parameters is None else stated_drift(self.parameters)
+            stated = bool(np.isfinite(bound))
             held = ("" if not stated else " with the parameters constant, as stated"
                     if self.parameters == "constant" else
                     f" with the parameters drifting less than {100 * self.parameters:.0f} %, "
@@ -164,10 +175,9 @@ class Identification(eqx.Module):
             # how far the statement carries: the drift beyond it with which an order outside
             # the band fits as well (none found: nothing said, no promise made; within a
             # stated bound the band already covers the explanations that drift so far)
-            bound = float(self.parameters) if stated and self.parameters != "constant" else 0.0
             reach = (f"; with a drift of {100 * d.breakdown_drift:.2g} % over the test an "
                      "order outside the band fits as well"
-                     if stated and bound < d.breakdown_drift < np.inf else "")
+                     if bound < d.breakdown_drift < np.inf else "")
             return head + held + clock + reach
         if d.verdict != "conditional":
             return head

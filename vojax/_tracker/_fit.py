@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._identification import stated_drift
 from .._stats import noise_variance
 from .._xla import to_device
 from ._band import bands, own_halfwidth, second_half
@@ -273,16 +274,6 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
                   data4=st.noise_higher[0], data6=st.noise_higher[1],
                   coloured=whiten is not None)
     return dataclasses.replace(res, explanations=explanations, noise_levels=levels)
-
-
-def stated_drift(parameters) -> float:
-    """The largest relative drift of the parameters that `parameters` states: "constant" 0,
-    "free" (or "drifting") ∞, a number itself."""
-    if parameters == "constant":
-        return 0.0
-    if parameters in ("free", "drifting"):
-        return np.inf
-    return float(parameters)
 
 
 def user_parameters(theta, cov, p_scale, n, bounds, time_scale):
