@@ -216,6 +216,10 @@ def report(rows, out=None, only=None):
         # (CHANGELOG: measured and not adopted)
         **{f"as reported, far ({20:g} nats) {w} weighed": far_alternatives_weighed(w)
            for w in ("starts", "slower", "faster", "fastest", "all")},
+        # the held smoothing and its held scales left out where the data exclude constant
+        # parameters (CHANGELOG: measured and not adopted)
+        **{f"as reported, held within {x:g} nats": held_within(x)
+           for x in (50.0, 20.0, 10.0, 5.0)},
     })
     if only:
         rules = {name: rule for name, rule in rules.items() if any(w in name for w in only)}
@@ -304,6 +308,23 @@ def far_alternatives_weighed(which, limit=20.0):
                         or i in pick)}
         return as_reported(dict(r, explanations=[e for i, e in enumerate(ex)
                                                  if i not in dropped]))
+    return rule
+
+
+def held_within(limit):
+    """`as_reported` with the held smoothing (the parameters held where the tuned ones
+    drift) and its held scales left out where its evidence lies more than `limit` nats below
+    the tuned smoothing's: the data exclude constant parameters, so it is neither the
+    band's reference nor a member."""
+    def rule(r):
+        ex = r["explanations"]
+        ref = tuned(r)
+        held = next((e for e in ex if e["kind"] == "held"), None)
+        if (ref is None or held is None or not np.isfinite(ref["evidence"])
+                or held["evidence"] >= ref["evidence"] - limit):
+            return as_reported(r)
+        return as_reported(dict(r, explanations=[e for e in ex
+                                                 if e["kind"] not in ("held", "held_level")]))
     return rule
 
 

@@ -125,3 +125,23 @@ def test_the_second_clocks_replay_widens_exactly_where_the_tracker_does(scores, 
     moved = profile is not None and 0.1 * (1.0 if gap <= profile else np.sqrt(profile / gap)) > 0.05
     assert widened == (lead <= 0.0 or (moved and lead <= s.clock_evidence)
                        if setting == "constant" else lead <= s.clock_evidence)
+
+
+@pytest.mark.parametrize("held_below, excluded", [(30.0, True), (5.0, False)])
+def test_the_held_smoothing_leaves_the_band_only_where_the_data_exclude_it(scores, held_below,
+                                                                          excluded):
+    """The tuned run at 0.50 with its parameters drifting 20 %; the held smoothing at 0.65
+    and one held scale at 0.70 (parameters constant), both fitting. 30 nats below the tuned
+    run (limit 20) both leave: the band is the tuned run's own; 5 nats below, the band is as
+    reported, the held smoothing its reference and the held scale in it."""
+    tuned = dict(_ex("tuned", 0.50, 0.0), drift=0.2)
+    held = _ex("held", 0.65, -held_below)
+    scale = dict(_ex("held_level", 0.70, -held_below - 1.0), factor=None)
+    r = dict(_record([-300.0] * 5), explanations=[tuned, held, scale])
+    lower, upper = _edges(scores.held_within(20.0)(r))
+    reported = _edges(scores.as_reported(r))
+    assert reported[1] > 0.65  # as reported: the held smoothing is in the band
+    if excluded:
+        assert (lower, upper) == pytest.approx((0.49, 0.51), abs=0.011)
+    else:
+        assert (lower, upper) == reported
