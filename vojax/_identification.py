@@ -79,8 +79,9 @@ class Identification(eqx.Module):
     method: str = eqx.field(static=True)
     diagnostics: Diagnostics = eqx.field(static=True)
     tuning: object = eqx.field(static=True, default=None)
-    # the tracker's `parameters` setting ("drifting" or "constant"); None for the law
-    parameters: str | None = eqx.field(static=True, default=None)
+    # the tracker's `parameters` statement ("free", "constant", or a drift bound, a number;
+    # `stated_drift` reads it); None for the law
+    parameters: str | float | None = eqx.field(static=True, default=None)
     # the tracker's conditional answer (see `Conditional`); None for the law
     conditional: Conditional | None = None
     # the samples fitted, ``(first, stop)``: from the first fitted sample to one past the last
