@@ -81,22 +81,18 @@ def score(r, band):
 
 
 def table(rows, rules, settings, families):
+    """One row per setting, rule and family (and pooled). Each record is scored once per
+    rule and its score reused by its family's row and the pooled one."""
     lines = ["| setting | rule | family | identified | coverage (identified) | z RMS "
              "(identified, median) | z RMS (all, median) | order RMS | confidently wrong | "
              f"coverage short of {SHORT_OF} (of identified) |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for setting in settings:
+        mine = [r for r in rows if r["setting"] == setting]
         for name, rule in rules.items():
+            scores = [(r["family"], score(r, b)) for r in mine if (b := rule(r)) is not None]
             for family in [*families, "pooled"]:
-                sel = [r for r in rows if r["setting"] == setting
-                       and (family == "pooled" or r["family"] == family)]
-                if not sel:
-                    continue
-                scored = []
-                for r in sel:
-                    b = rule(r)
-                    if b is not None:
-                        scored.append(score(r, b))
+                scored = [s for f, s in scores if family == "pooled" or f == family]
                 if not scored:
                     continue
                 ident = [s for s in scored if s["identified"]]
@@ -306,8 +302,7 @@ def far_alternatives_weighed(which, limit=20.0):
                    if e["evidence"] < ref["evidence"] - limit
                    and ((e["kind"] == "start" and which in ("starts", "slower", "all"))
                         or i in pick)}
-        return as_reported(dict(r, explanations=[e for i, e in enumerate(ex)
-                                                 if i not in dropped]))
+        return _without(r, lambda i, e: i in dropped)
     return rule
 
 
@@ -323,9 +318,15 @@ def held_within(limit):
         if (ref is None or held is None or not np.isfinite(ref["evidence"])
                 or held["evidence"] >= ref["evidence"] - limit):
             return as_reported(r)
-        return as_reported(dict(r, explanations=[e for e in ex
-                                                 if e["kind"] not in ("held", "held_level")]))
+        return _without(r, lambda i, e: e["kind"] in ("held", "held_level"))
     return rule
+
+
+def _without(r, drop):
+    """`as_reported` on the record `r` less the explanations for which `drop(index,
+    explanation)` is true."""
+    return as_reported(dict(r, explanations=[e for i, e in enumerate(r["explanations"])
+                                             if not drop(i, e)]))
 
 
 def library_rule(which, **kwargs):

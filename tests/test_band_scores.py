@@ -145,3 +145,27 @@ def test_the_held_smoothing_leaves_the_band_only_where_the_data_exclude_it(score
         assert (lower, upper) == pytest.approx((0.49, 0.51), abs=0.011)
     else:
         assert (lower, upper) == reported
+
+
+def test_the_table_scores_each_record_once_and_pools_the_families_rows(scores):
+    """Three records of two families under one rule that counts its calls: each record is
+    scored once, each family's row counts its own identified records, and the pooled row
+    all of them (a narrow band about the truth identified, a wide one not, a narrow one off
+    the truth identified and confidently wrong)."""
+    def band(order, half):
+        a = np.full(N, order)
+        return a, a - half, a + half, np.full(N, half / 2)
+
+    rows = [dict(_record([0.0] * 5), family=f, index=i, band=b) for f, i, b in [
+        ("a", 0, band(0.5, 0.02)), ("a", 1, band(0.5, 0.3)), ("b", 2, band(0.7, 0.02))]]
+    calls = []
+
+    def rule(r):
+        calls.append(r["index"])
+        return r["band"]
+
+    lines = scores.table(rows, {"counted": rule}, ["free"], ["a", "b"])
+    assert sorted(calls) == [0, 1, 2]
+    cells = {c[3]: (c[4], c[9]) for c in ([x.strip() for x in line.split("|")]
+                                          for line in lines[2:])}
+    assert cells == {"a": ("1/2", "0/1"), "b": ("1/1", "1/1"), "pooled": ("2/3", "1/2")}
