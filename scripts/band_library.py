@@ -7,12 +7,14 @@ import numpy as np
 
 
 def as_explanations(r):
+    """The record's saved explanations as the library's `Explanation`s (each one's fitted
+    freedom under ``"freedom"``, or ``"edf"`` in dumps saved before that name)."""
     from vojax._tracker._explanations import Explanation
 
     return [Explanation(e["kind"], np.asarray(e["beta"], float),
                         np.maximum(np.asarray(e["var"], float), 0), float(e["chi2"]),
                         float(e["dof"]), float(e["evidence"]), float(e["drift"]), e["accepted"],
-                        e.get("factor"), float(e.get("freedom", np.nan)))
+                        e.get("factor"), float(e.get("freedom", e.get("edf", np.nan))))
             for e in r["explanations"]]
 
 

@@ -160,8 +160,9 @@ def test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples(
 
 def test_the_replay_of_saved_explanations_keeps_their_freedom():
     """`scripts/band_library.as_explanations` rebuilds each saved explanation with the
-    freedom `band_explanations.py --dump` saved with it (NaN for a dump saved before it was
-    kept), so a rule that reads it is scored on what the tracker weighed: the replayed
+    freedom `band_explanations.py --dump` saved with it (under its earlier name ``edf`` in
+    older dumps; NaN for a dump saved before it was kept), so a rule that reads it is scored
+    on what the tracker weighed: the replayed
     band under ``"freedom"`` equals the library's on the same explanations, and differs
     from the band by χ² here."""
     from vojax._tracker._band import bands
@@ -175,6 +176,9 @@ def test_the_replay_of_saved_explanations_keeps_their_freedom():
     old = library.as_explanations(dict(explanations=[
         {k: v for k, v in e.items() if k != "freedom"} for e in saved]))
     assert all(np.isnan(e.freedom) for e in old)
+    renamed = library.as_explanations(dict(explanations=[
+        {("edf" if k == "freedom" else k): v for k, v in e.items()} for e in saved]))
+    assert [e.freedom for e in renamed] == [150.0, 141.0]
     direct = [explanation("tuned", 0.0, 450.0, 150.0), explanation("level", 0.5, 455.0, 141.0)]
     by_freedom = bands(rebuilt, (0.0, 1.0), 40, 0.0, level_weights="freedom").stated
     np.testing.assert_array_equal(

@@ -175,6 +175,8 @@ def test_an_answer_identified_under_a_statement_says_how_far_it_carries(drifting
     # within a stated bound the band covers what drifts so far: no reach below it
     assert line(0.2, 0.123) == f"{head} with the parameters drifting less than 20 %, as stated"
     assert line("free", 0.0153) == head
+    # a drift bound of 0 is the constant statement, and reads as one
+    assert line(0.0, 0.0153) == line("constant", 0.0153)
 
 
 def test_a_conditional_answer_no_drift_breaks_says_so_in_words(drifting_gain):

@@ -166,7 +166,7 @@ class Identification(eqx.Module):
             bound = np.inf if self.parameters is None else stated_drift(self.parameters)
             stated = bool(np.isfinite(bound))
             held = ("" if not stated else " with the parameters constant, as stated"
-                    if self.parameters == "constant" else
+                    if bound == 0 else
                     f" with the parameters drifting less than {100 * self.parameters:.0f} %, "
                     "as stated")
             other = self._clock_apart()
