@@ -52,4 +52,16 @@ MUTATIONS = {
           "        stated = [r[\"breakdown_drift\"] for r in sel if _reach(r)]")],
         [TABLE],
     ),
+    # the moving orders moved from the answer itself (`moving_base`)
+    "the answer's moves fitted without the step it takes": (
+        "vojax/_tracker/_moving.py",
+        [("                                                                   level, form, base))",
+          "                                                                   level, form))")],
+        ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
+    ),
+    "both searches keep only the answer's moves": (
+        "vojax/_tracker/_moving.py",
+        [('"both": [projected, answer]}', '"both": [answer]}')],
+        ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
+    ),
 }

@@ -261,3 +261,39 @@ def test_the_shape_fits_memory_answers_at_the_theta_asked_for():
     want = [float(np.sum(theta**2)) for theta in (a, a, b, a, near, near)]
     assert answers == want and want[3] != want[4]
     assert len(calls) == 4
+
+
+def test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow():
+    """A record whose order steps 0.45 → 0.55 a quarter of the way in (8 hats cannot follow
+    a step) while its gain rises 27 % late, with an answer that follows the step but drifts
+    0.1 above the truth by the end (±0.03): moved as its projection on the hats
+    (`moving_base` off), the least drift found outside the band is above the true one (the
+    reach would promise too much); moved as the answer itself, the step kept, it is below;
+    both searches (``"both"``) find each one's orders, the least drift the lower."""
+    from vojax import TrackerSettings
+
+    n, dt = 300, 0.05
+    t = np.arange(n) * dt
+    s = t / t[-1]
+    u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
+    alpha = np.where(s < 0.25, 0.45, 0.55)
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.7) / 0.1)) / 2.0
+    x = p * np.asarray(reference.fractional_integral(u[:, None], alpha, dt))[:, 0]
+    sd = 0.005 * np.ptp(x)
+    y = x + 0.2 + sd * np.random.default_rng(3).standard_normal(n)
+    true_drift = relative_drift(p[:, None], n)
+    memory = make_memory("exponential", dt, n, order_range=BOUNDS)
+    centre = alpha + 0.1 * s
+    band = (centre, centre - 0.03, centre + 0.03, np.full(n, 0.015))
+    least, count = {}, {}
+    for base in (False, True, "both"):
+        problem = make_problem(memory, u[:, None], y, times=t, bounds=BOUNDS,
+                               settings=TrackerSettings(moving_base=base))
+        _, _, profile = trade_interval(problem, sd**2)
+        found = moving_orders(profile, band, n // 2)
+        assert found and all(outside(order_of_np(e.beta, BOUNDS)[0], band, n // 2)
+                             for e in found)
+        least[base], count[base] = min(e.drift for e in found), len(found)
+    assert 0.25 < true_drift < 0.3
+    assert least[False] > 1.1 * true_drift and least[True] < 0.9 * true_drift
+    assert least["both"] == least[True] and count["both"] == count[False] + count[True]

@@ -142,10 +142,11 @@ def penalised_jacobian(profile, x, dx, level, lam, system=None):
     return np.concatenate([dres, drows])
 
 
-def _at_shape(profile, shape, theta, level, form):
-    """The design, its slopes and `system_of` it at the shape `theta` (the order ``shape @
-    theta``)."""
-    x, dx = design(profile, shape @ theta, level, form, slopes=True)
+def _at_shape(profile, shape, theta, level, form, base=0.0):
+    """The design, its slopes and `system_of` it at the shape `theta` (the order ``base +
+    shape @ theta``, kept within the profiled orders)."""
+    lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
+    x, dx = design(profile, np.clip(base + shape @ theta, lo, hi), level, form, slopes=True)
     return x, dx, system_of(profile, x, level)
 
 
@@ -192,17 +193,31 @@ def levenberg(fun, jac, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
 def moving_orders(profile, band, half):
     """Moving orders outside `band` ``(alpha, lower, upper, std)`` (the conditional band; its
     second half from `half`) that fit the data with the least drift of the parameters each
-    form of the trade-off profile allows: `Explanation` s of kind "moving"."""
+    form of the trade-off profile allows: `Explanation` s of kind "moving". Each is a move of
+    the answer's projection on the order's hats, or with `moving_base` of the answer itself
+    (the part of its shape the hats cannot follow, a step, kept under every move), or
+    ``"both"``: each search's orders."""
+    s, span, shape = profile.settings, profile.span, profile.shape
+    band = tuple(np.asarray(a)[:span] for a in band)
+    theta0 = np.linalg.lstsq(shape[:span], band[0], rcond=None)[0]
+    projected, answer = np.zeros(shape.shape[0]), np.zeros(shape.shape[0])
+    answer[:span] = band[0] - shape[:span] @ theta0
+    bases = {False: [projected], True: [answer], "both": [projected, answer]}[s.moving_base]
+    return [e for base in bases for e in _moves(profile, band, half, theta0, base)]
+
+
+def _moves(profile, band, half, theta0, base):
+    """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``:
+    the targets are the hats' part of the second half's mean."""
     s, span, shape = profile.settings, profile.span, profile.shape
     lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
-    band = tuple(np.asarray(a)[:span] for a in band)
-    weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order
-    theta0 = np.linalg.lstsq(shape[:span], band[0], rcond=None)[0]
-    edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
+    weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order (hats' part)
+    kept = base[half:span].mean()
+    edges = ((-1.0, band[1][half:].mean() - kept), (1.0, band[2][half:].mean() - kept))
     found = []
     for level, form, best, dof in profile.forms:
         at = _last(lambda theta, level=level, form=form: _at_shape(profile, shape, theta,
-                                                                   level, form))
+                                                                   level, form, base))
 
         def fit(theta, lam, drift=True):
             x, _, system = at(theta)
@@ -231,7 +246,7 @@ def moving_orders(profile, band, half):
                         return np.vstack([jac(th, lam), TARGET_WEIGHT * weights])
 
                     theta = levenberg(resid, resid_jac, theta, lo, hi)
-                    alpha = shape @ theta
+                    alpha = np.clip(base + shape @ theta, lo, hi)
                     _, chi2, drift = fit(theta, lam)
                     if chi2 > limit:
                         break
