@@ -234,7 +234,7 @@ def _moves(profile, band, half, theta0, base):
         for sign, edge in edges:
             for offset in s.moving_offsets:
                 target = edge + sign * offset
-                if not lo < target < hi:
+                if not lo < target + kept < hi:  # the order's own mean there
                     continue
                 theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
                 for lam in LADDER:
