@@ -55,8 +55,8 @@ MUTATIONS = {
     # the moving orders moved from the answer itself (`moving_base`)
     "the answer's moves fitted without the step it takes": (
         "vojax/_tracker/_moving.py",
-        [("                                                                   level, form, base))",
-          "                                                                   level, form))")],
+        [("_at_shape(profile, shape, theta, level, form, base, lo, hi))",
+          "_at_shape(profile, shape, theta, level, form, 0.0, lo, hi))")],
         ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
     ),
     "both searches keep only the answer's moves": (

@@ -274,12 +274,12 @@ MUTATIONS = {
     ),
     "moving orders kept whatever their χ²": (
         "vojax/_tracker/_moving.py",
-        [("                    if chi2 > limit:\n                        break\n", "")],
+        [("                if chi2 > limit:\n                    break\n", "")],
         ["tests/test_moving.py"],
     ),
     "moving orders kept inside the band": (
         "vojax/_tracker/_moving.py",
-        [("                    if outside(alpha[:span], band, half):\n", "                    if True:\n")],
+        [("                if outside(alpha[:span], band, half):\n", "                if True:\n")],
         ["tests/test_moving.py"],
     ),
     "moving orders' penalty rows left out of the shape fit's residuals": (

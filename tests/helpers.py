@@ -171,17 +171,19 @@ def normalised_problem(case, num, columns=None, settings=None):
     return problem, np.asarray(starting_trajectories(problem, 0.5))
 
 
-def gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3, width=0.15):
-    """One input, a constant order, and a gain that rises by 30 % mid-record over about
-    ±`width` of it: ``y = p(t)·I^α u + c`` (a tissue stiffening during a test)."""
+def gain_drift_case(n=300, alpha=0.45, noise=0.01, seed=3, width=0.15, centre=0.5):
+    """One input, an order (constant, or `alpha` of each sample), and a gain that rises by
+    30 % about `centre` of the record over about ±`width` of it: ``y = p(t)·I^α u + c`` (a
+    tissue stiffening during a test)."""
     from vojax import reference
 
     dt = 0.05
     t = np.arange(n) * dt
     u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
     s = t / t[-1]
-    p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / width)) / 2.0
-    x = p * np.asarray(reference.fractional_integral(u[:, None], np.full(n, alpha), dt))[:, 0]
+    p = 1.0 + 0.3 * (1.0 + np.tanh((s - centre) / width)) / 2.0
+    orders = np.broadcast_to(np.asarray(alpha, float), (n,))
+    x = p * np.asarray(reference.fractional_integral(u[:, None], orders, dt))[:, 0]
     sd = noise * np.ptp(x)
     y = x + 0.2 + sd * np.random.default_rng(seed).standard_normal(n)
     return t, u, y, dt, sd

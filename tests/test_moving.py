@@ -272,15 +272,11 @@ def test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow():
     both searches (``"both"``) find each one's orders, the least drift the lower."""
     from vojax import TrackerSettings
 
-    n, dt = 300, 0.05
-    t = np.arange(n) * dt
-    s = t / t[-1]
-    u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
+    n = 300
+    s = np.arange(n) / (n - 1)
     alpha = np.where(s < 0.25, 0.45, 0.55)
+    t, u, y, dt, sd = gain_drift_case(n, alpha, noise=0.005, width=0.1, centre=0.7)
     p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.7) / 0.1)) / 2.0
-    x = p * np.asarray(reference.fractional_integral(u[:, None], alpha, dt))[:, 0]
-    sd = 0.005 * np.ptp(x)
-    y = x + 0.2 + sd * np.random.default_rng(3).standard_normal(n)
     true_drift = relative_drift(p[:, None], n)
     memory = make_memory("exponential", dt, n, order_range=BOUNDS)
     centre = alpha + 0.1 * s

@@ -142,10 +142,9 @@ def penalised_jacobian(profile, x, dx, level, lam, system=None):
     return np.concatenate([dres, drows])
 
 
-def _at_shape(profile, shape, theta, level, form, base=0.0):
+def _at_shape(profile, shape, theta, level, form, base, lo, hi):
     """The design, its slopes and `system_of` it at the shape `theta` (the order ``base +
-    shape @ theta``, kept within the profiled orders)."""
-    lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
+    shape @ theta``, kept within the profiled orders [`lo`, `hi`])."""
     x, dx = design(profile, np.clip(base + shape @ theta, lo, hi), level, form, slopes=True)
     return x, dx, system_of(profile, x, level)
 
@@ -203,58 +202,60 @@ def moving_orders(profile, band, half):
     projected, answer = np.zeros(shape.shape[0]), np.zeros(shape.shape[0])
     answer[:span] = band[0] - shape[:span] @ theta0
     bases = {False: [projected], True: [answer], "both": [projected, answer]}[s.moving_base]
-    return [e for base in bases for e in _moves(profile, band, half, theta0, base)]
+    return [e for base in bases for row in profile.forms
+            for e in _moves(profile, band, half, theta0, base, row)]
 
 
-def _moves(profile, band, half, theta0, base):
-    """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``:
-    the targets are the hats' part of the second half's mean."""
+def _moves(profile, band, half, theta0, base, form_row):
+    """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``, in
+    one form of the trade-off profile (`form_row`: its level, form, best χ² and dof): the
+    targets are set on the second half's mean order, the hats' part moved and `base`'s kept."""
     s, span, shape = profile.settings, profile.span, profile.shape
     lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
     weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order (hats' part)
     kept = base[half:span].mean()
-    edges = ((-1.0, band[1][half:].mean() - kept), (1.0, band[2][half:].mean() - kept))
+    edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
+    level, form, best, dof = form_row
     found = []
-    for level, form, best, dof in profile.forms:
-        at = _last(lambda theta, level=level, form=form: _at_shape(profile, shape, theta,
-                                                                   level, form, base))
+    at = _last(lambda theta: _at_shape(profile, shape, theta, level, form, base, lo, hi))
 
-        def fit(theta, lam, drift=True):
-            x, _, system = at(theta)
-            return penalised_fit(profile, x, level, lam, drift, system)
+    def fit(theta, lam, drift=True):
+        x, _, system = at(theta)
+        return penalised_fit(profile, x, level, lam, drift, system)
 
-        def jac(theta, lam):  # the order at sample i moves with θ_j as shape[i, j]
-            x, dx, system = at(theta)
-            return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
-                                      system)
+    def jac(theta, lam):  # the order at sample i moves with θ_j as shape[i, j]
+        x, dx, system = at(theta)
+        return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
+                                  system)
 
-        free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
-                         lo, hi)
-        limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
-        for sign, edge in edges:
-            for offset in s.moving_offsets:
-                target = edge + sign * offset
-                if not lo < target + kept < hi:  # the order's own mean there
-                    continue
-                theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
-                for lam in LADDER:
-                    def resid(th, lam=lam, target=target):
-                        return np.append(fit(th, lam, False)[0],
-                                         TARGET_WEIGHT * (weights @ th - target))
+    free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0, lo,
+                     hi)
+    limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
+    for sign, edge in edges:
+        for offset in s.moving_offsets:
+            mean = edge + sign * offset  # the order's own mean over the second half
+            if not lo < mean < hi:
+                continue
+            target = mean - kept  # … of which the hats' part
+            theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
+            for lam in LADDER:
+                def resid(th, lam=lam, target=target):
+                    return np.append(fit(th, lam, False)[0],
+                                     TARGET_WEIGHT * (weights @ th - target))
 
-                    def resid_jac(th, lam=lam):
-                        return np.vstack([jac(th, lam), TARGET_WEIGHT * weights])
+                def resid_jac(th, lam=lam):
+                    return np.vstack([jac(th, lam), TARGET_WEIGHT * weights])
 
-                    theta = levenberg(resid, resid_jac, theta, lo, hi)
-                    alpha = np.clip(base + shape @ theta, lo, hi)
-                    _, chi2, drift = fit(theta, lam)
-                    if chi2 > limit:
-                        break
-                    if outside(alpha[:span], band, half):
-                        least = (alpha, chi2, drift)
-                if least is not None:
-                    alpha, chi2, drift = least
-                    beta = beta_of_np(alpha, profile.bounds)
-                    found.append(Explanation("moving", beta, np.zeros_like(beta), chi2, dof,
-                                             np.nan, drift, accepted=True))
+                theta = levenberg(resid, resid_jac, theta, lo, hi)
+                alpha = np.clip(base + shape @ theta, lo, hi)
+                _, chi2, drift = fit(theta, lam)
+                if chi2 > limit:
+                    break
+                if outside(alpha[:span], band, half):
+                    least = (alpha, chi2, drift)
+            if least is not None:
+                alpha, chi2, drift = least
+                beta = beta_of_np(alpha, profile.bounds)
+                found.append(Explanation("moving", beta, np.zeros_like(beta), chi2, dof,
+                                         np.nan, drift, accepted=True))
     return found
