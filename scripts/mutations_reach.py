@@ -64,4 +64,18 @@ MUTATIONS = {
         [('"both": [projected, answer]}', '"both": [answer]}')],
         ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
     ),
+    # the two starts of the moving-order search compared (`scripts/moving_starts.py`)
+    "the starts' table compares drifts below the floor": (
+        "scripts/moving_starts.py",
+        [("p[0], max(p[1], FLOOR), max(p[2], FLOOR))", "p[0], p[1], p[2])")],
+        ["tests/test_moving_starts.py"],
+    ),
+    "the starts' table counts a skipped search that found more": (
+        "scripts/moving_starts.py",
+        [("        lost = [f\"{f} {i}\" for f, i, kept, _, ans in pairs if kept <= tol\n"
+          "                and (f, i, kept, _, ans) in lower]",
+          "        lost = [f\"{f} {i}\" for f, i, kept, _, ans in pairs if kept <= tol\n"
+          "                and (f, i, kept, _, ans) not in higher]")],
+        ["tests/test_moving_starts.py"],
+    ),
 }
