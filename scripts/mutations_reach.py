@@ -78,4 +78,10 @@ MUTATIONS = {
           "                and (f, i, kept, _, ans) not in higher]")],
         ["tests/test_moving_starts.py"],
     ),
+    "the restarts' table compares drifts below the floor": (
+        "scripts/moving_starts.py",
+        [("min(max(d, FLOOR) for d in starts) >= 0.95 * max(projected, FLOOR)",
+          "min(starts) >= 0.95 * projected")],
+        ["tests/test_moving_starts.py"],
+    ),
 }

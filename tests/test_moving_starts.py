@@ -35,5 +35,17 @@ def test_a_tolerance_counts_the_searches_it_skips_that_would_have_found_less(sta
 
 
 def test_each_fit_pairs_its_projected_and_answer_searches(starts):
-    log = [[(0.0, 0.5), (0.0, 0.3), (0.02, 0.4), (0.02, 0.6)], [(0.0, 0.1), (0.01, 0.05)]]
+    log = [[(0.0, 0.5), (0.0, 0.3), (0.02, 0.4), (0.02, 0.6)], [],  # no forms: no searches
+           [(0.0, 0.1), (0.01, 0.05)]]
     assert starts._pairs(log) == [[0.02, 0.3, 0.4], [0.01, 0.1, 0.05]]
+
+
+def test_the_restarts_table_counts_fits_whose_random_starts_find_no_less(starts):
+    rows = [dict(_row(0, (0.01, 0.30, 0.10), (0.0, 0.2, 0.2)), restarts=[[0.29, 0.31], [0.1]]),
+            dict(_row(1, (0.02, 1e-8, 0.2)), restarts=[[3e-9, 0.4]]),  # both at the floor
+            _row(2, (0.03, 0.5, 0.5))]  # no restarts: not in the table
+    lines = starts.restart_table(rows)
+    assert lines[3] == "| drift 0 | 0.200 | 0.010 | 0.300 | 0.100 | 0.290 – 0.310 |"
+    assert len(lines) == 2 + 1 + 3 + 2
+    assert lines[-1].endswith("below its least drift on 2 of 3 fits.")
+    assert starts.restart_table([_row(3, (0.0, 0.1, 0.1))]) == []

@@ -196,14 +196,24 @@ def moving_orders(profile, band, half):
     the answer's projection on the order's hats, or with `moving_base` of the answer itself
     (the part of its shape the hats cannot follow, a step, kept under every move), or
     ``"both"``: each search's orders."""
-    s, span, shape = profile.settings, profile.span, profile.shape
-    band = tuple(np.asarray(a)[:span] for a in band)
-    theta0 = np.linalg.lstsq(shape[:span], band[0], rcond=None)[0]
-    projected, answer = np.zeros(shape.shape[0]), np.zeros(shape.shape[0])
-    answer[:span] = band[0] - shape[:span] @ theta0
-    bases = {False: [projected], True: [answer], "both": [projected, answer]}[s.moving_base]
+    band, theta0, answer = start_of(profile, band)
+    projected = np.zeros_like(answer)
+    bases = {False: [projected], True: [answer], "both": [projected, answer]}[
+        profile.settings.moving_base]
     return [e for base in bases for row in profile.forms
             for e in _moves(profile, band, half, theta0, base, row)]
+
+
+def start_of(profile, band):
+    """Where `moving_orders` starts: `band` on the fitted span, the answer's projection on
+    the order's hats (their weights θ₀) and the part of the answer they cannot follow (N,),
+    0 beyond the span."""
+    span, shape = profile.span, profile.shape
+    band = tuple(np.asarray(a)[:span] for a in band)
+    theta0 = np.linalg.lstsq(shape[:span], band[0], rcond=None)[0]
+    answer = np.zeros(shape.shape[0])
+    answer[:span] = band[0] - shape[:span] @ theta0
+    return band, theta0, answer
 
 
 def _moves(profile, band, half, theta0, base, form_row):
