@@ -84,4 +84,17 @@ MUTATIONS = {
           "min(starts) >= 0.95 * projected")],
         ["tests/test_moving_starts.py"],
     ),
+    # both searches where the call states the parameters (`moving_base="stated"`)
+    "the fit never tells the search that the call states the parameters": (
+        "vojax/_tracker/_fit.py",
+        [("moving_orders(profile, found.conditional, half, stated)",
+          "moving_orders(profile, found.conditional, half)")],
+        ["tests/test_moving.py::test_the_fit_tells_the_search_whether_the_call_states_the_"
+         "parameters"],
+    ),
+    "both searches where the parameters are free, the projection alone where stated": (
+        "vojax/_tracker/_moving.py",
+        [('mode = "both" if stated else False', 'mode = False if stated else "both"')],
+        ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
+    ),
 }

@@ -8,6 +8,7 @@ import functools
 import numpy as np
 import pytest
 
+import vojax
 from vojax import reference
 from vojax._integral import make_memory
 from vojax._tracker._band import outside
@@ -269,7 +270,9 @@ def test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow():
     0.1 above the truth by the end (±0.03): moved as its projection on the hats
     (`moving_base` off), the least drift found outside the band is above the true one (the
     reach would promise too much); moved as the answer itself, the step kept, it is below;
-    both searches (``"both"``) find each one's orders, the least drift the lower."""
+    both searches (``"both"``) find each one's orders, the least drift the lower; the
+    default (``"stated"``) runs both where the call states the parameters, the projected
+    one alone where they are free."""
     from vojax import TrackerSettings
 
     n = 300
@@ -282,14 +285,41 @@ def test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow():
     centre = alpha + 0.1 * s
     band = (centre, centre - 0.03, centre + 0.03, np.full(n, 0.015))
     least, count = {}, {}
-    for base in (False, True, "both"):
+    for base, stated in ((False, True), (True, False), ("both", False), ("stated", True),
+                         ("stated", False)):
         problem = make_problem(memory, u[:, None], y, times=t, bounds=BOUNDS,
                                settings=TrackerSettings(moving_base=base))
         _, _, profile = trade_interval(problem, sd**2)
-        found = moving_orders(profile, band, n // 2)
+        found = moving_orders(profile, band, n // 2, stated)
         assert found and all(outside(order_of_np(e.beta, BOUNDS)[0], band, n // 2)
                              for e in found)
-        least[base], count[base] = min(e.drift for e in found), len(found)
+        key = (base, stated) if base == "stated" else base
+        least[key], count[key] = min(e.drift for e in found), len(found)
     assert 0.25 < true_drift < 0.3
     assert least[False] > 1.1 * true_drift and least[True] < 0.9 * true_drift
     assert least["both"] == least[True] and count["both"] == count[False] + count[True]
+    assert (least["stated", True], count["stated", True]) == (least["both"], count["both"])
+    assert (least["stated", False], count["stated", False]) == (least[False], count[False])
+    assert TrackerSettings().moving_base == "stated"
+
+
+def test_the_fit_tells_the_search_whether_the_call_states_the_parameters(monkeypatch):
+    """`identify` passes the statement to the moving-order search: stated for a constant
+    statement or a drift bound, not for free parameters (whose search then runs from the
+    projection alone by default)."""
+    from vojax._tracker import _fit
+
+    seen = []
+
+    def spy(profile, band, half, stated=False):
+        seen.append(stated)
+        return moving_orders(profile, band, half, stated)
+
+    monkeypatch.setattr(_fit, "moving_orders", spy)
+    t, u, y, dt, _ = gain_drift_case()
+    told = {}
+    for parameters in ("free", "constant", 0.3):
+        seen.clear()
+        vojax.identify(u, y, dt, parameters=parameters, method="kalman", warn=False)
+        told[parameters] = set(seen)
+    assert told == {"free": {False}, "constant": {True}, 0.3: {True}}

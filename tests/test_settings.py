@@ -60,8 +60,8 @@ from .helpers import band_calls
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
     # 1 would read as True (the answer's own moves) where "both" was meant
-    (dict(moving_base=1), "`moving_base` must be True, False or 'both', got 1"),
-    (dict(moving_base="yes"), "`moving_base` must be True, False or 'both', got 'yes'"),
+    (dict(moving_base=1), "`moving_base` must be True, False, 'both' or 'stated', got 1"),
+    (dict(moving_base="yes"), "`moving_base` must be True, False, 'both' or 'stated', got 'yes'"),
     (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2', 'profile' or 'freedom', got 'aic'"),
 ])
 def test_a_setting_the_tracker_cannot_use_is_refused_naming_it(kwargs, words):

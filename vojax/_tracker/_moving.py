@@ -189,17 +189,20 @@ def levenberg(fun, jac, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
     return theta
 
 
-def moving_orders(profile, band, half):
+def moving_orders(profile, band, half, stated=False):
     """Moving orders outside `band` ``(alpha, lower, upper, std)`` (the conditional band; its
     second half from `half`) that fit the data with the least drift of the parameters each
     form of the trade-off profile allows: `Explanation` s of kind "moving". Each is a move of
     the answer's projection on the order's hats, or with `moving_base` of the answer itself
     (the part of its shape the hats cannot follow, a step, kept under every move), or
-    ``"both"``: each search's orders."""
+    ``"both"``: each search's orders; ``"stated"``: both where the call states the
+    parameters (`stated`: constant or a drift bound), else the projection's."""
     band, theta0, answer = start_of(profile, band)
     projected = np.zeros_like(answer)
-    bases = {False: [projected], True: [answer], "both": [projected, answer]}[
-        profile.settings.moving_base]
+    mode = profile.settings.moving_base
+    if mode == "stated":
+        mode = "both" if stated else False
+    bases = {False: [projected], True: [answer], "both": [projected, answer]}[mode]
     return [e for base in bases for row in profile.forms
             for e in _moves(profile, band, half, theta0, base, row)]
 
@@ -219,12 +222,12 @@ def start_of(profile, band):
 def _moves(profile, band, half, theta0, base, form_row):
     """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``, in
     one form of the trade-off profile (`form_row`: its level, form, best χ² and dof): the
-    targets are set on the second half's mean order, the hats' part moved and `base`'s kept."""
+    targets are set on the hats' part of the second half's mean order, `base`'s part kept."""
     s, span, shape = profile.settings, profile.span, profile.shape
     lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
     weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order (hats' part)
     kept = base[half:span].mean()
-    edges = ((-1.0, band[1][half:].mean()), (1.0, band[2][half:].mean()))
+    edges = ((-1.0, band[1][half:].mean() - kept), (1.0, band[2][half:].mean() - kept))
     level, form, best, dof = form_row
     found = []
     at = _last(lambda theta: _at_shape(profile, shape, theta, level, form, base, lo, hi))
@@ -243,10 +246,9 @@ def _moves(profile, band, half, theta0, base, form_row):
     limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
     for sign, edge in edges:
         for offset in s.moving_offsets:
-            mean = edge + sign * offset  # the order's own mean over the second half
-            if not lo < mean < hi:
+            target = edge + sign * offset  # the hats' part of the second half's mean
+            if not lo < target + kept < hi:  # the order's own mean there
                 continue
-            target = mean - kept  # … of which the hats' part
             theta, least = np.clip(theta0 + target - weights @ theta0, lo, hi), None
             for lam in LADDER:
                 def resid(th, lam=lam, target=target):
