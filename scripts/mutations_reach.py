@@ -72,16 +72,14 @@ MUTATIONS = {
     ),
     "the starts' table counts a skipped search that found more": (
         "scripts/moving_starts.py",
-        [("        lost = [f\"{f} {i}\" for f, i, kept, _, ans in pairs if kept <= tol\n"
-          "                and (f, i, kept, _, ans) in lower]",
-          "        lost = [f\"{f} {i}\" for f, i, kept, _, ans in pairs if kept <= tol\n"
-          "                and (f, i, kept, _, ans) not in higher]")],
+        [('lost = [f"{p[0]} {p[1]}" for p in lower if p[2] <= tol]',
+          'lost = [f"{p[0]} {p[1]}" for p in pairs if p[2] <= tol and p not in higher]')],
         ["tests/test_moving_starts.py"],
     ),
     "the restarts' table compares drifts below the floor": (
         "scripts/moving_starts.py",
-        [("min(max(d, FLOOR) for d in starts) >= 0.95 * max(projected, FLOOR)",
-          "min(starts) >= 0.95 * projected")],
+        [("min(max(d, FLOOR) for d in starts) >= (1 - NEAR) * max(projected, FLOOR)",
+          "min(starts) >= (1 - NEAR) * projected")],
         ["tests/test_moving_starts.py"],
     ),
     # both searches where the call states the parameters (`moving_base="stated"`)
