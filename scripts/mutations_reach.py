@@ -7,6 +7,7 @@ H = "tests/test_calibration_held.py::"
 C = "tests/test_calibration_tables.py::"
 LINE = V + "test_an_answer_identified_under_a_statement_says_how_far_it_carries"
 TABLE = C + "test_the_reach_table_splits_the_confidently_wrong_by_their_stated_reach"
+NOISE = "tests/test_moving.py::test_moves_of_an_answer_that_fitted_the_noise_under_either_limit"
 # name: (file, [(old, new), ...], tests that should fail)
 MUTATIONS = {
     "the reach stated with the parameters free": (
@@ -94,5 +95,23 @@ MUTATIONS = {
         "vojax/_tracker/_moving.py",
         [('mode = "both" if stated else False', 'mode = False if stated else "both"')],
         ["tests/test_moving.py::test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow"],
+    ),
+    # the answer's moves held to the form's best constant-order fit (`moving_limit="trade"`)
+    "the answer's moves held to their own best fit": (
+        "vojax/_tracker/_moving.py",
+        [("for e in _moves(profile, band, half, theta0, base, row, base is answer)]",
+          "for e in _moves(profile, band, half, theta0, base, row)]")],
+        [NOISE],
+    ),
+    "every search held to the form's best constant-order fit": (
+        "vojax/_tracker/_moving.py",
+        [('    if kept_shape and s.moving_limit == "trade":',
+          '    if s.moving_limit == "trade":')],
+        [NOISE],
+    ),
+    "the answer's moves held to the constant orders' fit by default": (
+        "vojax/_settings.py",
+        [('    moving_limit: str = "own"', '    moving_limit: str = "trade"')],
+        [NOISE],
     ),
 }

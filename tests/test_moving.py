@@ -323,3 +323,61 @@ def test_the_fit_tells_the_search_whether_the_call_states_the_parameters(monkeyp
         vojax.identify(u, y, dt, parameters=parameters, method="kalman", warn=False)
         told[parameters] = set(seen)
     assert told == {"free": {False}, "constant": {True}, 0.3: {True}}
+
+
+def test_moves_of_an_answer_that_fitted_the_noise_under_either_limit():
+    """An answer whose shape follows the noise (each sample's order moved, by at most 0.05,
+    toward its measured output) fits far below any order the hats can follow: its own best
+    fit lies about 230 units of χ² below the best constant order's. Held to Δχ² 4 of its own
+    best (``moving_limit="own"``), a move must keep fitting that noise, and every least
+    drift it finds is above the least the constant orders' bar allows; held to the form's best
+    constant-order fit (``"trade"``, measured and not the default), each move fits within
+    Δχ² 4 of that, some lie above Δχ² 4 of the answer's own best (the limit "own" keeps),
+    and the least drift is lower (here 0: the noise the answer fitted carries a move outside
+    the band with no drift at all, a reach of 0 that promises nothing). The projection's
+    moves are the same under either."""
+    from vojax import TrackerSettings
+    from vojax._tracker import _moving
+
+    n = 300
+    t, u, y, dt, sd = gain_drift_case(n, 0.45, noise=0.01)
+    s = t / t[-1]
+    gain = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / 0.15)) / 2.0
+
+    def output(order):
+        return gain * np.asarray(reference.fractional_integral(
+            u[:, None], np.full(n, order), dt))[:, 0]
+
+    slope = (output(0.451) - output(0.449)) / 0.002
+    wiggle = np.clip((y - output(0.45) - 0.2) / np.where(slope > 0, slope, np.inf), -0.05, 0.05)
+    answer = 0.45 + wiggle
+    band = (answer, answer - 0.03, answer + 0.03, np.full(n, 0.015))
+    memory = make_memory("exponential", dt, n, order_range=BOUNDS)
+    found, own = {}, []
+    for limit in ("own", "trade"):
+        for base in (True, False):
+            problem = make_problem(memory, u[:, None], y, times=t, bounds=BOUNDS,
+                                   settings=TrackerSettings(moving_base=base,
+                                                            moving_limit=limit))
+            _, _, profile = trade_interval(problem, sd**2)
+            found[limit, base] = moving_orders(profile, band, n // 2, True)
+    bests = [best for _, _, best, _ in profile.forms]
+    # the answer's own best fit in each form: its shape kept, the hats and drift free
+    _, theta0, kept = _moving.start_of(profile, band)
+    for level, form, _, _ in profile.forms:
+        def residuals(theta, level=level, form=form):
+            x = design(profile, np.clip(kept + profile.shape @ theta, *BOUNDS), level, form)
+            return penalised_fit(profile, x, level, 0.0, False)[0]
+        theta = levenberg(residuals, lambda th, r=residuals: np.stack(
+            [(r(th + 1e-6 * e) - r(th - 1e-6 * e)) / 2e-6 for e in np.eye(th.size)], 1),
+            theta0, *BOUNDS)
+        own.append(float(residuals(theta) @ residuals(theta)))
+    assert max(own) < min(bests) - 200.0
+    assert TrackerSettings().moving_limit == "own"
+    assert found["trade", True] and found["own", True]
+    assert all(e.chi2 <= max(bests) + 4.0 + 1e-6 for e in found["trade", True])
+    assert any(e.chi2 > max(own) + 4.0 for e in found["trade", True])
+    assert all(e.chi2 <= max(own) + 4.0 + 1e-6 for e in found["own", True])
+    assert min(e.drift for e in found["trade", True]) < min(e.drift for e in found["own", True])
+    assert [(e.chi2, e.drift) for e in found["trade", False]] == [
+        (e.chi2, e.drift) for e in found["own", False]]

@@ -204,7 +204,7 @@ def moving_orders(profile, band, half, stated=False):
         mode = "both" if stated else False
     bases = {False: [projected], True: [answer], "both": [projected, answer]}[mode]
     return [e for base in bases for row in profile.forms
-            for e in _moves(profile, band, half, theta0, base, row)]
+            for e in _moves(profile, band, half, theta0, base, row, base is answer)]
 
 
 def start_of(profile, band):
@@ -219,10 +219,14 @@ def start_of(profile, band):
     return band, theta0, answer
 
 
-def _moves(profile, band, half, theta0, base, form_row):
+def _moves(profile, band, half, theta0, base, form_row, kept_shape=False):
     """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``, in
     one form of the trade-off profile (`form_row`: its level, form, best χ² and dof): the
-    targets are set on the hats' part of the second half's mean order, `base`'s part kept."""
+    targets are set on the hats' part of the second half's mean order, `base`'s part kept.
+    The moves fit within `trade_chi2` of the search's own best fit where that is below the
+    form's best constant-order fit, else of the latter; with `kept_shape` (`base` is the
+    answer's shape, fitted to these data) and ``moving_limit="trade"``, of the form's best
+    alone."""
     s, span, shape = profile.settings, profile.span, profile.shape
     lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
     weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order (hats' part)
@@ -241,9 +245,12 @@ def _moves(profile, band, half, theta0, base, form_row):
         return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
                                   system)
 
-    free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0, lo,
-                     hi)
-    limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
+    if kept_shape and s.moving_limit == "trade":
+        limit = best + s.trade_chi2
+    else:
+        free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
+                         lo, hi)
+        limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
     for sign, edge in edges:
         for offset in s.moving_offsets:
             target = edge + sign * offset  # the hats' part of the second half's mean
