@@ -7,7 +7,7 @@ H = "tests/test_calibration_held.py::"
 C = "tests/test_calibration_tables.py::"
 LINE = V + "test_an_answer_identified_under_a_statement_says_how_far_it_carries"
 TABLE = C + "test_the_reach_table_splits_the_confidently_wrong_by_their_stated_reach"
-NOISE = "tests/test_moving.py::test_moves_of_an_answer_that_fitted_the_noise_under_either_limit"
+NOISE = "tests/test_moving.py::test_moves_of_an_answer_that_fitted_the_noise_under_each_limit"
 # name: (file, [(old, new), ...], tests that should fail)
 MUTATIONS = {
     "the reach stated with the parameters free": (
@@ -86,8 +86,8 @@ MUTATIONS = {
     # both searches where the call states the parameters (`moving_base="stated"`)
     "the fit never tells the search that the call states the parameters": (
         "vojax/_tracker/_fit.py",
-        [("moving_orders(profile, found.conditional, half, stated)",
-          "moving_orders(profile, found.conditional, half)")],
+        [("moving_orders(profile, found.conditional, half, stated,",
+          "moving_orders(profile, found.conditional, half, False,")],
         ["tests/test_moving.py::test_the_fit_tells_the_search_whether_the_call_states_the_"
          "parameters"],
     ),
@@ -99,19 +99,31 @@ MUTATIONS = {
     # the answer's moves held to the form's best constant-order fit (`moving_limit="trade"`)
     "the answer's moves held to their own best fit": (
         "vojax/_tracker/_moving.py",
-        [("for e in _moves(profile, band, half, theta0, base, row, base is answer)]",
-          "for e in _moves(profile, band, half, theta0, base, row)]")],
+        [("                            freedom if base is answer else None)]",
+          "                            None)]")],
         [NOISE],
     ),
     "every search held to the form's best constant-order fit": (
         "vojax/_tracker/_moving.py",
-        [('    if kept_shape and s.moving_limit == "trade":',
+        [('    if freedom is not None and s.moving_limit == "trade":',
           '    if s.moving_limit == "trade":')],
         [NOISE],
     ),
-    "the answer's moves held to the constant orders' fit by default": (
+    "the answer's moves raised by no freedom": (
+        "vojax/_tracker/_moving.py",
+        [("            slack = max(freedom - shape.shape[1], 0.0)", "            slack = 0.0")],
+        [NOISE],
+    ),
+    "the fit never tells the search the answer's freedom": (
+        "vojax/_tracker/_fit.py",
+        [("                                   found.reference_freedom)",
+          "                                   np.nan)")],
+        ["tests/test_moving.py::test_the_fit_tells_the_search_whether_the_call_states_the_"
+         "parameters"],
+    ),
+    "the answer's moves held to their own best fit by default": (
         "vojax/_settings.py",
-        [('    moving_limit: str = "own"', '    moving_limit: str = "trade"')],
+        [('    moving_limit: str = "freedom"', '    moving_limit: str = "own"')],
         [NOISE],
     ),
 }

@@ -306,36 +306,42 @@ def test_moves_of_the_answer_keep_a_step_the_hats_cannot_follow():
 def test_the_fit_tells_the_search_whether_the_call_states_the_parameters(monkeypatch):
     """`identify` passes the statement to the moving-order search: stated for a constant
     statement or a drift bound, not for free parameters (whose search then runs from the
-    projection alone by default)."""
+    projection alone by default); and the freedom the answer's drifts fit, known under
+    white noise."""
     from vojax._tracker import _fit
 
     seen = []
 
-    def spy(profile, band, half, stated=False):
+    def spy(profile, band, half, stated=False, freedom=np.nan):
         seen.append(stated)
-        return moving_orders(profile, band, half, stated)
+        freedoms.append(freedom)
+        return moving_orders(profile, band, half, stated, freedom)
 
     monkeypatch.setattr(_fit, "moving_orders", spy)
     t, u, y, dt, _ = gain_drift_case()
-    told = {}
+    told, freedoms = {}, []
     for parameters in ("free", "constant", 0.3):
         seen.clear()
         vojax.identify(u, y, dt, parameters=parameters, method="kalman", warn=False)
         told[parameters] = set(seen)
     assert told == {"free": {False}, "constant": {True}, 0.3: {True}}
+    # and the freedom the answer's drifts fit (white noise here: known, above 0)
+    assert freedoms and all(np.isfinite(f) and f > 0 for f in freedoms)
 
 
-def test_moves_of_an_answer_that_fitted_the_noise_under_either_limit():
+def test_moves_of_an_answer_that_fitted_the_noise_under_each_limit():
     """An answer whose shape follows the noise (each sample's order moved, by at most 0.05,
     toward its measured output) fits far below any order the hats can follow: its own best
     fit lies about 230 units of χ² below the best constant order's. Held to Δχ² 4 of its own
     best (``moving_limit="own"``), a move must keep fitting that noise, and every least
-    drift it finds is above the least the constant orders' bar allows; held to the form's best
-    constant-order fit (``"trade"``, measured and not the default), each move fits within
-    Δχ² 4 of that, some lie above Δχ² 4 of the answer's own best (the limit "own" keeps),
-    and the least drift is lower (here 0: the noise the answer fitted carries a move outside
-    the band with no drift at all, a reach of 0 that promises nothing). The projection's
-    moves are the same under either."""
+    drift it finds is above the least the constant orders' bar allows. Held to the form's
+    best constant-order fit (``"trade"``), each move fits within Δχ² 4 of that, some lie
+    above Δχ² 4 of the answer's own best, and the least drift is lower (here 0: the noise
+    the answer fitted carries a move outside the band with no drift at all). With
+    ``"freedom"`` (the default) the answer's own best is raised by the freedom its drifts
+    fit less the hats': at a freedom above the gap the bar is the constant orders' (the
+    moves those of ``"trade"``), at an unknown one (NaN) its own (those of ``"own"``). The
+    projection's moves are the same under each."""
     from vojax import TrackerSettings
     from vojax._tracker import _moving
 
@@ -354,13 +360,15 @@ def test_moves_of_an_answer_that_fitted_the_noise_under_either_limit():
     band = (answer, answer - 0.03, answer + 0.03, np.full(n, 0.015))
     memory = make_memory("exponential", dt, n, order_range=BOUNDS)
     found, own = {}, []
-    for limit in ("own", "trade"):
+    for limit in ("own", "trade", "freedom"):
         for base in (True, False):
             problem = make_problem(memory, u[:, None], y, times=t, bounds=BOUNDS,
                                    settings=TrackerSettings(moving_base=base,
                                                             moving_limit=limit))
             _, _, profile = trade_interval(problem, sd**2)
-            found[limit, base] = moving_orders(profile, band, n // 2, True)
+            for freedom in ((np.nan, 308.0) if limit == "freedom" else (np.nan,)):
+                key = (limit, base) if np.isnan(freedom) else (limit, base, freedom)
+                found[key] = moving_orders(profile, band, n // 2, True, freedom)
     bests = [best for _, _, best, _ in profile.forms]
     # the answer's own best fit in each form: its shape kept, the hats and drift free
     _, theta0, kept = _moving.start_of(profile, band)
@@ -373,11 +381,20 @@ def test_moves_of_an_answer_that_fitted_the_noise_under_either_limit():
             theta0, *BOUNDS)
         own.append(float(residuals(theta) @ residuals(theta)))
     assert max(own) < min(bests) - 200.0
-    assert TrackerSettings().moving_limit == "own"
+    assert TrackerSettings().moving_limit == "freedom"
     assert found["trade", True] and found["own", True]
     assert all(e.chi2 <= max(bests) + 4.0 + 1e-6 for e in found["trade", True])
     assert any(e.chi2 > max(own) + 4.0 for e in found["trade", True])
     assert all(e.chi2 <= max(own) + 4.0 + 1e-6 for e in found["own", True])
     assert min(e.drift for e in found["trade", True]) < min(e.drift for e in found["own", True])
-    assert [(e.chi2, e.drift) for e in found["trade", False]] == [
-        (e.chi2, e.drift) for e in found["own", False]]
+    # "freedom": the answer's own best raised by the freedom its drifts fit less the 8
+    # hats'; 300 here, more than the gap, so the constant orders' fit is the bar, as with
+    # "trade"; an unknown freedom (NaN) raises nothing
+    assert min(bests) < max(own) + 300.0
+    assert [(e.chi2, e.drift) for e in found["freedom", True, 308.0]] == [
+        (e.chi2, e.drift) for e in found["trade", True]]
+    assert [(e.chi2, e.drift) for e in found["freedom", True]] == [
+        (e.chi2, e.drift) for e in found["own", True]]
+    for key in (("trade", False), ("freedom", False), ("freedom", False, 308.0)):
+        assert [(e.chi2, e.drift) for e in found[key]] == [
+            (e.chi2, e.drift) for e in found["own", False]]

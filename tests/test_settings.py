@@ -62,7 +62,7 @@ from .helpers import band_calls
     # 1 would read as True (the answer's own moves) where "both" was meant
     (dict(moving_base=1), "`moving_base` must be True, False, 'both' or 'stated', got 1"),
     (dict(moving_base="yes"), "`moving_base` must be True, False, 'both' or 'stated', got 'yes'"),
-    (dict(moving_limit="best"), "`moving_limit` must be 'own' or 'trade', got 'best'"),
+    (dict(moving_limit="best"), "`moving_limit` must be 'own', 'trade' or 'freedom', got 'best'"),
     (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2', 'profile' or 'freedom', got 'aic'"),
 ])
 def test_a_setting_the_tracker_cannot_use_is_refused_naming_it(kwargs, words):

@@ -89,22 +89,28 @@ def test_a_band_wide_for_two_reasons_states_its_width_once():
 def test_a_drift_bound_admits_the_explanations_that_drift_no_more(drifting_gain):
     """The band under a stated drift bound lies between the conditional band and the free
     one, growing with the bound, and equals the free one once the bound passes every
-    explanation's drift; the conditional answer and its breakdown drift do not depend on the
-    statement (the same explanations), and a bound of 0 states the parameters constant."""
+    explanation's drift. A statement adds the search moved from the answer itself, so its
+    breakdown drift is at most the free one's, and it does not depend on the bound's value
+    (the same explanations): below it, the band is the conditional one. A bound of 0 states
+    the parameters constant."""
     t, u, y, dt = drifting_gain
     free = vojax.identify(u, y, dt, warn=False)
     d = free.diagnostics
     assert np.isfinite(d.breakdown_drift) and d.breakdown_drift > 0
-    below = vojax.identify(u, y, dt, parameters=0.5 * d.breakdown_drift, warn=False)
+    first = vojax.identify(u, y, dt, parameters=0.5 * d.breakdown_drift, warn=False)
+    reach = first.diagnostics.breakdown_drift
+    assert 0 < reach <= d.breakdown_drift
+    below = vojax.identify(u, y, dt, parameters=0.5 * reach, warn=False)
     above = vojax.identify(u, y, dt, parameters=10.0, warn=False)
-    widths = [d.conditional_halfwidth, _halfwidth(below), _halfwidth(free)]
+    c = below.diagnostics
+    widths = [c.conditional_halfwidth, _halfwidth(below), _halfwidth(free)]
     assert widths == sorted(widths)
-    assert _halfwidth(below) == pytest.approx(d.conditional_halfwidth, rel=1e-12)
+    assert _halfwidth(below) == pytest.approx(c.conditional_halfwidth, rel=1e-12)
     np.testing.assert_allclose(above.alpha_lower, free.alpha_lower, rtol=1e-12)
-    np.testing.assert_allclose(below.conditional.alpha_upper, free.conditional.alpha_upper,
+    np.testing.assert_allclose(below.conditional.alpha_upper, first.conditional.alpha_upper,
                                rtol=1e-12)
-    assert below.diagnostics.breakdown_drift == d.breakdown_drift
-    assert below.parameters == pytest.approx(0.5 * d.breakdown_drift) and free.parameters == "free"
+    assert c.breakdown_drift == reach
+    assert below.parameters == pytest.approx(0.5 * reach) and free.parameters == "free"
     held = vojax.identify(u, y, dt, parameters=0, warn=False)
     assert held.parameters == "constant"
     assert held.tuning.parameter_drift == pytest.approx(vojax.TrackerSettings().constant_drift)

@@ -127,14 +127,15 @@ class TrackerSettings:
     # promise (docs/calibration.md)
     moving_base: bool | str = "stated"
     # the χ² the moves of the answer itself must reach: within `trade_chi2` of their own best
-    # fit where that is below the form's best constant-order fit ("own", as the projection's
-    # moves), or of the constant orders' fit alone ("trade"). Their kept shape was fitted to
-    # these data, and its fitted noise lets a move reach "trade"'s bar with little drift:
-    # held out under false constant statements it warns every confidently wrong answer (1
-    # and 5 of 17 and 19 unwarned by "own"), but the reach's median falls 0.089 → 0.015
-    # (0.13 → 0.011 on `white`, where the statement is true); not adopted, kept for measuring
-    # (docs/calibration.md)
-    moving_limit: str = "own"
+    # fit raised by the freedom the answer's drifts fit less the hats' ("freedom": its kept
+    # shape was fitted to these data and lowered that fit by about so much), or of the
+    # form's best constant-order fit where lower; "own": their own best as it is (as the
+    # projection's moves, which carry no fitted shape); "trade": the constant orders' fit
+    # alone. Held out under false constant statements "freedom" warns every confidently
+    # wrong answer (1 and 5 of 17 and 19 unwarned by "own"), the reach's median 0.089 →
+    # 0.023 ("trade": the same warnings, 0.015; `white`, where the statement is true, 0.13 →
+    # 0.065 against 0.011; docs/calibration.md)
+    moving_limit: str = "freedom"
     # the level profile: the parameters held at other scales (parameters constant)
     level_ratios: tuple[float, ...] = (0.5, 0.71, 1.41, 2.0)  # first held scales
     level_step: float = math.sqrt(2.0)  # the profile's step past an outer scale that fits …
@@ -257,7 +258,7 @@ class TrackerSettings:
 # the settings that name a choice, and their choices
 CHOICES = {"schedule": (None, "sequential", "associative", "chunked"),
            "second_climb": (True, False), "moving_base": (True, False, "both", "stated"),
-           "moving_limit": ("own", "trade"),
+           "moving_limit": ("own", "trade", "freedom"),
            "level_weights": ("evidence", "chi2", "profile", "freedom")}
 # the settings that hold a range (low, high)
 PAIRS = frozenset({"order_drift_range", "parameter_drift_range"})

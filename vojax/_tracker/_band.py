@@ -58,6 +58,7 @@ class Bands:
     breakdown_drift: float
     reference_drift: float
     drifting: bool = False  # the stated band covers an explanation with drifting parameters
+    reference_freedom: float = np.nan  # the freedom the conditional answer's drifts fit
 
 
 def _orders(beta, var, bounds, scale, floor=0.0):
@@ -309,4 +310,5 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
                     e.drift <= max(stated_drift, reference.drift) + drift_floor):
                 stated = union(stated, member(e))
                 drifting |= e.drift > reference.drift + drift_floor
-    return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting)
+    return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting,
+                 float(reference.freedom))

@@ -263,7 +263,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         # moving order is searched even where no constant one fits
         stated = hold or np.isfinite(stated_drift(parameters))
         if profile is not None and (np.isfinite(found.breakdown_drift) or stated):
-            moving = moving_orders(profile, found.conditional, half, stated)
+            moving = moving_orders(profile, found.conditional, half, stated,
+                                   found.reference_freedom)
             if moving:
                 explanations = explanations + tuple(moving)
                 found = band_of(explanations)

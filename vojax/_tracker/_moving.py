@@ -189,14 +189,16 @@ def levenberg(fun, jac, theta, lo, hi, iterations=LM_ITERATIONS, tol=LM_TOL):
     return theta
 
 
-def moving_orders(profile, band, half, stated=False):
+def moving_orders(profile, band, half, stated=False, freedom=np.nan):
     """Moving orders outside `band` ``(alpha, lower, upper, std)`` (the conditional band; its
     second half from `half`) that fit the data with the least drift of the parameters each
     form of the trade-off profile allows: `Explanation` s of kind "moving". Each is a move of
     the answer's projection on the order's hats, or with `moving_base` of the answer itself
     (the part of its shape the hats cannot follow, a step, kept under every move), or
     ``"both"``: each search's orders; ``"stated"``: both where the call states the
-    parameters (`stated`: constant or a drift bound), else the projection's."""
+    parameters (`stated`: constant or a drift bound), else the projection's. `freedom`: the
+    freedom the answer's drifts fit (its smoothing's `Explanation.freedom`; NaN unknown),
+    the slack its own moves get with ``moving_limit="freedom"``."""
     band, theta0, answer = start_of(profile, band)
     projected = np.zeros_like(answer)
     mode = profile.settings.moving_base
@@ -204,7 +206,8 @@ def moving_orders(profile, band, half, stated=False):
         mode = "both" if stated else False
     bases = {False: [projected], True: [answer], "both": [projected, answer]}[mode]
     return [e for base in bases for row in profile.forms
-            for e in _moves(profile, band, half, theta0, base, row, base is answer)]
+            for e in _moves(profile, band, half, theta0, base, row,
+                            freedom if base is answer else None)]
 
 
 def start_of(profile, band):
@@ -219,14 +222,16 @@ def start_of(profile, band):
     return band, theta0, answer
 
 
-def _moves(profile, band, half, theta0, base, form_row, kept_shape=False):
+def _moves(profile, band, half, theta0, base, form_row, freedom=None):
     """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``, in
     one form of the trade-off profile (`form_row`: its level, form, best χ² and dof): the
     targets are set on the hats' part of the second half's mean order, `base`'s part kept.
     The moves fit within `trade_chi2` of the search's own best fit where that is below the
-    form's best constant-order fit, else of the latter; with `kept_shape` (`base` is the
-    answer's shape, fitted to these data) and ``moving_limit="trade"``, of the form's best
-    alone."""
+    form's best constant-order fit, else of the latter. `freedom`: where `base` is the
+    answer's shape (fitted to these data), the freedom its drifts fit (NaN unknown; None:
+    `base` is no answer's). With ``moving_limit="freedom"`` the search's own best is raised
+    by that freedom less the hats' (the search fits those itself): about the χ² by which
+    fitting it lowered the answer's own; with ``"trade"`` the form's best alone is the bar."""
     s, span, shape = profile.settings, profile.span, profile.shape
     lo, hi = float(profile.alphas[0]), float(profile.alphas[-1])
     weights = shape[half:span].mean(axis=0)  # θ ↦ the second half's mean order (hats' part)
@@ -245,12 +250,15 @@ def _moves(profile, band, half, theta0, base, form_row, kept_shape=False):
         return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
                                   system)
 
-    if kept_shape and s.moving_limit == "trade":
+    if freedom is not None and s.moving_limit == "trade":
         limit = best + s.trade_chi2
     else:
+        slack = 0.0
+        if freedom is not None and s.moving_limit == "freedom" and np.isfinite(freedom):
+            slack = max(freedom - shape.shape[1], 0.0)
         free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
                          lo, hi)
-        limit = min(best, fit(free, 0.0, False)[1]) + s.trade_chi2
+        limit = min(best, fit(free, 0.0, False)[1] + slack) + s.trade_chi2
     for sign, edge in edges:
         for offset in s.moving_offsets:
             target = edge + sign * offset  # the hats' part of the second half's mean
