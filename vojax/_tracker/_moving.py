@@ -7,7 +7,9 @@ half's mean placed just outside the band (`moving_offsets`). Its shape is fitted
 Levenberg–Marquardt while the drifting parameters are solved for at each shape by penalised
 least squares (variable projection, its Jacobian exact: `penalised_jacobian`); the penalty
 on their drift is raised, as in `least_drift`, while the χ² stays within `trade_chi2` of the
-best fit of the moving orders (or of the constant ones, where that is lower). The memory
+best fit of the moving orders (or of the constant ones, where that is lower). The moves of
+the answer itself keep a shape fitted to these data, which lowered their best fit: that
+best is first raised by the freedom the answer's drifts fit (`moving_limit`). The memory
 columns at a moving order are interpolated across the profiled constant orders (4-point
 Lagrange): the order acts where the memory is evaluated, so sample i's column at a
 trajectory is its column at the constant order the trajectory has there.
