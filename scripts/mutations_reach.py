@@ -105,13 +105,14 @@ MUTATIONS = {
     ),
     "every search held to the form's best constant-order fit": (
         "vojax/_tracker/_moving.py",
-        [('    if freedom is not None and s.moving_limit == "trade":',
-          '    if s.moving_limit == "trade":')],
+        [("                            freedom if base is answer else None)]",
+          "                            freedom)]")],
         [NOISE],
     ),
     "the answer's moves raised by no freedom": (
         "vojax/_tracker/_moving.py",
-        [("            slack = max(freedom - shape.shape[1], 0.0)", "            slack = 0.0")],
+        [("    return max(freedom - hats, 0.0) if np.isfinite(freedom) else 0.0",
+          "    return 0.0")],
         [NOISE],
     ),
     "the fit never tells the search the answer's freedom": (

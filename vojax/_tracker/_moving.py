@@ -224,6 +224,19 @@ def start_of(profile, band):
     return band, theta0, answer
 
 
+def _slack(limit, freedom, hats):
+    """What `_moves` adds to the search's own best fit before it takes the lower of that and
+    the form's best constant-order fit (`moving_limit` `limit`): 0 for the projection's moves
+    (`freedom` None) and with ``"own"``; for the answer's, with ``"freedom"``, the freedom its
+    drifts fit less the `hats`' (0 where unknown), with ``"trade"`` ∞ (the constant orders'
+    fit alone)."""
+    if freedom is None or limit == "own":
+        return 0.0
+    if limit == "trade":
+        return np.inf
+    return max(freedom - hats, 0.0) if np.isfinite(freedom) else 0.0
+
+
 def _moves(profile, band, half, theta0, base, form_row, freedom=None):
     """`moving_orders` moved from the hats' shape `theta0`, the order ``base + shape @ θ``, in
     one form of the trade-off profile (`form_row`: its level, form, best χ² and dof): the
@@ -252,15 +265,13 @@ def _moves(profile, band, half, theta0, base, form_row, freedom=None):
         return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
                                   system)
 
-    if freedom is not None and s.moving_limit == "trade":
-        limit = best + s.trade_chi2
-    else:
-        slack = 0.0
-        if freedom is not None and s.moving_limit == "freedom" and np.isfinite(freedom):
-            slack = max(freedom - shape.shape[1], 0.0)
+    own = 0.0  # the search's own best fit; not fitted where the slack is ∞ ("trade")
+    slack = _slack(s.moving_limit, freedom, shape.shape[1])
+    if np.isfinite(slack):
         free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
                          lo, hi)
-        limit = min(best, fit(free, 0.0, False)[1] + slack) + s.trade_chi2
+        own = fit(free, 0.0, False)[1]
+    limit = min(best, own + slack) + s.trade_chi2
     for sign, edge in edges:
         for offset in s.moving_offsets:
             target = edge + sign * offset  # the hats' part of the second half's mean
