@@ -154,8 +154,9 @@ class TrackerSettings:
     # identified under true constant statements, 1 confidently wrong; 45 and 0 by χ²)
     # or "freedom" (as "chi2", each run's floor at dof less the freedom its drifts fit: held
     # out with band_floor 0.005, 50 of 72 identified under true constant statements, none
-    # confidently wrong, but 29 confidently wrong under false ones, 8 of them with a reach
-    # above their true drift; 17 and 2 by χ²)
+    # confidently wrong, but 29 confidently wrong under false ones, 2 of them with a reach
+    # above their true drift or none; 17 and 0 by χ²; with x0 stated, `long` 17 identified
+    # 0.134 from the truth under a true statement)
     level_weights: str = "chi2"
     # standard deviations of a χ² with its degrees of freedom (√(2 dof) each) by which a held
     # scale's χ² may exceed the tuned smoothing's and still weigh in its band (None: every held
