@@ -179,19 +179,16 @@ def test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_ba
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=False, run=False,  # not run: it fails for the reason below, and the slow tier is long
-    reason="open (issue 50): with the parameters stated constant (false here: the gain drifts) the band is identified yet covers 0.38 of the samples; the statement's band is not refused where a drifting explanation fits",
-)
 def test_band_covers_a_moving_order_with_a_drifting_gain_or_refuses():
-    """A moving order (0.35 → 0.60) and a gain rising 30 % mid-record, one input: a drifting
-    parameter and a moving order trade off. By default the band covers the truth at every
-    sample of the second half, widened by the explanations with a drifting parameter that
-    fit, and the order is refused with a reason that names
-    ``parameters='constant'``. Stating the parameters constant, falsely, puts the order 0.1
-    off the truth; its Laplace band alone (±0.06) would miss the truth at most samples of the
-    second half, but another scale of the held parameter fits as well, so the band covers it
-    and the order is refused (the level profile)."""
+    """A moving order (0.35 → 0.60) and a gain rising 30 % mid-record (a relative drift of
+    0.26), one input: a drifting parameter and a moving order trade off. By default the band
+    covers the truth at every sample of the second half, widened by the explanations with a
+    drifting parameter that fit, and the order is refused with a reason that names
+    ``parameters='constant'``. Stating the parameters constant, falsely, moves the order
+    off the truth; the band is then the statement's, so what must hold is the verdict: not
+    confidently wrong, and the reach it states (the drift at which an order outside the band
+    fits as well) at or below the drift that misled it, so the answer tells the user how far
+    the statement has to hold."""
     from vojax import reference
 
     n, dt = 400, 0.05
@@ -200,6 +197,7 @@ def test_band_covers_a_moving_order_with_a_drifting_gain_or_refuses():
     u = 1.0 - np.exp(-t / 3.0) + 0.2 * np.sin(0.7 * t)
     alpha = 0.35 + 0.25 * s
     p = 1.0 + 0.3 * (1.0 + np.tanh((s - 0.5) / 0.15)) / 2.0
+    true_drift = np.ptp(p) / abs(np.mean(p))
     x = p * np.asarray(reference.fractional_integral(u[:, None], alpha, dt))[:, 0]
     y = x + 0.2 + 0.01 * np.ptp(x) * np.random.default_rng(3).standard_normal(n)
     half = slice(n // 2, None)
@@ -216,7 +214,8 @@ def test_band_covers_a_moving_order_with_a_drifting_gain_or_refuses():
     held = vojax.identify(u, y, dt, parameters="constant", warn=False)
     rms = np.sqrt(np.mean((np.asarray(held.alpha) - alpha)[half] ** 2))
     assert rms > 0.05  # the false statement moves the estimate
-    assert coverage(held) == 1.0 and not held.diagnostics.identified  # refused, not wrong
+    assert not (held.diagnostics.identified and coverage(held) < 0.5)
+    assert 0.0 < held.diagnostics.breakdown_drift <= true_drift
 
 
 @pytest.mark.parametrize("fits, visited", [
