@@ -122,6 +122,28 @@ MUTATIONS = {
         ["tests/test_moving.py::test_the_fit_tells_the_search_whether_the_call_states_the_"
          "parameters"],
     ),
+    "the breakdown drift ten times the drift of the order that left the band": (
+        "vojax/_tracker/_band.py",
+        [("            breakdown = e.drift\n            break",
+          "            breakdown = 10 * e.drift\n            break")],
+        ["tests/test_trade_off.py::test_band_covers_a_moving_order_with_a_drifting_gain_or_"
+         "refuses"],
+    ),
+    "a conditional answer however wide its conditional band": (
+        "vojax/_diagnostics.py",
+        [("    conditional_answer = (not identified and settled and cond_width <= "
+          "s.identified_halfwidth",
+          "    conditional_answer = (not identified and settled")],
+        ["tests/test_calibration.py::test_default_tracker_is_never_confidently_wrong_where_a_"
+         "parameter_drifts"],
+    ),
+    "the trade-off's constant orders left out of the free band": (
+        "vojax/_tracker/_band.py",
+        [("            if e.kind not in REACH_ONLY and (",
+          "            if e.kind not in (*REACH_ONLY, \"trade\") and (")],
+        ["tests/test_trade_off.py::test_parameters_constant_holds_their_drift_and_keeps_the_"
+         "trade_out_of_its_band"],
+    ),
     "the answer's moves held to their own best fit by default": (
         "vojax/_settings.py",
         [('    moving_limit: str = "freedom"', '    moving_limit: str = "own"')],
