@@ -191,7 +191,8 @@ def test_parameters_constant_holds_their_drift_and_keeps_the_trade_out_of_its_ba
     "grid (0.236-0.688 here) at its own +-2 sigma, not the interval's interpolated ends "
     "that the verdict line names (0.231-0.709): its upper edge reaches 0.693. The freest "
     "order drift covered the gap until it was left to its mixture weight (fastest_evidence). "
-    "The ends as explanations close it but refuse coloured draw 13 held out (42 -> 41 of 144; "
+    "The ends as explanations close it but turn coloured draw 13 held out from identified to "
+    "conditional (42 -> 41 of 144 identified; "
     "scripts/results/bench_calibration_trade_ends_held_out.txt)",
 )
 def test_the_free_band_holds_the_trade_interval_its_verdict_names(monkeypatch):
