@@ -265,13 +265,13 @@ def _moves(profile, band, half, theta0, base, form_row, freedom=None):
         return penalised_jacobian(profile, x, dx[None] * shape.T[:, :, None], level, lam,
                                   system)
 
-    own = 0.0  # the search's own best fit; not fitted where the slack is ∞ ("trade")
-    slack = _slack(s.moving_limit, freedom, shape.shape[1])
-    if np.isfinite(slack):
+    bar = best  # the form's best constant-order fit, or the search's own best raised by
+    slack = _slack(s.moving_limit, freedom, shape.shape[1])  # its slack where lower
+    if np.isfinite(slack):  # ("trade": ∞, its own best not fitted)
         free = levenberg(lambda th: fit(th, 0.0, False)[0], lambda th: jac(th, 0.0), theta0,
                          lo, hi)
-        own = fit(free, 0.0, False)[1]
-    limit = min(best, own + slack) + s.trade_chi2
+        bar = min(best, fit(free, 0.0, False)[1] + slack)
+    limit = bar + s.trade_chi2
     for sign, edge in edges:
         for offset in s.moving_offsets:
             target = edge + sign * offset  # the hats' part of the second half's mean
