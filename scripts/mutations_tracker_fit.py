@@ -156,6 +156,16 @@ MUTATIONS = {
         [('            and tuning.parameter_drift > s.held_ratio * s.constant_drift)', '            )')],
         ['tests/test_tuning_starts.py::test_a_climb_has_collapsed_only_with_the_order_at_its_floor_and_the_parameters_drifting'],
     ),
+    "a step's shortfall read on its least smoothed variance": (
+        "vojax/_tracker/_smoother.py",
+        [("    return mu * jnp.max(jnp.diagonal(", "    return mu * jnp.min(jnp.diagonal(")],
+        ["tests/test_convergence.py"],
+    ),
+    "a shortfall within the share needed as well as the starting damping": (
+        "vojax/_tracker/_smoother.py",
+        [("        barely = barely | (shortfall <= share)", "        barely = barely & (shortfall <= share)")],
+        ["tests/test_convergence.py"],
+    ),
     "mixture weights ignore the evidence": (
         "vojax/_tracker/_smoother.py",
         [("    weights[kept] = np.exp(scores[kept] - top)", "    weights[kept] = 1.0")],
@@ -243,8 +253,8 @@ MUTATIONS = {
     ),
     "a heavily damped step's tiny decrease ends the smoother's iteration": (
         "vojax/_tracker/_smoother.py",
-        [("jnp.where(accepted & (mu <= MU_START), dec,", "jnp.where(accepted, dec,")],
-        ["tests/test_kalman.py::test_only_a_barely_damped_step_can_end_the_iteration"],
+        [("    barely = mu <= MU_START\n", "    barely = mu <= jnp.inf\n")],
+        ["tests/test_convergence.py::test_only_a_barely_damped_step_can_end_the_iteration"],
     ),
     "posterior cost ignores the mask (unfitted samples counted)": (
         "vojax/_tracker/_model.py",
