@@ -163,7 +163,7 @@ MUTATIONS = {
     ),
     "a shortfall within the share needed as well as the starting damping": (
         "vojax/_tracker/_smoother.py",
-        [("        barely = barely | (shortfall <= share)", "        barely = barely & (shortfall <= share)")],
+        [("        barely = barely | (short <= share)", "        barely = barely & (short <= share)")],
         ["tests/test_convergence.py"],
     ),
     "mixture weights ignore the evidence": (

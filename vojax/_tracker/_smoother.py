@@ -256,17 +256,17 @@ def shortfall(mu, cov):
     return mu * jnp.max(jnp.diagonal(cov, axis1=-2, axis2=-1))
 
 
-def progress(accepted, mu, value, new_value, rel, shortfall=None, share=0.0):
+def progress(accepted, mu, value, new_value, rel, short=None, share=0.0):
     """The relative decrease that the iteration's convergence test (``≤ REL_TOL``) reads after
     a step: an accepted step's ``(value − new_value)/max(|new_value|, 1)`` where it was
-    barely damped (μ ≤ `MU_START`, or, with a `share` above 0, its `shortfall` at most that
-    share; see `BARELY_DAMPED`); after an accepted, heavily damped step ∞ (its small
+    barely damped (μ ≤ `MU_START`, or, with a `share` above 0, its shortfall `short` at most
+    that share, see `shortfall` and `BARELY_DAMPED`); after an accepted, heavily damped step ∞ (its small
     decrease says the damping is heavy, not that the minimum is near); after a rejected
     step, `rel` unchanged."""
     dec = (value - new_value) / jnp.maximum(jnp.abs(new_value), 1.0)
     barely = mu <= MU_START
-    if shortfall is not None and share > 0:
-        barely = barely | (shortfall <= share)
+    if short is not None and share > 0:
+        barely = barely | (short <= share)
     return jnp.where(accepted & barely, dec, jnp.where(accepted, jnp.inf, rel))
 
 
