@@ -12,10 +12,10 @@ import pytest
 
 import vojax
 from vojax._integral import make_memory
-from vojax._tracker import _smoother
+from vojax._tracker import _damping, _smoother
+from vojax._tracker._damping import MU_START, REL_TOL, progress, shortfall
 from vojax._tracker._fit import start
 from vojax._tracker._model import Hyper
-from vojax._tracker._smoother import MU_START, REL_TOL, progress, shortfall
 
 SHARE = 0.1  # the share measured (see `BARELY_DAMPED`)
 
@@ -85,7 +85,7 @@ def with_shortfall():
     own: the share is read when it is traced), as ``smooth(problem, hyper, nominal,
     budget)``."""
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(_smoother, "BARELY_DAMPED", SHARE)
+        patch.setattr(_damping, "BARELY_DAMPED", SHARE)
         compiled = eqx.filter_jit(lambda *args: _smoother._iterate(*args))
 
         def smooth(problem, hyper, nominal, budget):

@@ -166,7 +166,7 @@ def test_damped_pass_is_the_posterior_with_the_anchor_observed():
 def test_damping_follows_nielsens_rule():
     """The Levenberg–Marquardt damping after a step, by hand: ρ = achieved / predicted
     decrease; accepted: μ × max(1/3, 1 − (2ρ − 1)³), ν = 2; rejected: μ × ν, ν × 2."""
-    from vojax._tracker._smoother import MU_MIN, damping
+    from vojax._tracker._damping import MU_MIN, damping
 
     def step(mu, nu, ok, value, new, predicted):
         out = damping(*(jnp.asarray(v) for v in (mu, nu, ok, value, new, predicted)))

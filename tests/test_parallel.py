@@ -153,7 +153,7 @@ def test_tracker_through_the_parallel_schedule_equals_the_sequential_one(
     assert got.diagnostics.block == ref.diagnostics.block
     batched_block = vojax.TrackerSettings().batched_block
     assert (got.diagnostics.block >= batched_block) == (max_points is not None)
-    from vojax._tracker._smoother import REL_TOL
+    from vojax._tracker._damping import REL_TOL
 
     points = min(n, max_points or n)
     bound = np.sqrt(2 * REL_TOL * points) * np.asarray(ref.alpha_std)
