@@ -31,14 +31,15 @@ import mutations_refit  # noqa: E402
 import mutations_scores  # noqa: E402
 import mutations_tracker_band  # noqa: E402
 import mutations_tracker_clock  # noqa: E402
+import mutations_tracker_damping  # noqa: E402
 import mutations_tracker_fit  # noqa: E402
 import mutations_tracker_freedom  # noqa: E402
 import mutations_tracker_noise  # noqa: E402
 
 # name: (file, [(old, new), ...], tests that should fail)
 AREAS = (mutations_law, mutations_design, mutations_refit, mutations_tracker_fit,
-         mutations_tracker_noise, mutations_tracker_band, mutations_tracker_clock,
-         mutations_tracker_freedom, mutations_reach,
+         mutations_tracker_damping, mutations_tracker_noise, mutations_tracker_band,
+         mutations_tracker_clock, mutations_tracker_freedom, mutations_reach,
          mutations_data, mutations_figures, mutations_scores, mutations_kernels)
 MUTATIONS = {name: bug for area in AREAS for name, bug in area.MUTATIONS.items()}
 assert len(MUTATIONS) == sum(len(area.MUTATIONS) for area in AREAS), "a name planted twice"
