@@ -129,19 +129,19 @@ def test_a_settled_smoothing_ends_before_its_budget_at_the_mode_a_longer_run_kee
     assert np.max(np.abs(np.asarray(sm.theta[:, 0] - longer.theta[:, 0]))) < 1e-4
 
 
-def test_without_the_shortfall_settled_smoothings_run_to_their_budget(ramp_problem, with_share):
-    """With the share at 0 (the damping alone deciding) some of the six first-pass runs reach
-    the 60 iterations unconverged (four were measured), each at the objective the shipped
-    rule converges to (within 1e-9 of it): μ settles near 0.1–0.6, where each step gains
-    about half of what the linearised model predicts, and never falls to 0.01 — settled runs,
-    counted unconverged, that `BARELY_DAMPED` ends."""
+def test_the_shortfall_only_ends_a_run_sooner_at_the_same_objective(ramp_problem, with_share):
+    """With the share at 0 (the damping alone deciding) each of the six first-pass runs takes
+    at least as many iterations as with the shipped share, and ends at the same objective
+    (within 1e-9 of it): the shortfall adds a way to stop, and changes no step. A run that
+    reaches its 60 iterations unconverged with the share at 0 has settled where the shipped
+    rule stops it (on JAX 0.10.2 four of the six do: μ settles near 0.1–0.6, where each step
+    gains about half of what the linearised model predicts, and never falls to 0.01; on JAX
+    0.4.30 none does)."""
     off, shipped = with_share(0.0), with_share(_damping.BARELY_DAMPED)
-    stalled = 0
     for k in range(6):
-        sm, _ = _first_pass_run(ramp_problem, k, off, 60)
-        if not bool(sm.converged):
-            stalled += 1
-            assert int(sm.iterations) == 60
-            ref = float(_first_pass_run(ramp_problem, k, shipped, 60)[0].objective)
-            assert abs(float(sm.objective) - ref) <= 1e-9 * abs(ref)
-    assert stalled >= 1
+        sm_off, _ = _first_pass_run(ramp_problem, k, off, 60)
+        sm, _ = _first_pass_run(ramp_problem, k, shipped, 60)
+        assert bool(sm.converged) and int(sm.iterations) <= int(sm_off.iterations)
+        assert bool(sm_off.converged) or int(sm_off.iterations) == 60
+        ref = float(sm.objective)
+        assert abs(float(sm_off.objective) - ref) <= 1e-9 * abs(ref)
