@@ -139,7 +139,10 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     parameters' drift held at `constant_drift` (the parameters known to be constant)."""
     s = problem.settings
     limits = box(s, noise_floor, hold)
-    first = to_device(np.repeat(np.asarray(starts), len(s.grid_order), axis=0))
+    # each run's start on the host as well: indexing the device array outside a compiled
+    # program would compile a slice for every record length
+    rows_start = np.repeat(np.asarray(starts), len(s.grid_order), axis=0)
+    first = to_device(rows_start)
     # the full budget at every level too: a level whose runs converge only past
     # `grid_max_iter` (the constant fit's misfit, where the data's noise stalls) is not lost
     budgets = (s.grid_max_iter,) + ((s.max_iter,) if s.max_iter > s.grid_max_iter else ())
@@ -156,12 +159,12 @@ def tune(problem, starts, noises, noise_floor, hold=False):
     if not np.isfinite(np.asarray(scores)[i]):
         # none converged: fall back on the best finite objective rather than giving up (the
         # pass kept only its index: run it again, the same computation)
-        sm = problem.smooth_from(hyper, first[i])
+        sm = problem.smooth_from(hyper, rows_start[i])
     out = climb(problem, limits, hyper, sm, s.climb_rounds)
     j = second_start(rows, scores, i)
     if s.second_climb and not hold and j >= 0 and collapsed(out[2], s):
         hyper = _hyper(rows[j])
-        other = climb(problem, limits, hyper, problem.smooth_from(hyper, first[j]),
+        other = climb(problem, limits, hyper, problem.smooth_from(hyper, rows_start[j]),
                       s.climb_rounds)
         if host_score(other[1]) > host_score(out[1]):
             out = other
