@@ -363,6 +363,18 @@ MUTATIONS = {
         [("        if (size >= s.block_refine_from and finer < size", "        if (finer < size")],
         ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
     ),
+    "the block means' padding fitted as data": (
+        "vojax/_tracker/_blocks.py",
+        [("np.concatenate([mask, np.zeros(extra, mask.dtype)])",
+          "np.concatenate([mask, np.ones(extra, mask.dtype)])")],
+        ["tests/test_blocks.py::test_block_means_padded_to_a_bucket_by_hand",
+         "tests/test_blocks.py::test_block_counts_in_one_bucket_share_the_program_and_the_padding_changes_nothing"],
+    ),
+    "block means padded to no bucket": (
+        "vojax/_tracker/_blocks.py",
+        [("POINT_BUCKET * math.ceil(points / POINT_BUCKET))", "points)")],
+        ["tests/test_blocks.py::test_block_counts_in_one_bucket_share_the_program_and_the_padding_changes_nothing"],
+    ),
     "the refit's answer is the coarse fit's": (
         "vojax/_tracker/_estimator.py",
         [("            size = finer\n            res, fit, diagnostics = self._fit_sized(",

@@ -162,6 +162,56 @@ def test_blocks_on_a_non_uniform_clock_and_with_padding():
     np.testing.assert_allclose(np.asarray(padded.alpha)[:1500], np.asarray(ref.alpha), atol=1e-6)
 
 
+def test_block_means_padded_to_a_bucket_by_hand():
+    """`pad_points`: points added a median step apart after the last, with its input and
+    output, masked out; a count no larger than the points' leaves them as they are."""
+    from vojax._tracker._blocks import pad_points
+
+    times = np.array([0.0, 1.0, 3.0, 5.0, 6.0])  # steps 1, 2, 2, 1: the median 1.5
+    u = np.arange(10.0).reshape(5, 2)
+    y = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    mask = np.array([1.0, 1.0, 0.0, 1.0, 1.0])
+    t_p, u_p, y_p, m_p = pad_points(times, u, y, mask, 8)
+    np.testing.assert_array_equal(t_p, [0.0, 1.0, 3.0, 5.0, 6.0, 7.5, 9.0, 10.5])
+    np.testing.assert_array_equal(u_p[5:], [[8.0, 9.0]] * 3)
+    np.testing.assert_array_equal(u_p[:5], u)
+    np.testing.assert_array_equal(y_p, [1.0, 2.0, 3.0, 4.0, 5.0, 5.0, 5.0, 5.0])
+    np.testing.assert_array_equal(m_p, [1, 1, 0, 1, 1, 0, 0, 0])
+    assert all(a is b for a, b in zip(pad_points(times, u, y, mask, 5), (times, u, y, mask)))
+
+
+def test_block_counts_in_one_bucket_share_the_program_and_the_padding_changes_nothing(
+        monkeypatch):
+    """Records of 2,000 and 2,050 samples at `max_points` 100 are fitted as 97 and 99 block
+    means, both padded to 128 points (`POINT_BUCKET` 32): the second traces no smoother of
+    its own. Padded, the first gives the answer of its 97 points fitted alone (the bucket
+    set to 1) to the smoother's tolerance, its band to the tolerance of the band's flat
+    directions (as for a record padded by the user, `tests/test_tracker.py`)."""
+    from vojax._tracker import _blocks
+    from vojax._tracker._smoother import TRACES
+
+    kw = dict(max_points=100, parameters="constant", time_scale=1.0, warn=False)
+    t, u, y, alpha, x = _record(2000, 0.01, 0.01)
+    padded = vojax.identify(u, y, 0.01, **kw)
+    assert padded.diagnostics.block == 21
+    before = TRACES["smoother"]
+    t2, u2, y2, *_ = _record(2050, 0.01, 0.01, seed=2)
+    other = vojax.identify(u2, y2, 0.01, **kw)
+    assert other.diagnostics.block == 21  # 1 + ⌈2049/21⌉ = 99 points
+    assert TRACES["smoother"] == before
+    monkeypatch.setattr(_blocks, "POINT_BUCKET", 1)
+    alone = vojax.identify(u, y, 0.01, **kw)
+    assert TRACES["smoother"] > before  # 97 points: programs of their own
+    for name in ("alpha", "p", "y_hat", "y_pred"):
+        np.testing.assert_allclose(np.asarray(getattr(padded, name)),
+                                   np.asarray(getattr(alone, name)), rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(np.asarray(padded.alpha_std), np.asarray(alone.alpha_std),
+                               rtol=3e-3)
+    assert padded.diagnostics.verdict == alone.diagnostics.verdict
+    assert padded.diagnostics.block_error == pytest.approx(alone.diagnostics.block_error,
+                                                           rel=1e-9)
+
+
 @pytest.mark.parametrize(
     "value, error, match",
     [

@@ -24,6 +24,12 @@ import numpy as np
 # (16: 0.40 s, compiling 0.5 s longer); under `use_fast_cpu_loops` unrolling costs (0.49 →
 # 0.53 s), so there the loop steps one sample at a time
 SCAN_UNROLL = 8
+# the block means are padded to a multiple of this many points by masked points after the
+# last, so that records whose block counts differ a little share their compiled programs: a
+# new count compiles for about 3 s with fast loops (a 20,000-sample record: 1.6 s warm), and a
+# padded point costs about what a fitted one does (at the default `max_points`, 501–1,000
+# block means: at most 6 % more points)
+POINT_BUCKET = 32
 
 
 def block_size(num: int, max_points: int) -> int:
@@ -59,6 +65,39 @@ def block_average(values, size: int):
     counts = np.diff(np.concatenate([starts, [values.shape[0]]]))
     shape = (-1,) + (1,) * (values.ndim - 1)
     return np.add.reduceat(values, starts, axis=0) / counts.reshape(shape)
+
+
+def pad_points(times, u, y, mask, count: int):
+    """The block means ``(times, u, y, mask)`` (NumPy) padded to `count` points: each added
+    point a median step after the one before, with the last block's input and output, and
+    masked out (not fitted). Masked points after the last fitted one change no estimate
+    before them (the filter's predictions there see no data), to the smoother's tolerance."""
+    extra = count - times.shape[0]
+    if extra <= 0:
+        return times, u, y, mask
+    step = float(np.median(np.diff(times))) if times.shape[0] > 1 else 1.0
+    return (
+        np.concatenate([times, times[-1] + step * np.arange(1, extra + 1)]),
+        np.concatenate([u, np.repeat(u[-1:], extra, axis=0)]),
+        np.concatenate([y, np.repeat(y[-1:], extra)]),
+        np.concatenate([mask, np.zeros(extra, mask.dtype)]),
+    )
+
+
+def _cut(res, points: int):
+    """The per-point fields of a tracker result `res` on padded points cut back to the first
+    `points` (on the host: an eager slice of a device array compiles for every length)."""
+    from .._xla import to_device
+
+    def cut(v):
+        return None if v is None else to_device(np.asarray(v)[:points])
+
+    fields = ("alpha", "alpha_std", "alpha_lower", "alpha_upper", "p", "p_std", "y_hat",
+              "y_pred", "alpha_held")
+    return dataclasses.replace(
+        res, **{k: cut(getattr(res, k)) for k in fields},
+        conditional=None if res.conditional is None else tuple(
+            cut(a) for a in res.conditional))
 
 
 def to_samples(t_blocks, values, times):
@@ -100,14 +139,16 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     t_b, u_b, y_b, mask_b = block_means(times[:span], u_np[:span], y_np[:span], mask_np, size)
     if noise is not None:  # the noise of a block mean
         noise = dict(noise, noise_std=float(noise["noise_std"]) / np.sqrt(size))
-    mem_b = make_memory(tracker.memory, None, t_b.shape[0], rule=tracker.rule, tol=tracker.tol,
-                        order_range=bounds, times=t_b)
-    res = fit_points(
-        mem_b, to_device(u_b), to_device(y_b), None, bounds, s, smooth=tracker.smooth,
-        noise=noise, mask=None if mask is None else to_device(mask_b), times=t_b,
-        parameters=tracker.parameters, x0=x0, batched=size >= s.batched_block,
-        time_scale=time_scale, weigh=weigh,
-    )
+    points = t_b.shape[0]
+    t_p, u_p, y_p, mask_p = pad_points(t_b, u_b, y_b, mask_b,
+                                       POINT_BUCKET * math.ceil(points / POINT_BUCKET))
+    mem_b = make_memory(tracker.memory, None, t_p.shape[0], rule=tracker.rule, tol=tracker.tol,
+                        order_range=bounds, times=t_p)
+    res = _cut(fit_points(
+        mem_b, to_device(u_p), to_device(y_p), None, bounds, s, smooth=tracker.smooth,
+        noise=noise, mask=to_device(mask_p), times=t_p, parameters=tracker.parameters, x0=x0,
+        batched=size >= s.batched_block, time_scale=time_scale, weigh=weigh,
+    ), points)
     # everything at every sample: linear between block times; the output from the reported
     # parameters brought to the tracker's clock (× time_scale^α at each sample's order)
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
@@ -128,8 +169,8 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     # the coarse clock's model error at the constant-order fit, against a block mean's noise
     # (from the samples' own second differences: on the coarse clock those see more of the
     # signal)
-    phi_b = np.asarray(scan_memory(mem_b, to_device(u_b), to_device(constant[: t_b.shape[0]]),
-                                   False))
+    phi_b = np.asarray(scan_memory(mem_b, to_device(u_p), to_device(
+        np.full((t_p.shape[0],), res.constant_order, dtype)), False))[:points]
     coef = least_squares(phi_b, y_b - (x0 or 0.0), mask_b, offset=x0 is None)[1]
     error = (block_average(phi_c[:span], size) - phi_b) @ coef[:-1]
     fitted = np.ones(span, bool) if mask_np is None else mask_np > 0
