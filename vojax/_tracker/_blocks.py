@@ -121,7 +121,8 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     None). ``weigh=False`` (the second clock's quick look, which only its order and band
     serve): the order, its band and the parameters at every sample, no ``y_hat`` (None), and
     a `fit` of the fitted points' order and band only (no `block_error`), so no memory run
-    over every sample."""
+    over every sample. The block means are fitted padded to a multiple of `POINT_BUCKET`
+    points (`pad_points`), and the estimates cut back to them."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
     from .._stats import noise_variance
     from .._xla import to_device
