@@ -19,6 +19,7 @@ from _bench import fresh_process, publish
 CHILD = r"""
 import json, sys, time
 import jax
+import numpy as np
 jax.config.update("jax_enable_x64", True)
 import vojax
 from vojax._tracker import _blocks
@@ -33,7 +34,7 @@ for n in map(int, sys.argv[2:]):
     res = vojax.identify(u, y, dt, warn=False)
     res.alpha.block_until_ready()
     size = res.diagnostics.block
-    points = 1 + -(-(n - 1) // size)
+    points = _blocks.block_average(np.zeros(n), size).shape[0]  # the block means
     rows.append(dict(samples=n, block=size, points=points,
                      seconds=time.perf_counter() - started))
 print(json.dumps(rows))
@@ -46,7 +47,7 @@ def main(argv=None):
                         default=[20000, 20015, 20100, 20400, 21000, 20000])
     parser.add_argument("--out")
     args = parser.parse_args(argv)
-    from vojax._tracker._blocks import POINT_BUCKET
+    from vojax._tracker._blocks import POINT_BUCKET, bucket_points
 
     runs = {mode: fresh_process(CHILD, mode, *args.lengths) for mode in ("padded", "unpadded")}
     lines = [
@@ -58,8 +59,8 @@ def main(argv=None):
         "|---|---|---|---|---|---|---|---|",
     ]
     for k, (a, b) in enumerate(zip(runs["padded"], runs["unpadded"]), 1):
-        bucket = POINT_BUCKET * -(-a["points"] // POINT_BUCKET)
-        lines.append(f"| {k} | {a['samples']:,} | {a['block']} | {a['points']} | {bucket} | "
+        lines.append(f"| {k} | {a['samples']:,} | {a['block']} | {a['points']} | "
+                     f"{bucket_points(a['points'])} | "
                      f"{a['seconds']:.2f} | {b['seconds']:.2f} | "
                      f"{b['seconds'] / a['seconds']:.2f} |")
     total = [sum(r["seconds"] for r in runs[m]) for m in ("padded", "unpadded")]

@@ -372,7 +372,8 @@ MUTATIONS = {
     ),
     "block means padded to no bucket": (
         "vojax/_tracker/_blocks.py",
-        [("POINT_BUCKET * math.ceil(points / POINT_BUCKET))", "points)")],
+        [("pad_points(t_b, u_b, y_b, mask_b, bucket_points(points))",
+          "pad_points(t_b, u_b, y_b, mask_b, points)")],
         ["tests/test_blocks.py::test_block_counts_in_one_bucket_share_the_program_and_the_padding_changes_nothing"],
     ),
     "the refit's answer is the coarse fit's": (

@@ -164,6 +164,26 @@ def to_device(value):
     return jax.device_put(np.asarray(value))
 
 
+def cut_padding(tree, num: int, padded: int, device: bool = False):
+    """`tree` (a result) with every array leaf whose first axis is `padded` long cut to its
+    first `num` rows, on the host (an eager slice of a device array compiles a program for
+    every length); as JAX arrays where `device`, else NumPy. `tree` itself where nothing
+    was padded."""
+    import jax
+    import numpy as np
+
+    if padded <= num:
+        return tree
+    back = to_device if device else (lambda a: a)
+
+    def cut(a):
+        if getattr(a, "ndim", 0) >= 1 and a.shape[0] == padded:
+            return back(np.asarray(a)[:num])
+        return a
+
+    return jax.tree_util.tree_map(cut, tree)
+
+
 # XLA:CPU keeps every compiled program in memory mappings of its own (3 to 20 each; a tracker
 # run on a record of a new length adds about 800), and Linux caps the mappings of a process
 # (``vm.max_map_count``, 65,530 by default). A process past the cap cannot map a new program

@@ -179,7 +179,7 @@ def _padded(fn, u, y, pad_to, **kwargs):
     """``fn(u, y, …)`` on the record padded to `pad_to` samples and masked, its per-sample
     outputs cut back: one compiled program serves every record of a bucket. Padding comes
     after the end, so the causal memory of the real samples does not see it."""
-    import jax
+    from .._xla import cut_padding
 
     num = y.shape[0]
     if pad_to is None or pad_to <= num:
@@ -191,8 +191,4 @@ def _padded(fn, u, y, pad_to, **kwargs):
     if kwargs.get("direct") is not None:  # order-0 regressors are padded like the inputs
         d = kwargs["direct"]
         kwargs = {**kwargs, "direct": np.concatenate([d, np.zeros((extra, d.shape[1]))])}
-    res = fn(up, yp, mask=mask, **kwargs)
-    return jax.tree_util.tree_map(
-        lambda a: np.asarray(a)[:num] if getattr(a, "ndim", 0) >= 1 and a.shape[0] == pad_to else a,
-        res,
-    )
+    return cut_padding(fn(up, yp, mask=mask, **kwargs), num, pad_to)

@@ -67,6 +67,12 @@ def block_average(values, size: int):
     return np.add.reduceat(values, starts, axis=0) / counts.reshape(shape)
 
 
+def bucket_points(points: int) -> int:
+    """The number of points `points` block means are fitted as: the next multiple of
+    `POINT_BUCKET`."""
+    return POINT_BUCKET * math.ceil(points / POINT_BUCKET)
+
+
 def pad_points(times, u, y, mask, count: int):
     """The block means ``(times, u, y, mask)`` (NumPy) padded to `count` points: each added
     point a median step after the one before, with the last block's input and output, and
@@ -82,22 +88,6 @@ def pad_points(times, u, y, mask, count: int):
         np.concatenate([y, np.repeat(y[-1:], extra)]),
         np.concatenate([mask, np.zeros(extra, mask.dtype)]),
     )
-
-
-def _cut(res, points: int):
-    """The per-point fields of a tracker result `res` on padded points cut back to the first
-    `points` (on the host: an eager slice of a device array compiles for every length)."""
-    from .._xla import to_device
-
-    def cut(v):
-        return None if v is None else to_device(np.asarray(v)[:points])
-
-    fields = ("alpha", "alpha_std", "alpha_lower", "alpha_upper", "p", "p_std", "y_hat",
-              "y_pred", "alpha_held")
-    return dataclasses.replace(
-        res, **{k: cut(getattr(res, k)) for k in fields},
-        conditional=None if res.conditional is None else tuple(
-            cut(a) for a in res.conditional))
 
 
 def to_samples(t_blocks, values, times):
@@ -125,7 +115,7 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     points (`pad_points`), and the estimates cut back to them."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
     from .._stats import noise_variance
-    from .._xla import to_device
+    from .._xla import cut_padding, to_device
     from ._fit import fit_points
     from ._smoother import batch_pays
     from ._start import least_squares
@@ -141,15 +131,14 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     if noise is not None:  # the noise of a block mean
         noise = dict(noise, noise_std=float(noise["noise_std"]) / np.sqrt(size))
     points = t_b.shape[0]
-    t_p, u_p, y_p, mask_p = pad_points(t_b, u_b, y_b, mask_b,
-                                       POINT_BUCKET * math.ceil(points / POINT_BUCKET))
+    t_p, u_p, y_p, mask_p = pad_points(t_b, u_b, y_b, mask_b, bucket_points(points))
     mem_b = make_memory(tracker.memory, None, t_p.shape[0], rule=tracker.rule, tol=tracker.tol,
                         order_range=bounds, times=t_p)
-    res = _cut(fit_points(
+    res = cut_padding(fit_points(
         mem_b, to_device(u_p), to_device(y_p), None, bounds, s, smooth=tracker.smooth,
         noise=noise, mask=to_device(mask_p), times=t_p, parameters=tracker.parameters, x0=x0,
         batched=size >= s.batched_block, time_scale=time_scale, weigh=weigh,
-    ), points)
+    ), points, t_p.shape[0], device=True)
     # everything at every sample: linear between block times; the output from the reported
     # parameters brought to the tracker's clock (× time_scale^α at each sample's order)
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731
