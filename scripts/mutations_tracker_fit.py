@@ -355,12 +355,14 @@ MUTATIONS = {
     ),
     "long blocks refitted whatever the reason they were refused for": (
         "vojax/_tracker/_estimator.py",
-        [("                and Reason.CORRELATED in diagnostics.reasons):", "                and True):")],
+        [("        if first is None or (refine and Reason.CORRELATED in first[2].reasons):",
+          "        if first is None or refine:")],
         ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
     ),
     "blocks of any length refitted where the prediction errors correlate": (
         "vojax/_tracker/_estimator.py",
-        [("        if (size >= s.block_refine_from and finer < size", "        if (finer < size")],
+        [("        refine = size >= s.block_refine_from and finer < size",
+          "        refine = finer < size")],
         ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
     ),
     "the block means' padding fitted as data": (
@@ -378,8 +380,24 @@ MUTATIONS = {
     ),
     "the refit's answer is the coarse fit's": (
         "vojax/_tracker/_estimator.py",
-        [("            size = finer\n            res, fit, diagnostics = self._fit_sized(",
-          "            size = finer\n            _, _, _ = self._fit_sized(")],
+        [("            size = finer\n            first = self._fit_sized(",
+          "            first = self._fit_sized(")],
         ["tests/test_blocks.py::test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_shorter_ones"],
+    ),
+    "the first fit given up whatever its prediction errors": (
+        "vojax/_tracker/_blocks.py",
+        [("give_up=(lambda y_pred: errors_correlate(", "give_up=(lambda y_pred: True or errors_correlate(")],
+        ["tests/test_blocks.py::test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer_is_the_same"],
+    ),
+    "the first fit never stopped early": (
+        "vojax/_tracker/_estimator.py",
+        [("first = self._fit_sized(u2, y, dt, t, mask, length, size, bounds, refine)",
+          "first = self._fit_sized(u2, y, dt, t, mask, length, size, bounds, False)")],
+        ["tests/test_blocks.py::test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer_is_the_same"],
+    ),
+    "the early stop reads the normalised predictions": (
+        "vojax/_tracker/_fit.py",
+        [("st.scales.y_ref + st.scales.y_scale * np.asarray(sm.y_pred)", "np.asarray(sm.y_pred)")],
+        ["tests/test_blocks.py::test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer_is_the_same"],
     ),
 }

@@ -299,14 +299,18 @@ def test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_short
     fit's reasons hold correlated prediction errors and its blocks hold at least
     `block_refine_from` samples, the record is fitted once more on up to `block_refine` ×
     `max_points` points, and that fit is the answer (its block size, its order); else the
-    first fit is. The reasons of the first fit are set here (the fit itself is real)."""
+    first fit is. The reasons of the first fit are set here (the fit itself is real, run to
+    its end: the early stop on correlated errors, tested below, is turned off)."""
+    import vojax._stats
     from vojax._tracker._estimator import Tracker
 
+    monkeypatch.setattr(vojax._stats, "errors_correlate", lambda *args: False)
     seen = []
     real = Tracker._fit_sized
 
-    def spied(self, u2, y, dt, t, mask, length, size, bounds):
-        res, fit, diagnostics = real(self, u2, y, dt, t, mask, length, size, bounds)
+    def spied(self, *args):
+        res, fit, diagnostics = real(self, *args)
+        size = args[6]
         seen.append(size)
         if len(seen) == 1:
             diagnostics = dataclasses.replace(diagnostics, reasons=reasons)
@@ -325,3 +329,52 @@ def test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_short
                            settings=vojax.TrackerSettings(block_refine=1))
     assert alone.diagnostics.block == sizes[-1]
     np.testing.assert_array_equal(np.asarray(res.alpha), np.asarray(alone.alpha))
+
+
+def _sizes_seen(monkeypatch):
+    """Spies on the tracker's fits of one block size: ``(size, reasons)`` per fit, reasons
+    None where the fit stopped early."""
+    from vojax._tracker._estimator import Tracker
+
+    seen, real = [], Tracker._fit_sized
+
+    def spied(self, *args):
+        out = real(self, *args)
+        seen.append((args[6], None if out is None else set(map(str, out[2].reasons))))
+        return out
+
+    monkeypatch.setattr(Tracker, "_fit_sized", spied)
+    return seen
+
+
+@pytest.mark.parametrize("ar, refitted", [(0.0, True), (0.9, False)])
+def test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer_is_the_same(
+        monkeypatch, ar, refitted):
+    """Blocks of 21 (2,000 samples at `max_points` 100, the parameters stated constant):
+    with white noise (`ar` 0) the first fit's prediction errors correlate, and it stops after
+    its tuning (None) before the record is fitted again on blocks of 7; with this AR(1)
+    noise they do not, and it is the answer. Run to its end (the early stop turned off), the
+    first fit's diagnostics name `correlated` exactly where it stopped early, and the
+    answer is the same to the last bit."""
+    import vojax._stats
+
+    t, u, y, alpha, x = _record(2000, 0.01, 0.01)
+    if ar:
+        e = np.random.default_rng(0).standard_normal(2000)
+        for k in range(1, 2000):
+            e[k] += ar * e[k - 1]
+        y = x + 0.01 * np.ptp(x) * e
+    seen = _sizes_seen(monkeypatch)
+    kw = dict(max_points=100, parameters="constant", warn=False)
+    early = vojax.identify(u, y, 0.01, **kw)
+    assert [size for size, _ in seen] == ([21, 7] if refitted else [21])
+    assert (seen[0][1] is None) == refitted
+    seen.clear()
+    monkeypatch.setattr(vojax._stats, "errors_correlate", lambda *args: False)
+    whole = vojax.identify(u, y, 0.01, **kw)
+    assert [size for size, _ in seen] == ([21, 7] if refitted else [21])
+    assert ("correlated" in seen[0][1]) == refitted
+    for field in ("alpha", "alpha_lower", "alpha_upper", "p", "y_hat"):
+        np.testing.assert_array_equal(np.asarray(getattr(early, field)),
+                                      np.asarray(getattr(whole, field)))
+    assert early.diagnostics.verdict == whole.diagnostics.verdict

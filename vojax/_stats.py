@@ -60,6 +60,14 @@ def prediction_error_correlation(y, y_pred, fitted) -> tuple[float, int]:
     return lag1_correlation(errors), errors.size
 
 
+def errors_correlate(y, y_pred, fitted) -> bool:
+    """Whether the one-step prediction errors over the `fitted` samples correlate beyond
+    `correlation_limit`: the tracker's reason `correlated` (see
+    `vojax._diagnostics.diagnose`)."""
+    correlation, samples = prediction_error_correlation(y, y_pred, fitted)
+    return bool(correlation > correlation_limit(samples))
+
+
 def delta_stderr(fn, p, cov) -> dict:
     """Standard errors of the named quantities ``fn(p)`` (a dict of scalars) by the delta
     method: ``sqrt(diag(J C Jᵀ))`` with ``J = ∂fn/∂p`` from forward-mode autodiff and ``C`` the

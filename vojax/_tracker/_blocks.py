@@ -100,7 +100,7 @@ def to_samples(t_blocks, values, times):
 
 
 def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=None,
-               weigh=True):
+               weigh=True, refine=False):
     """The `tracker` on the means of blocks of `size` samples of the record's first `span`
     samples (padding after them is not the record's), its estimates brought back to every
     sample: the order, its band and the parameters linear between block times, the output
@@ -112,9 +112,12 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     serve): the order, its band and the parameters at every sample, no ``y_hat`` (None), and
     a `fit` of the fitted points' order and band only (no `block_error`), so no memory run
     over every sample. The block means are fitted padded to a multiple of `POINT_BUCKET`
-    points (`pad_points`), and the estimates cut back to them."""
+    points (`pad_points`), and the estimates cut back to them. `refine`: None where the
+    tuned smoothing's prediction errors correlate (the reason `correlated`; the caller fits
+    again on shorter blocks), before the band's passes and the memory runs over every
+    sample."""
     from .._integral import make_memory, scan_memory, scan_memory_orders
-    from .._stats import noise_variance
+    from .._stats import errors_correlate, noise_variance
     from .._xla import cut_padding, to_device
     from ._fit import fit_points
     from ._smoother import batch_pays
@@ -134,11 +137,16 @@ def fit_blocks(tracker, u2, y, dt, t, mask, size, span, time_scale=1.0, times=No
     t_p, u_p, y_p, mask_p = pad_points(t_b, u_b, y_b, mask_b, bucket_points(points))
     mem_b = make_memory(tracker.memory, None, t_p.shape[0], rule=tracker.rule, tol=tracker.tol,
                         order_range=bounds, times=t_p)
-    res = cut_padding(fit_points(
+    res = fit_points(
         mem_b, to_device(u_p), to_device(y_p), None, bounds, s, smooth=tracker.smooth,
         noise=noise, mask=to_device(mask_p), times=t_p, parameters=tracker.parameters, x0=x0,
         batched=size >= s.batched_block, time_scale=time_scale, weigh=weigh,
-    ), points, t_p.shape[0], device=True)
+        give_up=(lambda y_pred: errors_correlate(y_b, y_pred[:points], mask_b > 0))
+        if refine else None,
+    )
+    if res is None:
+        return None
+    res = cut_padding(res, points, t_p.shape[0], device=True)
     # everything at every sample: linear between block times; the output from the reported
     # parameters brought to the tracker's clock (× time_scale^α at each sample's order)
     at_samples = lambda v: to_samples(t_b, np.asarray(v), times)  # noqa: E731

@@ -144,15 +144,17 @@ class Tracker:
         # record's)
         length = u2.shape[0] if mask is None else int(np.flatnonzero(np.asarray(mask))[-1]) + 1
         size = block_size(length, max_points)
-        res, fit, diagnostics = self._fit_sized(u2, y, dt, t, mask, length, size, bounds)
         # a record in long blocks whose prediction errors correlate: the coarse clock misses
         # part of the signal (on the suite's `long` family, order errors of 1e-4 to 4e-3
-        # refused by lag-1 autocorrelations of 0.10–0.88), fitted again once on shorter blocks
+        # refused by lag-1 autocorrelations of 0.10–0.88), fitted again once on shorter
+        # blocks; the first fit stops once its tuned smoothing shows it (None)
         finer = block_size(length, min(max_points * s.block_refine, TRACKER_MAX_POINTS))
-        if (size >= s.block_refine_from and finer < size
-                and Reason.CORRELATED in diagnostics.reasons):
+        refine = size >= s.block_refine_from and finer < size
+        first = self._fit_sized(u2, y, dt, t, mask, length, size, bounds, refine)
+        if first is None or (refine and Reason.CORRELATED in first[2].reasons):
             size = finer
-            res, fit, diagnostics = self._fit_sized(u2, y, dt, t, mask, length, size, bounds)
+            first = self._fit_sized(u2, y, dt, t, mask, length, size, bounds)
+        res, fit, diagnostics = first
         if warn and diagnostics.message:
             warnings.warn(f"vojax.identify: {diagnostics.message}.", IdentifiabilityWarning,
                           stacklevel=stacklevel)
@@ -170,27 +172,32 @@ class Tracker:
             fitted=None if mask is None else _fitted_range(mask, length), y=y,
         )
 
-    def _fit_sized(self, u2, y, dt, t, mask, length, size, bounds):
+    def _fit_sized(self, u2, y, dt, t, mask, length, size, bounds, refine=False):
         """``(result, fitted points, diagnostics)`` of the record fitted in blocks of `size`
-        samples (1: every sample), on both clocks where the second one runs."""
+        samples (1: every sample), on both clocks where the second one runs; with `refine`,
+        None where the span's tuned smoothing leaves correlated prediction errors (see
+        `fit_blocks`)."""
         # the tracker's clock: time over the record's span (or `time_scale`), so that
         # parameters held constant (or drift-bounded) mean the same in any unit of time
         scale = self._time_scale(dt, t, length)
 
-        def on(unit, weigh=True):
+        def on(unit, weigh=True, refine=False):
             return lambda: self._fit_on(unit, u2, y, dt, t, mask, length, size, bounds,
-                                        weigh=weigh)
+                                        weigh=weigh, refine=refine)
 
         # the parameters constant in the data's own unit of time too: an account the band
         # must cover where its order lies outside (see `vojax._tracker._clock`); its tuned
         # smoothing and that smoothing's own band, in a second thread beside the span's fit
         both = self.time_scale is None and second_clock(scale)
-        (res, fit), other = two_at_once(
+        span_fit, other = two_at_once(
             self.settings, resolve_schedule(self.settings.schedule),
             # what selects the programs a call compiles: a new one runs one after the other
             (u2.shape, size, self.memory, self.rule, t is None, mask is None, self.parameters,
-             self.x0 is None, self.smooth, self.noise is None), on(scale),
+             self.x0 is None, self.smooth, self.noise is None), on(scale, refine=refine),
             on(1.0, weigh=False) if both else None)
+        if span_fit is None:
+            return None
+        res, fit = span_fit
         clock, clock_at = None, float("nan")
         if other is not None:
             clock_at = clock_order(fit, *other)
@@ -212,10 +219,11 @@ class Tracker:
         diagnostics = self._diagnose(res, fit, size, bounds, clock, clock_at)
         return res, fit, diagnostics
 
-    def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True):
+    def _fit_on(self, scale, u2, y, dt, t, mask, length, size, bounds, weigh=True,
+                refine=False):
         """The tracker's result and its fitted points (the block means of a long record) on
         the clock of unit `scale` in the user's time; ``weigh=False``: the tuned smoothing
-        and its own band only (see `fit_points`)."""
+        and its own band only (see `fit_points`); `refine`: see `fit_blocks`."""
         s = self.settings
         dt_c = None if dt is None else float(np.asarray(dt)) / scale
         t_c = None if t is None else np.asarray(t, float) / scale
@@ -225,7 +233,7 @@ class Tracker:
             user_times = np.asarray(t, float) if t is not None else float(
                 np.asarray(dt)) * np.arange(u2.shape[0])
             return fit_blocks(self, u2, y, dt_c, t_c, mask, size, length, scale,
-                              times=user_times / scale, weigh=weigh)
+                              times=user_times / scale, weigh=weigh, refine=refine)
         mem = make_memory(self.memory, dt_c, u2.shape[0], rule=self.rule, tol=self.tol,
                           order_range=bounds, times=t_c)
         res = fit_points(mem, u2, y, dt_c, bounds, s, smooth=self.smooth, noise=self.noise,

@@ -186,7 +186,7 @@ def alternatives(problem, tuning, starts, sm, hold, fit_noise, whiten, held=None
 
 def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, mask=None,
                iterations=3, times=None, parameters="free", x0=None, batched=False,
-               time_scale=1.0, weigh=True):
+               time_scale=1.0, weigh=True, give_up=None):
     """The tracker on samples ``u`` (N, n), ``y`` (N,) with step `dt`, or at the sample
     `times` (then `dt` is None); see `identify`. ``parameters="constant"`` (or `noise` with a
     parameter drift at most `constant_drift`): their drift held there, and the band
@@ -195,7 +195,10 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
     program where that is faster (the same results to rounding). `dt`, `times` and the
     `memory` are on the tracker's clock, the user's time over `time_scale`. ``weigh=False``:
     the tuned smoothing and its own band only (no held smoothing, alternatives, trade-off or
-    explanations' band: the second clock's quick look, see `vojax._tracker._clock`)."""
+    explanations' band: the second clock's quick look, see `vojax._tracker._clock`).
+    `give_up`: a test of the tuned smoothing's one-step predictions (the output's units, every
+    point); where it holds, None is returned before the band's passes (a long record's blocks
+    whose prediction errors correlate, which the caller fits again on shorter ones)."""
     s = settings
     hold = parameters == "constant" or (
         noise is not None and float(noise["parameter_drift"]) <= s.constant_drift
@@ -213,6 +216,9 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         if found is not None:
             problem, hyper, sm, tuning, starts = found
             whiten = ar_whitener(problem.steps, problem.mask, problem.horizon, tuning)
+    if smooth and give_up is not None and give_up(
+            st.scales.y_ref + st.scales.y_scale * np.asarray(sm.y_pred)):  # as `assemble`'s
+        return None
     # the χ² tests of what fits, at the larger of the tuned noise and the data's own
     # (drifting states absorb noise)
     fit_noise = max(tuning.noise, st.noise_data)

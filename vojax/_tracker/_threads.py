@@ -86,17 +86,23 @@ def thread_limit(settings, schedule) -> int:
 def two_at_once(settings, schedule, key, first, second=None):
     """``first()`` and ``second()`` (None: not run, its output None) side by side in two
     threads where two are allowed (`thread_limit`, two cores) and both have run for `key`
-    before (so that two threads never compile the same program); else one after the other.
-    Returns both outputs."""
+    before (so that two threads never compile the same program); else one after the other,
+    the second not run where the first gives None (no answer to weigh it against). Returns
+    both outputs."""
     if second is None:
         return first(), None
+
+    def in_turn():
+        out = first()
+        return out, None if out is None else second()
+
     def side_by_side():
         with concurrent.futures.ThreadPoolExecutor(1) as pool:
             later = pool.submit(callers_scope(second))
             return first(), later.result()
 
     two = min(os.cpu_count() or 1, thread_limit(settings, schedule)) >= 2
-    return once_warm((programs_dropped(), "two_at_once", *key), lambda: (first(), second()),
+    return once_warm((programs_dropped(), "two_at_once", *key), in_turn,
                      side_by_side if two else None)
 
 
