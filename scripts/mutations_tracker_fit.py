@@ -395,6 +395,11 @@ MUTATIONS = {
           "first = self._fit_sized(u2, y, dt, t, mask, length, size, bounds, False)")],
         ["tests/test_blocks.py::test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer_is_the_same"],
     ),
+    "the second clock fitted after a first fit given up": (
+        "vojax/_tracker/_threads.py",
+        [("return out, None if out is None else second()", "return out, second()")],
+        ["tests/test_mappings.py::test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed"],
+    ),
     "the early stop reads the normalised predictions": (
         "vojax/_tracker/_fit.py",
         [("st.scales.y_ref + st.scales.y_scale * np.asarray(sm.y_pred)", "np.asarray(sm.y_pred)")],

@@ -164,7 +164,8 @@ def test_a_thread_that_is_done_takes_the_next_run():
 def test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_allowed():
     """`two_at_once`: cold, one after the other in this thread; warm, the second in a thread
     of its own; the outputs in order; one thread where `run_threads` is 1, a parallel-in-time
-    schedule runs on a CPU, or the machine has one core; no second: it is not called."""
+    schedule runs on a CPU, or the machine has one core; no second: it is not called; cold,
+    nor where the first gives None."""
     here = threading.get_ident()
 
     def run(settings, schedule="sequential", key=("k",), cores=2):
@@ -188,6 +189,11 @@ def test_two_at_once_runs_the_second_beside_the_first_only_once_warm_and_where_a
         run(two, "associative", key=other)
         assert not run(two, "associative", key=other)
     assert _threads.two_at_once(two, "sequential", key, lambda: 1, None) == (1, None)
+    # cold, a first that gives None (a fit given up): the second is not run
+    called = []
+    assert _threads.two_at_once(two, "sequential", (object(),), lambda: None,
+                                lambda: called.append(1) or 2) == (None, None)
+    assert called == []
 
 
 def test_a_thread_runs_under_the_callers_float64_and_device_scopes():
