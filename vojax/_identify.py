@@ -130,7 +130,8 @@ def identify(
       the coarse clock's model error against the noise of a block mean (above 0.5 the order
       is not reported identified). Where blocks of 10 samples or more leave the prediction
       errors correlated, the record is fitted once more on up to 3 × `max_points` points,
-      and that fit is the answer (`TrackerSettings.block_refine`, `block_refine_from`). The
+      and that fit is the answer (`TrackerSettings.block_refine`, `block_refine_from`; the
+      first fit stops once its tuned smoothing shows the correlation). The
       tracker's cost grows with its points, not the record's length (`docs/benchmarks.md`).
     - `tol`: accuracy of the exponential memory; `warn`: issue `IdentifiabilityWarning`.
     - `time_scale`: ``method="kalman"`` only: the unit of time in which `parameters`
