@@ -216,8 +216,7 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
         if found is not None:
             problem, hyper, sm, tuning, starts = found
             whiten = ar_whitener(problem.steps, problem.mask, problem.horizon, tuning)
-    if smooth and give_up is not None and give_up(
-            st.scales.y_ref + st.scales.y_scale * np.asarray(sm.y_pred)):  # as `assemble`'s
+    if smooth and give_up is not None and give_up(st.scales.output(sm.y_pred)):
         return None
     # the χ² tests of what fits, at the larger of the tuned noise and the data's own
     # (drifting states absorb noise)
@@ -333,10 +332,10 @@ def assemble(st, problem, theta, cov, beta_var, trade, y_hat_n, y_pred_n, phi, c
         alpha_upper=to_device(upper),
         p=to_device(p),
         p_std=to_device(p_std),
-        x0=to_device(scales.y_ref if known else scales.y_ref + scales.y_scale * theta[-1, 1 + n]),
+        x0=to_device(scales.y_ref if known else scales.output(theta[-1, 1 + n])),
         x0_std=to_device(0.0 if known else scales.y_scale * np.sqrt(var[-1, 1 + n])),
-        y_hat=to_device(scales.y_ref + scales.y_scale * y_hat_n),
-        y_pred=to_device(scales.y_ref + scales.y_scale * y_pred_n),
+        y_hat=to_device(scales.output(y_hat_n)),
+        y_pred=to_device(scales.output(y_pred_n)),
         converged=converged,
         tuning=tuning,
         constant_order=st.alpha_c,

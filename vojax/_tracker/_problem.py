@@ -20,6 +20,10 @@ class Scales:
     y_scale: float
     u_scale: tuple[float, ...]
 
+    def output(self, y_n):
+        """The output in the user's units from the normalised ``ỹ`` (NumPy)."""
+        return self.y_ref + self.y_scale * np.asarray(y_n)
+
 
 def _weighted_mean(x, w):
     return float(np.sum(w * x) / np.sum(w))
