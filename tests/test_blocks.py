@@ -302,26 +302,14 @@ def test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_short
     first fit is. The reasons of the first fit are set here (the fit itself is real, run to
     its end: the early stop on correlated errors, tested below, is turned off)."""
     import vojax._stats
-    from vojax._tracker._estimator import Tracker
 
     monkeypatch.setattr(vojax._stats, "errors_correlate", lambda *args: False)
-    seen = []
-    real = Tracker._fit_sized
-
-    def spied(self, *args):
-        res, fit, diagnostics = real(self, *args)
-        size = args[6]
-        seen.append(size)
-        if len(seen) == 1:
-            diagnostics = dataclasses.replace(diagnostics, reasons=reasons)
-        return res, fit, diagnostics
-
-    monkeypatch.setattr(Tracker, "_fit_sized", spied)
+    seen = _fits_seen(monkeypatch, first_reasons=reasons)
     t, u, y, alpha, x = _record(2000, 0.01, 0.01)
     s = vojax.TrackerSettings(**settings)
     res = vojax.identify(u, y, 0.01, max_points=100, parameters="constant", settings=s,
                          warn=False)
-    assert seen == sizes
+    assert [size for size, _ in seen] == sizes
     assert res.diagnostics.block == sizes[-1]
     # the answer is that of a fit on those blocks alone (never refitted)
     points = {21: 100, 11: 200, 7: 300}[sizes[-1]]
@@ -331,15 +319,17 @@ def test_long_blocks_whose_prediction_errors_correlate_are_fitted_again_on_short
     np.testing.assert_array_equal(np.asarray(res.alpha), np.asarray(alone.alpha))
 
 
-def _sizes_seen(monkeypatch):
+def _fits_seen(monkeypatch, first_reasons=None):
     """Spies on the tracker's fits of one block size: ``(size, reasons)`` per fit, reasons
-    None where the fit stopped early."""
+    None where the fit stopped early; `first_reasons` (a tuple) replaces the first fit's."""
     from vojax._tracker._estimator import Tracker
 
     seen, real = [], Tracker._fit_sized
 
     def spied(self, *args):
         out = real(self, *args)
+        if out is not None and first_reasons is not None and not seen:
+            out = (*out[:2], dataclasses.replace(out[2], reasons=first_reasons))
         seen.append((args[6], None if out is None else set(map(str, out[2].reasons))))
         return out
 
@@ -364,7 +354,7 @@ def test_the_first_fit_stops_once_its_prediction_errors_correlate_and_the_answer
         for k in range(1, 2000):
             e[k] += ar * e[k - 1]
         y = x + 0.01 * np.ptp(x) * e
-    seen = _sizes_seen(monkeypatch)
+    seen = _fits_seen(monkeypatch)
     kw = dict(max_points=100, parameters="constant", warn=False)
     early = vojax.identify(u, y, 0.01, **kw)
     assert [size for size, _ in seen] == ([21, 7] if refitted else [21])

@@ -323,7 +323,6 @@ def assemble(st, problem, theta, cov, beta_var, trade, y_hat_n, y_pred_n, phi, c
         breakdown, reference_drift = found.breakdown_drift, found.reference_drift
     p, p_std = user_parameters(theta, cov, st.p_scale, n, bounds, time_scale)
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
-    y_hat_n, y_pred_n = np.asarray(y_hat_n), np.asarray(y_pred_n)
     known = st.known
     return TrackResult(
         alpha=to_device(alpha),
