@@ -74,9 +74,12 @@ def test_parallel_likelihood_gradient_equals_the_sequential_one(schedule):
         return run(h, z, jnp.exp(log_r), q * jnp.exp(log_q), m0, p0, mask, f=f).log_likelihood
 
     args = (jnp.log(0.3), jnp.zeros(3))
-    ref = jax.grad(lambda a, b: loglik(kalman_filter, a, b), argnums=(0, 1))(*args)
-    got = jax.grad(lambda a, b: loglik(
-        lambda *x, **k: parallel_filter(*x, **k, schedule=schedule), a, b), argnums=(0, 1))(*args)
+    # compiled whole, as the tracker runs it (dispatched op by op, the associative scan's
+    # gradient took 25 s of this test's 30)
+    ref = jax.jit(jax.grad(lambda a, b: loglik(kalman_filter, a, b), argnums=(0, 1)))(*args)
+    got = jax.jit(jax.grad(lambda a, b: loglik(
+        lambda *x, **k: parallel_filter(*x, **k, schedule=schedule), a, b),
+        argnums=(0, 1)))(*args)
     for a, b in zip(got, ref):
         _close(a, b, 1e-9)
 
