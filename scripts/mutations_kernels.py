@@ -1,8 +1,8 @@
 """Planted bugs of `mutation_check.py`: the memories' direct kernels, the fractional
 integral's front end and `simulate`, the host's ψ, the Mittag-Leffler table, the tuner's
-BFGS, the law's estimator object and the command line's shared options (modules the other
-areas plant nothing in), the statistics from the data alone (`vojax._stats`), the plain
-values' checks and the atomic output files."""
+BFGS, the parallel-in-time Kalman filter, the law's estimator object and the command line's
+shared options (modules the other areas plant nothing in), the statistics from the data
+alone (`vojax._stats`), the plain values' checks and the atomic output files."""
 
 KERNELS = "tests/test_kernels.py"
 GRID = "tests/test_grid.py"
@@ -192,5 +192,20 @@ MUTATIONS = {
         "vojax/_io.py",
         [("    if isinstance(data, (list, tuple)):", "    if isinstance(data, list):")],
         ["tests/test_checks_io.py::test_json_outputs_hold_no_non_finite_number_at_any_depth"],
+    ),
+    "the parallel filter's mean loses the later element's information": (
+        "vojax/_tracker/_parallel.py",
+        [("        _mv(m, b1 + _mv(c1, e2)) + b2,", "        _mv(m, b1) + b2,")],
+        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
+    ),
+    "the parallel filter's information vector loses the earlier mean": (
+        "vojax/_tracker/_parallel.py",
+        [("        _mv(n, e2 - _mv(j2, b1)) + e1,", "        _mv(n, e2) + e1,")],
+        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
+    ),
+    "the parallel filter's likelihood blind to the innovation variance's gradient": (
+        "vojax/_tracker/_parallel.py",
+        [("(LOG_2PI + jnp.log(s) +", "(LOG_2PI + jnp.log(jax.lax.stop_gradient(s)) +")],
+        ["tests/test_parallel.py::test_parallel_likelihood_gradient_equals_the_sequential_one"],
     ),
 }

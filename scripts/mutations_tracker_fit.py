@@ -191,16 +191,6 @@ MUTATIONS = {
           "check.positive(v, f\"noise[{k!r}]\")")],
         ["tests/test_noise_option.py::test_an_intensity_whose_square_overflows_is_refused"],
     ),
-    "the parallel filter's mean loses the later element's information": (
-        "vojax/_tracker/_parallel.py",
-        [("        _mv(m, b1 + _mv(c1, e2)) + b2,", "        _mv(m, b1) + b2,")],
-        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
-    ),
-    "the parallel filter's information vector loses the earlier mean": (
-        "vojax/_tracker/_parallel.py",
-        [("        _mv(n, e2 - _mv(j2, b1)) + e1,", "        _mv(n, e2) + e1,")],
-        ["tests/test_parallel.py::test_tracker_through_the_parallel_schedule_equals_the_sequential_one"],
-    ),
     'trade interval not widening the band': (
         'vojax/_tracker/_fit.py',
         [
