@@ -1,5 +1,5 @@
 """Planted bugs of `mutation_check.py`: a smoothing's fitted freedom (the trace of its
-linearised hat matrix) and the level profile's χ² floor that reads it."""
+linearised hat matrix) and the level profile's rules that read it (the χ² floor, the excess over expectation)."""
 
 T = "tests/test_freedom.py::"
 # name: (file, [(old, new), ...], tests that should fail)
@@ -55,5 +55,23 @@ MUTATIONS = {
         [("    if level_weights == \"freedom\" and np.isfinite(e.freedom):",
           "    if np.isfinite(e.freedom):")],
         [T + "test_the_freedom_floor_counts_what_each_run_fits"],
+    ),
+    "the excess rule's floor at dof alone (its tolerance ignored)": (
+        "vojax/_tracker/_band.py",
+        [("        return max(e.chi2 + free, e.dof + excess_alike * np.sqrt(2.0 * e.dof))",
+          "        return max(e.chi2 + free, e.dof)")],
+        [T + "test_the_excess_rule_weighs_each_run_by_its_chi2_over_its_own_expectation"],
+    ),
+    "the excess rule without the freedom (the χ² floor at dof plus the tolerance)": (
+        "vojax/_tracker/_band.py",
+        [("        free = max(e.freedom, 0.0) if np.isfinite(e.freedom) else 0.0\n        return max(e.chi2 + free,",
+          "        free = 0.0\n        return max(e.chi2 + free,")],
+        [T + "test_the_excess_rule_weighs_each_run_by_its_chi2_over_its_own_expectation"],
+    ),
+    "the level profile's tolerance not passed on (its default whatever the setting)": (
+        "vojax/_tracker/_band.py",
+        [("                              profile_chi2=profile_chi2, excess_alike=excess_alike)",
+          "                              profile_chi2=profile_chi2)")],
+        [T + "test_the_excess_rule_weighs_each_run_by_its_chi2_over_its_own_expectation"],
     ),
 }

@@ -185,3 +185,46 @@ def test_the_replay_of_saved_explanations_keeps_their_freedom():
         by_freedom[2], bands(direct, (0.0, 1.0), 40, 0.0, level_weights="freedom").stated[2])
     by_chi2 = bands(rebuilt, (0.0, 1.0), 40, 0.0).stated
     assert np.median(by_chi2[2] - by_freedom[2]) > 0.05
+
+
+def test_the_excess_rule_weighs_each_run_by_its_chi2_over_its_own_expectation():
+    """`level_score` with ``"excess"``: each run's χ² plus its fitted freedom, floored at its
+    degrees of freedom plus `excess_alike` × √(2 dof) (how far its χ² lies above ``dof −
+    freedom``, what it leaves on average where it is the truth). Two runs below that weigh
+    alike however their freedoms differ, where ``"freedom"`` gives the freer run the
+    weight (`long` draw 17 with the offset stated: the tuned run at χ² 628.5 fitting 253.8, a
+    held scale at 682.1 fitting 219.1, 34.7 apart by ``"freedom"``); above it a run weighs
+    exp(−Δ/2). At dof 600 and `excess_alike` 0.5 the floor is 600 + 0.5 √1200."""
+    from vojax._tracker._band import level_score, level_spread, reference_variance
+
+    floor = 600.0 + 0.5 * np.sqrt(1200.0)
+    tuned = explanation("tuned", 0.0, chi2=450.0, freedom=150.0)
+    near = explanation("level", 0.5, chi2=455.0, freedom=160.0)  # 615 ≤ 617.3: alike
+    assert level_score(tuned, "excess") == level_score(near, "excess") == floor
+    np.testing.assert_allclose(level_spread([tuned, near], tuned, "excess"), 0.5 * 0.25,
+                               rtol=1e-12)
+    # at tolerance 0 the near one lies 15 units above its expectation
+    assert level_score(near, "excess", 0.0) == 615.0
+    w = np.exp(-7.5) / (1 + np.exp(-7.5))
+    np.testing.assert_allclose(level_spread([tuned, near], tuned, "excess", excess_alike=0.0),
+                               w * 0.25, rtol=1e-9)
+    # and the tuned band's variance gets that tolerance: its own variance (1e-4) plus it
+    np.testing.assert_allclose(
+        reference_variance([tuned, near], tuned, 40, "excess", excess_alike=0.0),
+        1e-4 + w * 0.25, rtol=1e-9)
+    # 500 + 141 = 641 lies 641 − floor above the tuned run's score
+    far = explanation("level", 0.5, chi2=500.0, freedom=141.0)
+    assert level_score(far, "excess") == 641.0
+    w = np.exp(-(641.0 - floor) / 2) / (1 + np.exp(-(641.0 - floor) / 2))
+    np.testing.assert_allclose(level_spread([tuned, far], tuned, "excess"), w * 0.25,
+                               rtol=1e-9)
+    # the freer run earns nothing by its freedom: a tuned run fitting 60 more than a held
+    # scale, both below their expectations, lie 60 apart by "freedom", alike here
+    free_tuned = explanation("tuned", 0.0, chi2=400.0, freedom=180.0)
+    held = explanation("level", 0.5, chi2=430.0, freedom=120.0)
+    assert level_score(free_tuned, "freedom") == 420.0 and level_score(held, "freedom") == 480.0
+    np.testing.assert_allclose(level_spread([free_tuned, held], free_tuned, "excess"),
+                               0.5 * 0.25, rtol=1e-12)
+    # the freedom unknown (a coloured noise) or negative counts as none
+    assert level_score(explanation("level", 0.0, chi2=650.0), "excess") == 650.0
+    assert level_score(explanation("level", 0.0, chi2=500.0, freedom=-2.0), "excess") == floor

@@ -56,6 +56,8 @@ from .helpers import band_calls
     # ∞ is None (off)
     (dict(level_gap=-0.5), "level_gap must be a finite number ≥ 0 or None, got -0.5"),
     (dict(level_gap=float("inf")), "level_gap must be a finite number ≥ 0 or None, got inf"),
+    # a negative tolerance would weigh runs below their own expectation apart again
+    (dict(level_excess_alike=-1.0), "level_excess_alike must be a finite number ≥ 0, got -1.0"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),
@@ -63,7 +65,7 @@ from .helpers import band_calls
     (dict(moving_base=1), "`moving_base` must be True, False, 'both' or 'stated', got 1"),
     (dict(moving_base="yes"), "`moving_base` must be True, False, 'both' or 'stated', got 'yes'"),
     (dict(moving_limit="best"), "`moving_limit` must be 'own', 'trade' or 'freedom', got 'best'"),
-    (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2', 'profile' or 'freedom', got 'aic'"),
+    (dict(level_weights="aic"), "`level_weights` must be 'evidence', 'chi2', 'profile', 'freedom' or 'excess', got 'aic'"),
 ])
 def test_a_setting_the_tracker_cannot_use_is_refused_naming_it(kwargs, words):
     with pytest.raises(ValueError, match=words):
@@ -123,4 +125,13 @@ def test_the_band_gets_the_settings_profile_level(monkeypatch):
                       settings=TrackerSettings(level_weights="profile",
                                                level_profile_chi2=2.5))
     assert seen and all(kwargs["profile_chi2"] == 2.5 and kwargs["level_weights"] == "profile"
+                        for _, _, kwargs in seen)
+
+
+def test_the_band_gets_the_settings_excess_tolerance(monkeypatch):
+    """`level_weights="excess"` and `level_excess_alike` reach the band of a fit."""
+    seen = band_calls(monkeypatch, parameters="constant",
+                      settings=TrackerSettings(level_weights="excess",
+                                               level_excess_alike=0.75))
+    assert seen and all(kwargs["excess_alike"] == 0.75 and kwargs["level_weights"] == "excess"
                         for _, _, kwargs in seen)

@@ -164,6 +164,11 @@ class TrackerSettings:
     # a true constant statement, 2 fewer by default, 5 more confidently wrong under false
     # ones (docs/calibration.md); kept for measuring
     level_gap: float | None = None
+    # with `level_weights="excess"`: the standard deviations of a χ² (√(2 dof) each) above
+    # its expectation within which runs weigh alike (held out, replayed on saved
+    # explanations: 0.25 is confidently wrong on `lengths` 12, 0.5 on none, 1 identifies 4
+    # fewer under true constant statements; docs/calibration.md)
+    level_excess_alike: float = 0.5
     # with `level_weights="profile"`: the Δχ² at which a held scale's order counts in full
     # (4: the ±2σ edge of a quadratic profile); one further above is moved back by √(4/Δχ²)
     level_profile_chi2: float = 4.0
@@ -260,7 +265,7 @@ class TrackerSettings:
 CHOICES = {"schedule": (None, "sequential", "associative", "chunked"),
            "second_climb": (True, False), "moving_base": (True, False, "both", "stated"),
            "moving_limit": ("own", "trade", "freedom"),
-           "level_weights": ("evidence", "chi2", "profile", "freedom")}
+           "level_weights": ("evidence", "chi2", "profile", "freedom", "excess")}
 # the settings that hold a range (low, high)
 PAIRS = frozenset({"order_drift_range", "parameter_drift_range"})
 # each numeric setting's limits ``(low, high, whole)``: a bound ``(x,)`` is open (x itself
@@ -277,7 +282,7 @@ RANGES = {
     "band_floor": AT_LEAST_0, "drift_floor": AT_LEAST_0, "misfit_ratio": AT_LEAST_0,
     "clock_evidence": AT_LEAST_0,
     "held_ratio": AT_LEAST_0, "envelope_evidence": AT_LEAST_0, "fastest_evidence": AT_LEAST_0,
-    "near_evidence": AT_LEAST_0, "level_gap": AT_LEAST_0,
+    "near_evidence": AT_LEAST_0, "level_gap": AT_LEAST_0, "level_excess_alike": AT_LEAST_0,
     "trade_chi2": AT_LEAST_0,
     "start_orders": FRACTION,
     "rho_starts": FRACTION, "noise_time_max": ((0.0,), 1.0, False),

@@ -79,7 +79,7 @@ def own_halfwidth(explanation, bounds, scale, floor, half, span) -> float:
 
 
 def reference_variance(explanations, tuned, span, level_weights="chi2", level_gap=None,
-                       profile_chi2=4.0):
+                       profile_chi2=4.0, excess_alike=0.5):
     """The tuned smoothing's variance of β (N,): the evidence-weighted mixture of its modes and
     order drifts (`mix_modes`), plus, where the level profile ran, the parameters' scale
     integrated over it. `level_weights`: how each held scale is weighed against the tuned run:
@@ -91,7 +91,9 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     is the truth, so a held scale 100 units above it, as free, fits worse than the noise
     allows, not as well); ``"evidence"``, by its Laplace evidence
     (where every member's is finite; else by χ²); ``"profile"``, not weighed but covered as
-    a profile likelihood's interval, each moved back by `profile_chi2` (`profile_spread`).
+    a profile likelihood's interval, each moved back by `profile_chi2` (`profile_spread`);
+    ``"excess"``, by exp(−Δ/2) of each run's χ² above what it leaves on average where it is
+    the truth, every run within `excess_alike` × √(2 dof) of that alike (`level_score`).
     `level_gap`: a held scale whose χ² exceeds
     the tuned run's by more than this many standard deviations of a χ² with its degrees of
     freedom (√(2 dof)) is left out (the two share every intensity, so that gap is the data's,
@@ -100,11 +102,11 @@ def reference_variance(explanations, tuned, span, level_weights="chi2", level_ga
     var, _ = mix_modes(np.stack([e.beta for e in mixed]), np.stack([e.var for e in mixed]),
                        np.array([e.evidence for e in mixed]), 0, span)
     return var + level_spread(explanations, tuned, level_weights, gap=level_gap,
-                              profile_chi2=profile_chi2)
+                              profile_chi2=profile_chi2, excess_alike=excess_alike)
 
 
 def level_spread(explanations, reference, level_weights="chi2", kind="level", gap=None,
-                 profile_chi2=4.0):
+                 profile_chi2=4.0, excess_alike=0.5):
     """What the level profile adds to the variance of β (N,) of the `reference` (the
     smoothing it ran about, or one with the parameters as constant): its held scales (the
     explanations of `kind`; with a `gap`, only those whose χ² exceeds the reference's by at
@@ -126,10 +128,24 @@ def level_spread(explanations, reference, level_weights="chi2", kind="level", ga
         score = np.array([e.evidence for e in members])
         w = np.exp(score - score.max())
     else:
-        chi2 = np.array([max(e.chi2, chi2_floor(e, level_weights)) if at_dof else e.chi2
+        chi2 = np.array([level_score(e, level_weights, excess_alike) if at_dof else e.chi2
                          for e in members])
         w = np.exp(-(chi2 - chi2.min()) / 2)
     return mixture_spread(members, w, reference)
+
+
+def level_score(explanation, level_weights="chi2", excess_alike=0.5) -> float:
+    """The χ² by which a run of the level profile (or the run it is weighed against) is
+    weighed: its χ² floored at `chi2_floor`; with ``"excess"``, its χ² plus the freedom its
+    drifts fit (0 where unknown), floored at its degrees of freedom plus `excess_alike` ×
+    √(2 dof): how far its χ² lies above what it leaves on average where it is the truth
+    (``dof − freedom``), every run within that many standard deviations of a χ² alike (a
+    run fitting below its expectation has fitted noise, and earns no weight by it)."""
+    e = explanation
+    if level_weights == "excess":
+        free = max(e.freedom, 0.0) if np.isfinite(e.freedom) else 0.0
+        return max(e.chi2 + free, e.dof + excess_alike * np.sqrt(2.0 * e.dof))
+    return max(e.chi2, chi2_floor(e, level_weights))
 
 
 def chi2_floor(explanation, level_weights="chi2") -> float:
@@ -230,7 +246,8 @@ def near_alternatives(explanations, tuned, limit):
 
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
           floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
-          fastest_evidence=np.inf, near_evidence=None, level_gap=None, profile_chi2=4.0):
+          fastest_evidence=np.inf, near_evidence=None, level_gap=None, profile_chi2=4.0,
+          excess_alike=0.5):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -246,7 +263,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     this many nats below the tuned one is left to its mixture weight (`fastest_far`);
     `near_evidence`: with the parameters stated constant, the tuned run's own alternatives
     (`near_alternatives`) within this many nats of its evidence are covered, not only
-    weighed (None: weighed only); `level_gap`, `profile_chi2`: see `reference_variance`."""
+    weighed (None: weighed only); `level_gap`, `profile_chi2`, `excess_alike`: see
+    `reference_variance`."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
@@ -267,7 +285,8 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
         reference = tuned
         ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
                                                          level_weights, level_gap,
-                                                         profile_chi2), bounds, scale, floor)
+                                                         profile_chi2, excess_alike),
+                                    bounds, scale, floor)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
               and e.holds and plausible(e)]

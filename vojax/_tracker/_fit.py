@@ -260,7 +260,8 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
                          s.drift_floor, floor=s.band_floor, evidence_floor=s.envelope_evidence,
                          half=half, level_weights=s.level_weights,
                          fastest_evidence=s.fastest_evidence, near_evidence=s.near_evidence,
-                         level_gap=s.level_gap, profile_chi2=s.level_profile_chi2)
+                         level_gap=s.level_gap, profile_chi2=s.level_profile_chi2,
+                         excess_alike=s.level_excess_alike)
 
         found = band_of(explanations)
         # a constant order outside the band fits with some drift: a moving one may need less;
