@@ -29,21 +29,28 @@ def library_bands(r, **kwargs):
     return bands(ex, r["bounds"], len(r["truth"]), stated, **kwargs)
 
 
+def reported_kwargs(r, **kwargs):
+    """`bands`' arguments as the tracker passes them (its default settings) for the record
+    `r`, with `kwargs` in their place."""
+    from vojax import TrackerSettings
+
+    s = TrackerSettings()
+    return dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
+                     half=len(r["truth"]) // 2, level_weights=s.level_weights,
+                     evidence_floor=s.envelope_evidence,
+                     fastest_evidence=s.fastest_evidence,
+                     near_evidence=s.near_evidence, level_gap=s.level_gap,
+                     profile_chi2=s.level_profile_chi2,
+                     excess_alike=s.level_excess_alike), **kwargs)
+
+
 def as_reported(r, **kwargs):
     """The band as the tracker reports it, from the library's `bands` (with `kwargs`, e.g.
     `evidence_floor`) on the saved explanations: the stated band about the reported
     estimate, its σ at least a quarter of its width, widened to the second clock's tuned
     smoothing as `clock_union` says; the fifth element True (see `score`)."""
-    from vojax import TrackerSettings
-
-    s = TrackerSettings()
     n = len(r["truth"])
-    kwargs = dict(dict(scale=s.band_scale, drift_floor=s.drift_floor, floor=s.band_floor,
-                       half=n // 2, level_weights=s.level_weights,
-                       evidence_floor=s.envelope_evidence,
-                       fastest_evidence=s.fastest_evidence,
-                       near_evidence=s.near_evidence, level_gap=s.level_gap,
-                       profile_chi2=s.level_profile_chi2), **kwargs)
+    kwargs = reported_kwargs(r, **kwargs)
     b = library_bands(r, **kwargs)
     if b is None:
         return None

@@ -4,7 +4,7 @@ the fitted clock, the median z RMS of the identified, the median order RMS, the 
 wrong (identified, the truth outside the band at most samples)."""
 
 import numpy as np
-from band_library import as_reported, clock_union, library_bands  # noqa: F401
+from band_library import as_reported, clock_union, library_bands, reported_kwargs  # noqa: F401
 from calibration_tables import SHORT_OF  # the coverage an identified record owes
 
 HALFWIDTH = 0.1
@@ -65,8 +65,9 @@ def score(r, band):
     weighed the second clock itself (`as_reported`): the record's own ``clock`` reason,
     given for the band it reported, then blocks nothing."""
     own_clock = len(band) == 5 and band[4]
-    alpha, lower, upper, sd = (np.asarray(a, float) for a in band[:4])
     truth = np.asarray(r["truth"], float)
+    # a long record's fitted points past its span (the bucket's padding) are not scored
+    alpha, lower, upper, sd = (np.asarray(a, float)[:truth.size] for a in band[:4])
     half = slice(r.get("scored_from", truth.size // 2), truth.size)  # the demo's: t > 50
     inside = (truth >= lower) & (truth <= upper)
     width = float(np.median((upper - lower)[half]) / 2)
@@ -173,6 +174,34 @@ def union_fitting(r, kinds, k=1.0, delta=None):
     return band_from(np.asarray(t["beta"], float), mixture_var(r), r["bounds"], members, k=k)
 
 
+# the level profile's held scales weighed by each run's floor at its own expectation, and by
+# its χ² above it, runs within k √(2 dof) of it alike (docs/calibration.md: measured, not
+# adopted), by their `bands` arguments
+LEVEL_RULES = {"as reported, level weights freedom": dict(level_weights="freedom"), **{
+    f"as reported, level weights excess alike {k:g}": dict(level_weights="excess",
+                                                           excess_alike=k)
+    for k in (0.0, 0.25, 0.5, 1.0)}}
+
+
+def false_statements(rows, named):
+    """Per constant statement and rule of `named` (name: `bands` arguments): of the records
+    whose parameters drift (the statement false), those the rule leaves confidently wrong,
+    and those of them whose reach does not warn (a breakdown drift at or above the true
+    drift), by name."""
+    lines = ["| setting | rule | confidently wrong (statement false) | reach not below the "
+             "true drift |", "|---|---|---|---|"]
+    for setting in ("constant", "constant-x0"):
+        false = [r for r in rows if r["setting"] == setting and r["true_drift"] > 0]
+        for name, kw in {"as reported": {}, **named}.items():
+            wrong = [r for r in false
+                     if (b := as_reported(r, **kw)) is not None and score(r, b)["wrong"]]
+            unwarned = [f"{r['family']} {r['index']}" for r in wrong if library_bands(
+                r, **reported_kwargs(r, **kw)).breakdown_drift >= r["true_drift"]]
+            lines.append(f"| {setting} | {name} | {len(wrong)}/{len(false)} | "
+                         f"{len(unwarned)}: {', '.join(unwarned) or '-'} |")
+    return lines
+
+
 def report(rows, out=None, only=None):
     """The table of every rule (or those whose name contains a word of `only`) and the
     conditional answers' promises, printed and written to `out`."""
@@ -212,6 +241,9 @@ def report(rows, out=None, only=None):
         # (CHANGELOG: measured and not adopted)
         **{f"as reported, far ({20:g} nats) {w} weighed": far_alternatives_weighed(w)
            for w in ("starts", "slower", "faster", "fastest", "all")},
+        # the level profile's held scales weighed by each run's own expectation
+        **{name: (lambda kw: lambda r: as_reported(r, **kw))(kw)
+           for name, kw in LEVEL_RULES.items()},
         # the held smoothing and its held scales left out where the data exclude constant
         # parameters (CHANGELOG: measured and not adopted)
         **{f"as reported, held within {x:g} nats": held_within(x)
@@ -220,6 +252,9 @@ def report(rows, out=None, only=None):
     if only:
         rules = {name: rule for name, rule in rules.items() if any(w in name for w in only)}
     lines = table(rows, rules, settings, families) + [""] + promises(rows)
+    named = {name: kw for name, kw in LEVEL_RULES.items() if name in rules}
+    if named:
+        lines += [""] + false_statements(rows, named)
     text = "\n".join(lines)
     print(text)
     if out:
@@ -240,14 +275,15 @@ def held_scales(temper=None, within=None):
 
         library = _band.level_spread
 
-        def spread(explanations, reference, level_weights="chi2", kind="level", gap=None):
+        def spread(explanations, reference, level_weights="chi2", kind="level", gap=None,
+                   **rest):
             levels = [e for e in explanations if e.kind == kind and e.converged]
             if kind != "level" or not levels:
-                return library(explanations, reference, level_weights, kind, gap)
+                return library(explanations, reference, level_weights, kind, gap, **rest)
             if within is not None:
                 near = [e for e in explanations if e.kind != "level"
                         or e.evidence >= reference.evidence - within]
-                return library(near, reference, level_weights, kind, gap)
+                return library(near, reference, level_weights, kind, gap, **rest)
             members = [reference] + levels
             chi2 = np.array([e.chi2 for e in members])
             return _band.mixture_spread(members, np.exp(-(chi2 - chi2.min()) / (2.0 * temper)),

@@ -169,3 +169,33 @@ def test_the_table_scores_each_record_once_and_pools_the_families_rows(scores):
     cells = {c[3]: (c[4], c[9]) for c in ([x.strip() for x in line.split("|")]
                                           for line in lines[2:])}
     assert cells == {"a": ("1/2", "0/1"), "b": ("1/1", "1/1"), "pooled": ("2/3", "1/2")}
+
+
+def test_a_band_longer_than_the_truth_is_scored_over_the_truth(scores):
+    """A long record's fitted points run past its span (the point bucket's padding): the
+    band is scored over the truth's points only, as the same band cut to them."""
+    truth = np.full(N, 0.5)
+    r = dict(truth=truth, other_reasons=())
+    inside = (np.full(N, 0.5), np.full(N, 0.45), np.full(N, 0.55), np.full(N, 0.025))
+    padded = tuple(np.concatenate([a, np.full(6, v)]) for a, v in zip(inside, (0.9, 0.0, 0.1,
+                                                                                 1e-3)))
+    assert scores.score(r, padded) == scores.score(r, inside)
+    assert scores.score(r, padded)["coverage"] == 1.0
+
+
+def test_a_false_statement_is_listed_where_its_reach_does_not_warn(scores):
+    """`false_statements`: under a constant statement whose parameters truly drift by 20 %,
+    a tuned run at 0.30 with the truth at 0.50 is confidently wrong; a trade-off order at
+    0.50 that fits with 10 % drift warns of it (its breakdown drift below the true one), one
+    that needs 30 % does not, and a record whose statement is true is not counted."""
+    def record(trade_drift, true_drift=0.2):
+        ex = [_ex("tuned", 0.30, 0.0), dict(_ex("trade", 0.50, np.nan), drift=trade_drift,
+                                            accepted=True)]
+        return dict(explanations=ex, truth=np.full(N, 0.5), alpha=np.full(N, 0.30),
+                    bounds=BOUNDS, setting="constant", other=None, other_reasons=(),
+                    family="drift", index=trade_drift * 100, true_drift=true_drift)
+
+    rows = [record(0.1), record(0.3), record(0.3, true_drift=0.0)]
+    lines = scores.false_statements(rows, {})
+    assert lines[2] == "| constant | as reported | 2/2 | 1: drift 30.0 |"
+    assert lines[3] == "| constant-x0 | as reported | 0/0 | 0: - |"
