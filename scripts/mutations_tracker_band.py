@@ -66,7 +66,7 @@ MUTATIONS = {
     ),
     "the tracker's band without the profile's Δχ² setting": (
         "vojax/_tracker/_fit.py",
-        [(", profile_chi2=s.level_profile_chi2)", ")")],
+        [("level_gap=s.level_gap, profile_chi2=s.level_profile_chi2,\n", "level_gap=s.level_gap,\n")],
         ["tests/test_settings.py::test_the_band_gets_the_settings_profile_level"],
     ),
     "the held answer without its held scales": (
@@ -169,8 +169,7 @@ MUTATIONS = {
     ),
     "the level profile rewards a fit below the noise": (
         "vojax/_tracker/_band.py",
-        [("np.array([max(e.chi2, chi2_floor(e, level_weights)) if at_dof else e.chi2",
-          "np.array([e.chi2 if at_dof else e.chi2")],
+        [("    return max(e.chi2, chi2_floor(e, level_weights))", "    return e.chi2")],
         ["tests/test_band_held.py::test_a_fit_below_the_noise_earns_no_weight_over_the_level_profile"],
     ),
     "the band ignores the evidence floor of alternative smoothings": (

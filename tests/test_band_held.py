@@ -201,7 +201,7 @@ def test_the_level_weights_setting_is_checked():
     import vojax
 
     assert vojax.TrackerSettings().level_weights == "chi2"
-    with pytest.raises(ValueError, match="`level_weights` must be 'evidence', 'chi2', 'profile' or 'freedom', got 'aic'"):
+    with pytest.raises(ValueError, match="`level_weights` must be 'evidence', 'chi2', 'profile', 'freedom' or 'excess', got 'aic'"):
         vojax.TrackerSettings(level_weights="aic")
     with pytest.raises(ValueError, match="TrackerSettings.level_pin must be a finite number > 0"):
         vojax.TrackerSettings(level_pin="evidence")
