@@ -41,7 +41,7 @@ def reported_kwargs(r, **kwargs):
                      fastest_evidence=s.fastest_evidence,
                      near_evidence=s.near_evidence, level_gap=s.level_gap,
                      profile_chi2=s.level_profile_chi2,
-                     excess_alike=s.level_excess_alike), **kwargs)
+                     excess_alike=s.level_excess_alike, gap_z=s.relative_gap), **kwargs)
 
 
 def as_reported(r, **kwargs):

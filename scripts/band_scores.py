@@ -244,6 +244,10 @@ def report(rows, out=None, only=None):
         # the level profile's held scales weighed by each run's own expectation
         **{name: (lambda kw: lambda r: as_reported(r, **kw))(kw)
            for name, kw in LEVEL_RULES.items()},
+        # the stated band where the parameters may drift over the explanations that fit as
+        # well as the tuned smoothing, off and at 2 (the default) and 3 standard deviations
+        **{f"as reported, relative gap {z}": (lambda z: lambda r: as_reported(
+            r, gap_z=z))(z) for z in (None, 2.0, 3.0)},
         # the held smoothing and its held scales left out where the data exclude constant
         # parameters (CHANGELOG: measured and not adopted)
         **{f"as reported, held within {x:g} nats": held_within(x)

@@ -120,10 +120,10 @@ MUTATIONS = {
     "the held scales may narrow the held band": (
         'vojax/_tracker/_band.py',
         [
-            ('        spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,\n'
-             '                                         level_weights, "held_level"), 0.0)',
-             '        spread = level_spread([e for e in explanations if plausible(e)], held,\n'
-             '                                         level_weights, "held_level")'),
+            ('            spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                             level_weights, "held_level"), 0.0)',
+             '            spread = level_spread([e for e in explanations if plausible(e)], held,\n'
+             '                                             level_weights, "held_level")'),
         ],
         ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
@@ -205,10 +205,55 @@ MUTATIONS = {
         ],
         ['tests/test_band.py', 'tests/test_band_held.py'],
     ),
+    "the relative test without the freedoms' difference": (
+        'vojax/_tracker/_band.py',
+        [("    gap = (e.chi2 + e.freedom) - (tuned.chi2 + tuned.freedom)",
+          "    gap = e.chi2 - tuned.chi2")],
+        ['tests/test_band_relative.py::test_the_gap_and_its_standard_deviation_in_closed_form',
+         'tests/test_band_relative.py::test_the_rate_at_which_a_true_nested_model_fails_is_the_chi2_tail'],
+    ),
+    "the relative test's spread without the freedoms' difference": (
+        'vojax/_tracker/_band.py',
+        [("np.sqrt(2 * (abs(tuned.freedom - e.freedom) + 1) + 4 * abs(e.chi2 - tuned.chi2))",
+          "np.sqrt(2 + 4 * abs(e.chi2 - tuned.chi2))")],
+        ['tests/test_band_relative.py::test_the_gap_and_its_standard_deviation_in_closed_form',
+         'tests/test_band_relative.py::test_the_rate_at_which_a_true_nested_model_fails_is_the_chi2_tail'],
+    ),
+    "the relative test's spread without the runs' own difference (nested only)": (
+        'vojax/_tracker/_band.py',
+        [(" + 4 * abs(e.chi2 - tuned.chi2))", ")")],
+        ['tests/test_band_relative.py::test_the_gap_and_its_standard_deviation_in_closed_form',
+         'tests/test_band_relative.py::test_the_rate_at_which_a_true_nested_model_fails_is_the_chi2_tail'],
+    ),
+    "the relative test drops the reach too": (
+        'vojax/_tracker/_band.py',
+        [("              and e.holds and plausible(e)]\n",
+          "              and e.holds and plausible(e) and fits_as_well(e, tuned, gap_z)]\n")],
+        ['tests/test_band_relative.py::test_a_worse_fitting_alternative_widens_no_free_band_and_keeps_the_reach'],
+    ),
+    "the relative test keeps a worse-fitting held smoothing as the stated band's reference": (
+        'vojax/_tracker/_band.py',
+        [("                about, stated = reference_of(None)", "                pass")],
+        ['tests/test_band_relative.py::test_a_worse_fitting_alternative_widens_no_free_band_and_keeps_the_reach'],
+    ),
+    "the relative test made under a constant statement": (
+        'vojax/_tracker/_band.py',
+        [("    if stated_drift == 0 and near_evidence is not None and reference is tuned:\n"
+          "        for e in near_alternatives(explanations, tuned, near_evidence):",
+          "    if stated_drift == 0 and near_evidence is not None and reference is tuned:\n"
+          "        for e in [e for e in near_alternatives(explanations, tuned, near_evidence)\n"
+          "                  if fits_as_well(e, tuned, gap_z)]:")],
+        ['tests/test_band_relative.py::test_a_constant_statement_is_untouched'],
+    ),
+    "the tracker's band without its relative gap setting": (
+        "vojax/_tracker/_fit.py",
+        [(", gap_z=s.relative_gap)", ")")],
+        ["tests/test_band_relative.py::test_the_band_gets_the_settings_relative_gap"],
+    ),
     'the stated band ignores the statement about the parameters': (
         'vojax/_tracker/_band.py',
         [
-            ('                    e.drift <= max(stated_drift, reference.drift) + drift_floor):',
+            ('                    e.drift <= max(stated_drift, about.drift) + drift_floor):',
              '                    True):'),
         ],
         ['tests/test_band.py', 'tests/test_verdict.py::test_a_drift_bound_admits_the_explanations_that_drift_no_more'],

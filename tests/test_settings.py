@@ -58,6 +58,9 @@ from .helpers import band_calls
     (dict(level_gap=float("inf")), "level_gap must be a finite number ≥ 0 or None, got inf"),
     # a negative tolerance would weigh runs below their own expectation apart again
     (dict(level_excess_alike=-1.0), "level_excess_alike must be a finite number ≥ 0, got -1.0"),
+    # a negative gap would call the tuned run itself worse than itself; ∞ is None (off)
+    (dict(relative_gap=-1.0), "relative_gap must be a finite number ≥ 0 or None, got -1.0"),
+    (dict(relative_gap=float("inf")), "relative_gap must be a finite number ≥ 0 or None, got inf"),
     # choices, by value and type: 1 is not True
     (dict(second_climb=1), "`second_climb` must be True or False, got 1"),
     (dict(schedule="fast"), "`schedule` must be None, 'sequential', 'associative' or 'chunked'"),

@@ -244,10 +244,32 @@ def near_alternatives(explanations, tuned, limit):
             and e.evidence >= tuned.evidence - limit]
 
 
+def fits_as_well(e, tuned, gap_z):
+    """`e` fits the data as well as the `tuned` smoothing, its freedom counted: its χ² plus
+    the freedom its drifts fit exceeds the tuned run's by at most `gap_z` standard
+    deviations of that difference where `e` is the truth (`gap_spread`). True for the
+    explanations that are no smoothing, where either freedom is unknown (a coloured noise)
+    and where `gap_z` is None."""
+    if gap_z is None or e.kind not in SMOOTHINGS or not (
+            np.isfinite(e.freedom) and np.isfinite(tuned.freedom)):
+        return True
+    gap = (e.chi2 + e.freedom) - (tuned.chi2 + tuned.freedom)
+    return bool(gap <= gap_z * gap_spread(e, tuned))
+
+
+def gap_spread(e, tuned) -> float:
+    """The standard deviation of `fits_as_well`'s gap where `e` is the truth: the run ΔF
+    effective parameters freer fits a χ² of ΔF degrees of freedom better on average (variance
+    2ΔF, and 2 more for the rest of the freedoms' estimate), and two runs that fit other
+    outputs d apart differ in χ² by 2 d·noise/σ² as well, variance 4 Σd²/σ², which their
+    χ² difference stands in for (Vuong's test of models that are not nested)."""
+    return float(np.sqrt(2 * (abs(tuned.freedom - e.freedom) + 1) + 4 * abs(e.chi2 - tuned.chi2)))
+
+
 def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005,
           floor=0.0, evidence_floor=np.inf, half=None, level_weights="chi2",
           fastest_evidence=np.inf, near_evidence=None, level_gap=None, profile_chi2=4.0,
-          excess_alike=0.5):
+          excess_alike=0.5, gap_z=None):
     """The `Bands` of the `explanations` (the tuned smoothing's among them) on the order
     range `bounds`, over the first `span` points; `stated_drift`: the largest relative drift
     of the parameters the user vouches for (0: constant, ∞: free); `scale`: the calibrated
@@ -264,7 +286,10 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     `near_evidence`: with the parameters stated constant, the tuned run's own alternatives
     (`near_alternatives`) within this many nats of its evidence are covered, not only
     weighed (None: weighed only); `level_gap`, `profile_chi2`, `excess_alike`: see
-    `reference_variance`."""
+    `reference_variance`; `gap_z`: with more drift allowed than the breakdown drift, the
+    stated band covers only the explanations that fit as well as the tuned smoothing
+    (`fits_as_well`), about the held smoothing only where it does (None: every one that
+    fits); the conditional band and the breakdown drift are the χ² test's, whatever it is."""
     tuned = next(e for e in explanations if e.kind == "tuned")
     explanations = fastest_far(explanations, tuned, fastest_evidence)
     held = next((e for e in explanations if e.kind == "held" and e.holds), None)
@@ -274,19 +299,18 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     # the reference: the tuned smoothing, with its alternatives weighed in; the smoothing with
     # the parameters held where the tuned one lets them drift and the held one fits too, with
     # its held scales that the data do not exclude
-    if held is not None and tuned.drift > drift_floor:
-        reference = held
-        # its scales widen it, never narrow it: a scale whose curvature is sharper than the
-        # held smoothing's is no evidence that the held smoothing's own σ is too wide
-        spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,
-                                         level_weights, "held_level"), 0.0)
-        ref_band = _orders(held.beta, held.var + spread, bounds, scale, floor)
-    else:
-        reference = tuned
-        ref_band = _orders(tuned.beta, reference_variance(explanations, tuned, span,
-                                                         level_weights, level_gap,
-                                                         profile_chi2, excess_alike),
-                                    bounds, scale, floor)
+    def reference_of(held):
+        if held is not None and tuned.drift > drift_floor:
+            # its scales widen it, never narrow it: a scale whose curvature is sharper than
+            # the held smoothing's is no evidence that the held smoothing's own σ is too wide
+            spread = np.maximum(level_spread([e for e in explanations if plausible(e)], held,
+                                             level_weights, "held_level"), 0.0)
+            return held, _orders(held.beta, held.var + spread, bounds, scale, floor)
+        return tuned, _orders(tuned.beta, reference_variance(
+            explanations, tuned, span, level_weights, level_gap, profile_chi2, excess_alike),
+            bounds, scale, floor)
+
+    reference, ref_band = reference_of(held)
     ladder = [e for e in explanations
               if e.kind not in ("tuned", *INTEGRATED, *HELD_SCALES) and e is not held
               and e.holds and plausible(e)]
@@ -322,12 +346,17 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
     if 0 < stated_drift < breakdown:
         stated, drifting = conditional, conditional_drifts
     elif stated_drift > 0:
-        others = [e for e in explanations
-                  if e.kind in INTEGRATED and e.holds and plausible(e)]
-        for e in [*others, *ladder]:
+        members = [e for e in explanations
+                   if e.kind in INTEGRATED and e.holds and plausible(e)] + ladder
+        about = reference
+        if gap_z is not None:  # only those that fit as well as the tuned smoothing
+            members = [e for e in members if fits_as_well(e, tuned, gap_z)]
+            if reference is held and not fits_as_well(held, tuned, gap_z):
+                about, stated = reference_of(None)
+        for e in members:
             if e.kind not in REACH_ONLY and (
-                    e.drift <= max(stated_drift, reference.drift) + drift_floor):
+                    e.drift <= max(stated_drift, about.drift) + drift_floor):
                 stated = union(stated, member(e))
-                drifting |= e.drift > reference.drift + drift_floor
+                drifting |= e.drift > about.drift + drift_floor
     return Bands(stated, conditional, float(breakdown), float(reference.drift), drifting,
                  float(reference.freedom))

@@ -261,7 +261,7 @@ def fit_points(memory, u, y, dt, bounds, settings, *, smooth=True, noise=None, m
                          half=half, level_weights=s.level_weights,
                          fastest_evidence=s.fastest_evidence, near_evidence=s.near_evidence,
                          level_gap=s.level_gap, profile_chi2=s.level_profile_chi2,
-                         excess_alike=s.level_excess_alike)
+                         excess_alike=s.level_excess_alike, gap_z=s.relative_gap)
 
         found = band_of(explanations)
         # a constant order outside the band fits with some drift: a moving one may need less;
