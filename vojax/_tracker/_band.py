@@ -15,7 +15,9 @@ each fitting explanation inside the band so far joins it; the first one outside 
 breakdown drift: with that much drift an order outside the band explains the data as well,
 and no test of this record tells them apart. Moving orders (`vojax._tracker._moving`) join
 the ladder where a constant order breaks the conditional answer: they can only lower the
-breakdown drift.
+breakdown drift. Where the statement allows more drift than that, the stated band covers
+only the explanations that also fit as well as the tuned smoothing, their freedom counted
+(`fits_as_well`).
 """
 
 import dataclasses
