@@ -245,6 +245,11 @@ MUTATIONS = {
           "                  if fits_as_well(e, tuned, gap_z)]:")],
         ['tests/test_band_relative.py::test_a_constant_statement_is_untouched'],
     ),
+    "the band about the drifting tuned run in place of the held one covers no drift": (
+        'vojax/_tracker/_band.py',
+        [("                drifting = tuned.drift > held.drift + drift_floor  # the band's own account\n", "")],
+        ['tests/test_band_relative.py::test_a_worse_fitting_alternative_widens_no_free_band_and_keeps_the_reach'],
+    ),
     "the tracker's band without its relative gap setting": (
         "vojax/_tracker/_fit.py",
         [(", gap_z=s.relative_gap)", ")")],

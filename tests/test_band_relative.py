@@ -117,6 +117,9 @@ def test_a_worse_fitting_alternative_widens_no_free_band_and_keeps_the_reach():
             np.testing.assert_array_equal(on.stated[2], off.stated[2])
         else:
             assert halfwidth(on.stated) == pytest.approx(halfwidth(alone.stated), rel=1e-12)
+        # a band about the drifting tuned run, in place of the held one, covers a drift
+        # (the verdict's trade-off reason); one that leaves out a drifting alternative, not
+        assert on.drifting == (other.kind == "held" or covered) and off.drifting
     assert off.breakdown_drift == pytest.approx(0.6)
     # a drift bound below the breakdown drift: the conditional band, the rule or not
     b = bands([tuned, other], BOUNDS, N, 0.4, gap_z=2.0)

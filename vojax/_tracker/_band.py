@@ -355,6 +355,7 @@ def bands(explanations, bounds, span, stated_drift, scale=1.0, drift_floor=0.005
             members = [e for e in members if fits_as_well(e, tuned, gap_z)]
             if reference is held and not fits_as_well(held, tuned, gap_z):
                 about, stated = reference_of(None)
+                drifting = tuned.drift > held.drift + drift_floor  # the band's own account
         for e in members:
             if e.kind not in REACH_ONLY and (
                     e.drift <= max(stated_drift, about.drift) + drift_floor):
