@@ -11,10 +11,12 @@ DOF = 50.0
 FITS, FAILS = 40.0, 200.0  # χ² that passes the 2σ test at 50 dof (≤ 70), and one that fails
 
 
-def ex(kind, beta, var=0.01, chi2=FITS, evidence=0.0, drift=0.0, accepted=None):
-    """An explanation of `kind` at the constant β `beta`, its variance `var` at every point."""
+def ex(kind, beta, var=0.01, chi2=FITS, evidence=0.0, drift=0.0, accepted=None,
+       freedom=np.nan):
+    """An explanation of `kind` at the constant β `beta`, its variance `var` at every point
+    (`freedom`: the effective parameters its drifts fit, unknown by default)."""
     return Explanation(kind, np.full(N, float(beta)), np.full(N, float(var)), chi2, DOF,
-                       evidence, drift, accepted)
+                       evidence, drift, accepted, None, float(freedom))
 
 
 def halfwidth(band):

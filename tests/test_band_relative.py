@@ -10,25 +10,17 @@ import pytest
 
 from vojax import TrackerSettings
 from vojax._tracker._band import bands, fits_as_well
-from vojax._tracker._explanations import Explanation
 from vojax._tracker._model import order_of_np
 
+from .band_stand_ins import BOUNDS, N, halfwidth
+from .band_stand_ins import ex as stand_in
 from .helpers import band_calls
-
-N = 60
-BOUNDS = (0.0, 1.0)
-DOF = 50.0
 
 
 def ex(kind, beta, chi2, freedom, drift=0.0, var=0.01, evidence=0.0):
-    """A stand-in at the constant β `beta` (every χ² below 70 passes the 2σ test at 50 dof)."""
-    return Explanation(kind, np.full(N, float(beta)), np.full(N, float(var)), float(chi2), DOF,
-                       float(evidence), float(drift), None, None, float(freedom))
-
-
-def halfwidth(band):
-    _, lower, upper, _ = band
-    return float(np.median((upper - lower)[N // 2 :]) / 2)
+    """A stand-in at the constant β `beta` with its χ² and freedom (`band_stand_ins.ex`;
+    every χ² below 70 passes the 2σ test at 50 dof)."""
+    return stand_in(kind, beta, var, chi2, evidence, drift, freedom=freedom)
 
 
 def edge(freer, z):
