@@ -18,29 +18,47 @@ def _run(problem, y, hyper, p0, nominal):
     return iterated_smoother(*record, hyper, problem.m0, p0, nominal, problem.bounds, 400)
 
 
-def _setup(ramp, num, q_order, q_params, pin_order=False):
+def _setup(ramp, num, q_order, q_params, pin_order=False, coloured=None, skip=()):
+    """A problem of `num` samples (those in `skip` outside the fit), its intensities (with a
+    `coloured` noise's AR(1) variance and correlation time, fractions of the span) as a
+    `Hyper` and as values, its prior covariance and a constant nominal trajectory."""
+    import dataclasses
+
     from vojax._tracker._model import Hyper
+    from vojax._tracker._problem import prior
 
     problem, starts = normalised_problem(ramp, num, columns=1)
-    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in (q_order, q_params, 1e-3)))
+    mask = np.ones(num)
+    mask[list(skip)] = 0.0
+    problem = dataclasses.replace(problem, mask=jnp.asarray(mask))
+    values = (q_order, q_params, 1e-3, *(coloured or ()))
+    if coloured:
+        problem = problem.with_prior(*prior(problem.n, problem.u.dtype, problem.settings,
+                                            coloured=True))
+        starts = np.concatenate([starts, np.zeros((len(starts), 1))], axis=1)
+    hyper = Hyper(*(jnp.log(jnp.asarray(v)) for v in values))
     p0 = np.array(problem.p0)
     if pin_order:  # the order held at its start: the model is linear in the other states
         p0[0, :] = p0[:, 0] = 0.0
         p0[0, 0] = 1e-14
     nominal = jnp.asarray(np.broadcast_to(starts[0], (num, starts.shape[1])))
-    return problem, hyper, jnp.asarray(p0), nominal
+    return problem, hyper, values, jnp.asarray(p0), nominal
+
+
+def _freedom(problem, sm, values, p0):
+    from vojax._tracker._explanations import freedom
+
+    return freedom(sm, values, *problem.host_clock, p0)
 
 
 def test_a_smoothing_whose_states_do_not_drift_fits_n_plus_two_parameters(ramp):
     """With drifts 1e-12 of the record's scale, the smoothing is a least-squares fit of the
     order, one parameter and the offset under a broad prior: its hat matrix's trace is 3 (to
     the prior's pull, under 1e-3)."""
-    from vojax._tracker._explanations import freedom
-
-    problem, hyper, p0, nominal = _setup(ramp, 200, 1e-12, 1e-12)
+    problem, hyper, values, p0, nominal = _setup(ramp, 200, 1e-12, 1e-12)
     sm = _run(problem, problem.y, hyper, p0, nominal)
     assert bool(sm.converged)
-    assert freedom(sm, float(hyper.r), problem.mask) == pytest.approx(3.0, abs=1e-3)
+    assert _freedom(problem, sm, values, p0) == pytest.approx(3.0, abs=1e-3)
 
 
 @pytest.mark.parametrize("q_params", [1e-4, 1e-1])
@@ -50,11 +68,10 @@ def test_the_freedom_is_the_trace_of_the_fitted_outputs_derivative(ramp, q_param
     its hat matrix's trace is ``Σ_k ∂ŷ_k/∂y_k``, here by a finite difference on each sample
     in turn (60 runs). The parameter's drift adds to the 2 fitted constants: the two agree
     to 1e-6 at either drift, and the freedom grows with it."""
-    from vojax._tracker._explanations import freedom
     from vojax._tracker._model import model_output
 
     num, eps = 60, 1e-4
-    problem, hyper, p0, nominal = _setup(ramp, num, 1e-12, q_params, pin_order=True)
+    problem, hyper, values, p0, nominal = _setup(ramp, num, 1e-12, q_params, pin_order=True)
     y = np.asarray(problem.y)
     base = _run(problem, y, hyper, p0, nominal)
     assert bool(base.converged)
@@ -67,27 +84,62 @@ def test_the_freedom_is_the_trace_of_the_fitted_outputs_derivative(ramp, q_param
         moved = y.copy()
         moved[k] += eps
         trace += (fitted(_run(problem, moved, hyper, p0, nominal))[k] - y0[k]) / eps
-    found = freedom(base, float(hyper.r), problem.mask)
+    found = _freedom(problem, base, values, p0)
     assert found == pytest.approx(trace, abs=1e-6 * num)
     assert found > 2.0 + (0.5 if q_params > 1e-2 else 0.0)
 
 
-def test_the_coloured_noise_state_is_left_out():
-    """A coloured noise's AR(1) state (the last of n + 3) does not count: the trace is over
-    the order, the parameters and the offset. On a stand-in run with a unit Jacobian and a
-    diagonal covariance, ``Σ_t (P_00 + P_11 + P_22)/r``."""
-    from types import SimpleNamespace
+def _dense_trace(problem, sm, values, p0):
+    """``tr(Σ⁻¹ H P Hᵀ)`` over the fitted samples from dense matrices: the outputs' map H from
+    the independent variables (θ_0's order, parameter and offset, and each step of the
+    drifting ones), their prior Q, the noise's covariance Σ (``r I``, plus ``s e^{−|t−t'|/τ}``
+    for a coloured noise) and ``P = (HᵀΣ⁻¹H + Q⁻¹)⁻¹``, at the run's linearisation."""
+    jac, k = np.asarray(sm.jacobian), 3
+    num = jac.shape[0]
+    steps, horizon = problem.host_clock
+    columns, prior_var = [jac[:, i] for i in range(k)], []
+    for i, q in ((0, values[0]), (1, values[1])):
+        for j in range(num - 1):  # the step from sample j to j + 1 moves every later output
+            columns.append(np.where(np.arange(num) > j, jac[:, i], 0.0))
+            prior_var.append(q * steps[j] / horizon)
+    h = np.stack(columns, axis=1)
+    q_inv = np.zeros((h.shape[1], h.shape[1]))
+    q_inv[:k, :k] = np.linalg.inv(np.asarray(p0)[:k, :k])
+    q_inv[k:, k:] = np.diag(1.0 / np.asarray(prior_var))
+    sigma = values[2] * np.eye(num)
+    if len(values) == 5:
+        t = np.concatenate([[0.0], np.cumsum(steps[:-1])])
+        sigma += values[3] * np.exp(-np.abs(t[:, None] - t[None]) / (horizon * values[4]))
+    fit = np.asarray(problem.mask) > 0
+    h, sigma_inv = h[fit], np.linalg.inv(sigma[np.ix_(fit, fit)])
+    p = np.linalg.inv(h.T @ sigma_inv @ h + q_inv)
+    return float(np.trace(sigma_inv @ h @ p @ h.T))
 
-    from vojax._tracker._explanations import freedom
 
-    num, d = 10, 4
-    cov = np.zeros((num, d, d))
-    cov[:, 0, 0], cov[:, 1, 1], cov[:, 2, 2], cov[:, 3, 3] = 0.1, 0.2, 0.3, 5.0
-    sm = SimpleNamespace(theta=np.zeros((num, d)), phi=np.zeros((num, 1)),
-                         jacobian=np.ones((num, d)), cov=cov)
-    mask = np.ones(num)
-    mask[:2] = 0.0  # samples outside the fit window do not count
-    assert freedom(sm, 0.5, mask) == pytest.approx(8 * 0.6 / 0.5, rel=1e-12)
+@pytest.mark.parametrize("coloured", [None, (5e-3, 0.05), (2e-2, 0.2)])
+def test_the_freedom_is_the_dense_trace_in_the_noises_own_metric(ramp, coloured):
+    """The freedom from the smoother's covariances (one term per independent variable)
+    equals ``tr(Σ⁻¹ H P Hᵀ)`` from dense matrices (`_dense_trace`) to 1e-9, the order and
+    the parameter both drifting, 10 samples outside the fit, under a white noise and under
+    an AR(1) part 5 and 20 times the white variance: what the χ² whitened by Σ loses on
+    average. Under a white noise it is also ``Σ_t mask_t H_t P_t Hᵀ_t / r`` (a third
+    computation, from the smoothed marginals alone); under a coloured one that sum over the
+    white part would count the fit of the noise itself, and exceeds it."""
+    num = 80
+    problem, hyper, values, p0, nominal = _setup(ramp, num, 1e-3, 1e-2, coloured=coloured,
+                                                 skip=range(30, 40))
+    sm = _run(problem, problem.y, hyper, p0, nominal)
+    assert bool(sm.converged)
+    found = _freedom(problem, sm, values, p0)
+    assert found == pytest.approx(_dense_trace(problem, sm, values, p0), abs=1e-9 * num)
+    jac, cov = np.asarray(sm.jacobian)[:, :3], np.asarray(sm.cov)[:, :3, :3]
+    white_sum = float(np.sum(np.asarray(problem.mask) * np.einsum("ti,tij,tj->t", jac, cov, jac))
+                      / values[2])
+    if coloured is None:
+        assert found == pytest.approx(white_sum, abs=1e-9 * num)
+    else:
+        assert found < white_sum - 1.0
+    assert 3.0 < found < 70.0
 
 
 def explanation(kind, beta, chi2=600.0, freedom=np.nan):
@@ -124,8 +176,8 @@ def test_the_freedom_floor_counts_what_each_run_fits():
 
 def test_an_explanation_counts_the_freedom_beyond_the_constant_fit():
     """`smoothing_explanations` keeps each run's trace less the constant fit's n + 2 (here
-    one input: 3 → 0, 10.5 → 7.5), and NaN where no freedom is given or the noise is
-    coloured."""
+    one input: 3 → 0, 10.5 → 7.5), under a white or a coloured noise, and NaN where no
+    freedom is given."""
     from types import SimpleNamespace
 
     from vojax._tracker._explanations import smoothing_explanations
@@ -137,10 +189,10 @@ def test_an_explanation_counts_the_freedom_beyond_the_constant_fit():
     given = smoothing_explanations(["tuned", "level"], *args, freedoms=[3.0, 10.5])
     assert [e.freedom for e in given] == [0.0, 7.5]
     assert all(np.isnan(e.freedom) for e in smoothing_explanations(["tuned", "level"], *args))
-    # under a coloured noise's whitening the χ² is not on the trace's scale: left unknown
-    coloured = smoothing_explanations(["tuned", "level"], *args, whiten=lambda r: r,
+    coloured = smoothing_explanations(["tuned", "level"], *args, whiten=lambda r: 2 * r,
                                       freedoms=[3.0, 10.5])
-    assert all(np.isnan(e.freedom) for e in coloured)
+    assert [e.freedom for e in coloured] == [0.0, 7.5]
+    assert [e.chi2 for e in coloured] == [0.0, 0.0]
 
 
 def test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples(monkeypatch):
@@ -149,13 +201,21 @@ def test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples(
     constant (`ramp_case(300)`'s first input: the tuned run, its alternatives, the level
     profile's held scales) fits at least the constant fit's 3 less the prior's pull
     (freedom ≥ −0.01) and at most the samples (≤ 300 − 3); the tuned run, whose order
-    drifts with the ramp, fits more than the constant fit."""
+    drifts with the ramp, fits more than the constant fit. A run at the tuned intensities
+    from another start that reached the tuned mode (its χ² within 1e-6) carries the tuned
+    run's freedom to 1e-6: the two are computed on separate paths (the tuned run's from its
+    tuning, the starts' from their batch of intensities)."""
     seen = band_calls(monkeypatch, parameters="constant")
     smoothings = [e for e in seen[-1][0] if np.isfinite(e.evidence)]
     assert len(smoothings) >= 5 and {"tuned", "level"} <= {e.kind for e in smoothings}
     for e in smoothings:
         assert -0.01 <= e.freedom <= 300 - 3
-    assert next(e for e in smoothings if e.kind == "tuned").freedom > 0.5
+    tuned = next(e for e in smoothings if e.kind == "tuned")
+    assert tuned.freedom > 0.5
+    same = [e for e in smoothings if e.kind == "start" and abs(e.chi2 - tuned.chi2) < 1e-6]
+    assert same
+    for e in same:
+        assert e.freedom == pytest.approx(tuned.freedom, abs=1e-6)
 
 
 def test_the_replay_of_saved_explanations_keeps_their_freedom():
