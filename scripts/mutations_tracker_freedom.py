@@ -44,10 +44,10 @@ MUTATIONS = {
         [("                    freedom=float(e) - problem.n - 2)", "                    freedom=float(e))")],
         [T + "test_an_explanation_counts_the_freedom_beyond_the_constant_fit"],
     ),
-    "the freedom left unknown under a coloured noise's whitening": (
+    "the freedom kept under a coloured noise's whitening": (
         "vojax/_tracker/_explanations.py",
-        [("                                             [np.nan] * len(kinds) if freedoms is None\n",
-          "                                             [np.nan] * len(kinds) if freedoms is None or whiten is not None\n")],
+        [("                                             if freedoms is None or whiten is not None",
+          "                                             if freedoms is None")],
         [T + "test_an_explanation_counts_the_freedom_beyond_the_constant_fit"],
     ),
     "the tuned run's freedom with its order and parameter drifts swapped": (
@@ -55,7 +55,8 @@ MUTATIONS = {
         [("            [freedom(sm, tuning.values, *problem.host_clock, problem.p0), *traces])",
           "            [freedom(sm, (tuning.values[1], tuning.values[0], *tuning.values[2:]),\n"
           "                     *problem.host_clock, problem.p0), *traces])")],
-        [T + "test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples"],
+        [T + "test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples",
+         "tests/test_envelope.py::test_the_mixtures_runs_are_explanations_of_their_kinds"],
     ),
     "each level run's freedom at logarithms of its intensities": (
         "vojax/_tracker/_smoother.py",
