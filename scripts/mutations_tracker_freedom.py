@@ -4,40 +4,36 @@ linearised hat matrix) and the level profile's rules that read it (the χ² floo
 T = "tests/test_freedom.py::"
 # name: (file, [(old, new), ...], tests that should fail)
 MUTATIONS = {
-    "each step's shrinkage without its smoothed part (the filtered part alone)": (
+    "the freedom summed over every sample, the fit window ignored": (
         "vojax/_tracker/_explanations.py",
-        [("    shrunk = q[:-1, :k] * smoothed + filtered", "    shrunk = filtered")],
-        [T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
+        [("    return float(np.sum(np.asarray(mask) * np.einsum(", "    return float(np.sum(1.0 * np.einsum(")],
+        [T + "test_the_coloured_noise_state_is_left_out",
+         T + "test_the_freedom_is_the_dense_trace_with_samples_outside_the_fit"],
     ),
     "the freedom counts a coloured noise's AR(1) state": (
         "vojax/_tracker/_explanations.py",
         [("    k = min(np.asarray(sm.theta).shape[1], np.asarray(sm.phi).shape[1] + 2)",
           "    k = np.asarray(sm.theta).shape[1]")],
-        [T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
+        [T + "test_the_coloured_noise_state_is_left_out"],
     ),
-    "the filtered part without the transition (a random walk's, whatever the noise)": (
+    "the freedom over the measurement's standard deviation, not its variance": (
         "vojax/_tracker/_explanations.py",
-        [("np.einsum(\"tij,tj,tji->ti\", m, f[:-1], pf[:-1])",
-          "np.einsum(\"tij,tji->ti\", m, pf[:-1])")],
-        [T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
-    ),
-    "the predicted covariance without the transition": (
-        "vojax/_tracker/_explanations.py",
-        [("    pred = pf[:-1] * f[:-1, :, None] * f[:-1, None, :] + q[:-1, :, None]",
-          "    pred = pf[:-1] + q[:-1, :, None]")],
-        [T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
-    ),
-    "the start's prior pull left out (θ_0 counts n + 2 whatever the data)": (
-        "vojax/_tracker/_explanations.py",
-        [("    return float(k - np.trace(start) + steps_fit)", "    return float(steps_fit)")],
+        [("np.einsum(\"ti,tij,tj->t\", jac, cov, jac)) / float(r))",
+          "np.einsum(\"ti,tij,tj->t\", jac, cov, jac)) / float(r) ** 0.5)")],
         [T + "test_a_smoothing_whose_states_do_not_drift_fits_n_plus_two_parameters",
-         T + "test_the_freedom_is_the_trace_of_the_fitted_outputs_derivative",
-         T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
+         T + "test_the_freedom_is_the_trace_of_the_fitted_outputs_derivative"],
     ),
-    "the coloured noise's process variance without its transition": (
-        "vojax/_tracker/_model.py",
-        [("        cols.append(values[3] * (1.0 - f[:, -1] ** 2))", "        cols.append(values[3] + 0.0 * f[:, -1])")],
-        [T + "test_the_freedom_is_the_dense_trace_in_the_noises_own_metric"],
+    "the freedom at the smoothed covariance of the sample before": (
+        "vojax/_tracker/_explanations.py",
+        [("    jac, cov = np.asarray(sm.jacobian)[:, :k], np.asarray(sm.cov)[:, :k, :k]",
+          "    jac, cov = np.asarray(sm.jacobian)[:, :k], np.roll(np.asarray(sm.cov)[:, :k, :k], 1, 0)")],
+        [T + "test_the_freedom_is_the_dense_trace_with_samples_outside_the_fit"],
+    ),
+    "the freedom of the order alone (the parameters' and offset's columns left out)": (
+        "vojax/_tracker/_explanations.py",
+        [("    jac, cov = np.asarray(sm.jacobian)[:, :k], np.asarray(sm.cov)[:, :k, :k]",
+          "    jac, cov = np.asarray(sm.jacobian)[:, :1], np.asarray(sm.cov)[:, :1, :1]")],
+        [T + "test_a_smoothing_whose_states_do_not_drift_fits_n_plus_two_parameters"],
     ),
     "an explanation's freedom kept as the whole trace (the constant fit's n + 2 not taken off)": (
         "vojax/_tracker/_explanations.py",
@@ -50,18 +46,10 @@ MUTATIONS = {
           "                                             if freedoms is None")],
         [T + "test_an_explanation_counts_the_freedom_beyond_the_constant_fit"],
     ),
-    "the tuned run's freedom with its order and parameter drifts swapped": (
+    "the tuned run's freedom at its parameters' drift, not its measurement variance": (
         "vojax/_tracker/_mixture.py",
-        [("            [freedom(sm, tuning.values, *problem.host_clock, problem.p0), *traces])",
-          "            [freedom(sm, (tuning.values[1], tuning.values[0], *tuning.values[2:]),\n"
-          "                     *problem.host_clock, problem.p0), *traces])")],
-        [T + "test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples",
-         "tests/test_envelope.py::test_the_mixtures_runs_are_explanations_of_their_kinds"],
-    ),
-    "each level run's freedom at logarithms of its intensities": (
-        "vojax/_tracker/_smoother.py",
-        [("    rows = np.stack([np.broadcast_to(np.exp(np.asarray(v, float)).reshape(-1),",
-          "    rows = np.stack([np.broadcast_to((np.asarray(v, float)).reshape(-1),")],
+        [("            [freedom(sm, tuning.values[2], problem.mask), *traces])",
+          "            [freedom(sm, tuning.values[1], problem.mask), *traces])")],
         [T + "test_every_smoothing_of_a_fit_fits_between_the_constant_fit_and_the_samples"],
     ),
     "the freedom floor raised by the freedom, not lowered": (

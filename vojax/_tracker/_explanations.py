@@ -6,8 +6,6 @@ import dataclasses
 
 import numpy as np
 
-from ._model import host_process
-
 # the kinds of explanation, and whether its parameters are free to drift
 KINDS = {
     "tuned": "the tuned smoothing",
@@ -35,7 +33,8 @@ class Explanation:
     answer, else None; `factor`: an order drift's factor of `alt_order_drift` on the tuned
     drift, else None; `freedom`: for a smoothing under a white noise, the effective number
     of parameters its drifts fit beyond the constant fit's n + 2 (the function `freedom`,
-    less n + 2), else NaN: where it is the truth, its χ² lies about `dof` − `freedom` on average."""
+    less n + 2), else NaN: where it is the truth, its χ² lies about `dof` − `freedom` on
+    average."""
 
     kind: str
     beta: np.ndarray
@@ -90,12 +89,11 @@ def chi2_of(residuals, mask, fit_noise, whiten=None):
 def smoothing_explanations(kinds, betas, variances, scores, residuals, params, problem,
                            fit_noise, whiten=None, factors=None, freedoms=None):
     """`Explanation`s of smoothing runs (`smoother_modes`' outputs), one per row of `kinds`
-    (with its order drift's factor from `factors`, and from `freedoms` each run's
-    `freedom` less n + 2, where given and the noise is white). Under a coloured noise's
-    `whiten` the freedom is left NaN: that whitener was tuned on the tuned run's residuals,
-    so a gap of χ² plus freedom measured with it favours the tuned run (on the suite's
-    `informative` draw 5, AR(1) noise at ρ 0.83, the band that counted it left out every
-    run near the truth: confidently wrong; docs/calibration.md)."""
+    (with its order drift's factor from `factors`, and from `freedoms` each run's trace of
+    `freedom` less n + 2, where given and the noise is white: under a coloured noise's
+    `whiten` the χ² is not on the scale of the white part that the trace is taken at, and
+    the freedom is left NaN; a trace in the noise's own metric was measured and not kept:
+    the whitener is tuned on the tuned run's residuals, docs/calibration.md)."""
     w = np.asarray(problem.mask)
     dof = max(float(np.sum(w)) - problem.n - 2, 1.0)
     chi2 = chi2_of(residuals, w, fit_noise, whiten)
@@ -111,34 +109,13 @@ def smoothing_explanations(kinds, betas, variances, scores, residuals, params, p
     ]
 
 
-def freedom(sm, values, steps, horizon, p0) -> float:
-    """The run's effective number of fitted parameters: the trace of its linearised hat
-    matrix for the noise-free output in the measurement noise's own metric,
-    ``tr(Σ⁻¹ H P Hᵀ)`` over the order, the parameters and the offset (Σ the noise's
-    covariance: white, or an AR(1) part plus white; P those states' smoothed covariance, a
-    coloured noise's AR(1) state marginalised out). Where it is the truth, its χ² (whitened
-    by Σ) lies about ``fitted samples − freedom`` on average.
-
-    For a linear Gaussian model that trace is the number of the prior's independent
-    variables less ``tr(P Q⁻¹)``, Q their prior covariance: each variable counts ``1 −
-    posterior variance / prior variance``. The variables are θ_0 (prior `p0`) and each
-    drifting state's step from sample k to k + 1 (prior variance ``q_k`` from the
-    intensities `values` in `Hyper`'s order, not logarithms, over `steps` and the record's
-    `horizon`). A step's posterior variance over ``q_k`` is ``q_k [M P^s_{k+1} M]_ii + [M F
-    P^f_k]_ii`` with ``M = (P⁻_{k+1})⁻¹``, from the run's filtered (P^f) and smoothed (P^s)
-    covariances (the RTS smoother's gain written out). Under a white noise this is
-    ``Σ_t mask_t · H_t P_t Hᵀ_t / r``. A smoothing whose states do not drift has n + 2 (the
-    order, the n parameters and the offset); each drift adds what it fits."""
+def freedom(sm, r, mask) -> float:
+    """The run's effective number of fitted parameters: the trace of its linearised hat matrix
+    for the noise-free output, ``Σ_t mask_t · J_t P_t Jᵀ_t / r`` over the order, the
+    parameters and the offset (the smoothed variance of each fitted output over the white
+    measurement variance `r`; a coloured noise's AR(1) state is left out). A smoothing whose
+    states do not drift has n + 2 (the order, the n parameters and the offset); each drift
+    adds what it fits."""
     k = min(np.asarray(sm.theta).shape[1], np.asarray(sm.phi).shape[1] + 2)
-    q, f = host_process(values, steps, horizon, k - 2)
-    pf, ps = np.asarray(sm.filtered_cov, float), np.asarray(sm.cov, float)
-    pred = pf[:-1] * f[:-1, :, None] * f[:-1, None, :] + q[:-1, :, None] * np.eye(pf.shape[1])
-    m = np.linalg.inv(pred)  # (N − 1, d, d)
-    smoothed = np.einsum("tij,tjl,tli->ti", m, ps[1:], m)[:, :k]
-    filtered = np.einsum("tij,tj,tji->ti", m, f[:-1], pf[:-1])[:, :k]
-    # each step's posterior over its prior variance (a state that does not drift, q = 0,
-    # has [M F P^f]_ii = 1 − q_i M_ii = 1 exactly: its steps count nothing)
-    shrunk = q[:-1, :k] * smoothed + filtered
-    steps_fit = float(np.sum(1.0 - shrunk))
-    start = np.linalg.solve(np.asarray(p0, float)[:k, :k], ps[0, :k, :k])
-    return float(k - np.trace(start) + steps_fit)
+    jac, cov = np.asarray(sm.jacobian)[:, :k], np.asarray(sm.cov)[:, :k, :k]
+    return float(np.sum(np.asarray(mask) * np.einsum("ti,tij,tj->t", jac, cov, jac)) / float(r))

@@ -116,7 +116,7 @@ def held_order(problem, hyper, start, noise, fit_noise, whiten=None):
     (explanation,) = smoothing_explanations(
         ["held"], theta[None, :, 0], np.asarray(best.cov)[None, :, 0, 0], [best_score],
         residuals[None], theta[None, :, 1 : 1 + n], problem, fit_noise, whiten,
-        freedoms=[freedom(best, np.exp(host_hyper(held)), *problem.host_clock, problem.p0)])
+        freedoms=[freedom(best, np.exp(float(np.asarray(held.log_r))), problem.mask)])
     tuning = Tuning.of(host_hyper(held), (), best_score, True)
     return to_device(order_of_np(theta[:, 0], problem.bounds)[0]), explanation, (tuning, best)
 
@@ -177,5 +177,5 @@ def mixture(problem, tuning, starts, sm, hold=False, fit_noise=None, whiten=None
             ["tuned", *kinds], betas, variances, scores, np.concatenate([tuned[None], residuals]),
             np.concatenate([theta[None, :, 1 : 1 + n], params]), problem, fit_noise, whiten,
             [None, *factors],
-            [freedom(sm, tuning.values, *problem.host_clock, problem.p0), *traces])
+            [freedom(sm, tuning.values[2], problem.mask), *traces])
     return variance, weights, explanations

@@ -115,20 +115,6 @@ class Hyper(eqx.Module):
         return cls(*(z[i] for i in range(z.shape[0])))
 
 
-def host_process(values, steps, horizon, n):
-    """`Hyper.process` and `Hyper.transition` (ones where it is None) on the host, from the
-    intensities `values` in `Hyper`'s order, not their logarithms (three, or five with a
-    coloured noise): ``(q (N, d), f (N, d))``."""
-    steps = np.asarray(steps, float)
-    frac = steps / float(horizon)
-    cols = [values[0] * frac] + [values[1] * frac] * n + [0.0 * frac]
-    f = np.ones((frac.shape[0], n + 2 + (len(values) == 5)))
-    if len(values) == 5:
-        f[:, -1] = np.exp(-steps / (float(horizon) * values[4]))
-        cols.append(values[3] * (1.0 - f[:, -1] ** 2))
-    return np.stack(cols, axis=1), f
-
-
 def model_output(theta, phi, n):
     """``c + pᵀ Φ`` (the noise-free output) for states ``θ`` (…, d), regressors ``Φ`` (…, n):
     JAX or NumPy arrays (array methods only, so that host arrays stay on the host)."""

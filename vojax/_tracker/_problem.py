@@ -107,11 +107,6 @@ class Problem:
         """``(memory, u, y, mask, steps, horizon)``: the compiled smoother's first arguments."""
         return self.memory, self.u, self.y, self.mask, self.steps, self.horizon
 
-    @property
-    def host_clock(self):
-        """``(steps, horizon)`` on the host: a NumPy array (N,) and a float."""
-        return np.asarray(self.steps), float(self.horizon)
-
     def with_prior(self, m0, p0) -> "Problem":
         return dataclasses.replace(self, m0=m0, p0=p0)
 

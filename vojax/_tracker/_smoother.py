@@ -221,16 +221,15 @@ def smoother_modes(
     smoothed variance (C, N), the run's `score` (C,), its residuals from the noise-free
     output (C, N), its parameters (C, N, n) and its fitted freedom (C,)
     (`vojax._tracker._explanations.freedom`)."""
-    n, yy, host_steps, span = u.shape[1], np.asarray(y), np.asarray(steps), float(horizon)
-    rows = np.stack([np.broadcast_to(np.exp(np.asarray(v, float)).reshape(-1), (len(starts),))
-                     for v in jax.tree_util.tree_leaves(hyper)], axis=1)  # intensities (C, ·)
+    n, yy = u.shape[1], np.asarray(y)
+    rs = np.broadcast_to(np.exp(np.asarray(hyper.log_r, float)).reshape(-1), (len(starts),))
     out = []
-    for sm, values in zip(_runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts,
-                                bounds, max_iter, batched, schedule), rows):
+    for sm, r in zip(_runs(memory, u, y, mask, steps, horizon, hyper, m0, p0, starts, bounds,
+                           max_iter, batched, schedule), rs):
         theta, phi = np.asarray(sm.theta), np.asarray(sm.phi)
         res = yy - model_output(theta, phi, n)
         out.append((theta[:, 0], np.asarray(sm.cov)[:, 0, 0], host_score(sm), res,
-                    theta[:, 1 : 1 + n], freedom(sm, values, host_steps, span, p0)))
+                    theta[:, 1 : 1 + n], freedom(sm, r, mask)))
     return tuple(np.array([o[k] for o in out]) for k in range(6))
 
 
